@@ -1,0 +1,1 @@
+"""Occupancy grids, laser scans and keyframes, file readers and writers, and simulation."""

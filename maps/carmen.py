@@ -1,0 +1,160 @@
+"""Reader for CARMEN laser logs (FLASER, RLASER, ROBOTLASER1 lines; plain or gzip)."""
+
+from __future__ import annotations
+
+import gzip
+import math
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from maps.errors import LogFormatError, MapFileNotFoundError
+from maps.scan import Keyframe, LaserScan
+
+#: Old-style lines: ``FLASER n r1 .. rn x y theta odom_x odom_y odom_theta ipc_ts host log_ts``.
+OLD_STYLE = ("FLASER", "RLASER")
+ROBOTLASER = "ROBOTLASER1"
+
+
+def carmen_angle_increment(beams: int) -> float:
+    """CARMEN's rule for old-style lines: 1 degree for 180/181 beams, 0.5 for 360/361, else
+    ``pi / (beams - 1)`` (a 180 degree field of view)."""
+    if beams in (180, 181):
+        return math.pi / 180
+    if beams in (360, 361):
+        return math.pi / 360
+    return math.pi / max(beams - 1, 1)
+
+
+def _lines(path: Path) -> Iterator[tuple[int, str]]:
+    with path.open("rb") as raw:
+        gzipped = raw.read(2) == b"\x1f\x8b"
+    opener = gzip.open if gzipped else open
+    try:
+        with opener(path, "rt", encoding="utf-8", errors="strict") as text:
+            yield from enumerate(text, start=1)
+    except (OSError, EOFError, UnicodeDecodeError) as err:
+        raise LogFormatError(f"cannot be read as a text log ({err})", path=path) from err
+
+
+def _is_number(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+class _Line:
+    """Tokens of one log line with typed, located access."""
+
+    def __init__(self, tokens: list[str], path: Path, number: int) -> None:
+        self.tokens, self.path, self.number = tokens, path, number
+
+    def error(self, message: str, field: str) -> LogFormatError:
+        return LogFormatError(message, path=self.path, line=self.number, field=field)
+
+    def need(self, count: int, what: str) -> None:
+        if len(self.tokens) < count:
+            raise self.error(
+                f"line is cut short: {len(self.tokens)} values, {what} needs {count}", what
+            )
+
+    def number_at(self, index: int, field: str) -> float:
+        self.need(index + 1, field)
+        try:
+            value = float(self.tokens[index])
+        except ValueError:
+            raise self.error(f"expected a number, got {self.tokens[index]!r}", field) from None
+        if not math.isfinite(value):
+            raise self.error(f"expected a finite number, got {self.tokens[index]!r}", field)
+        return value
+
+    def count_at(self, index: int, field: str) -> int:
+        value = self.number_at(index, field)
+        if value != int(value) or value < 0:
+            raise self.error(f"expected a count, got {self.tokens[index]!r}", field)
+        return int(value)
+
+    def ranges(self, start: int, count: int) -> np.ndarray:
+        self.need(start + count, "ranges")
+        tokens = self.tokens[start : start + count]
+        try:
+            return np.array(tokens, dtype=float)
+        except ValueError:
+            bad = next(i for i, token in enumerate(tokens) if not _is_number(token))
+            raise self.error(f"expected a number, got {tokens[bad]!r}", f"range {bad}") from None
+
+    def pose_at(self, index: int, names: tuple[str, str, str]) -> tuple[float, float, float]:
+        x, y, t = (self.number_at(index + i, name) for i, name in enumerate(names))
+        return x, y, t
+
+    def stamp_at(self, index: int) -> float | None:
+        try:
+            return float(self.tokens[index])
+        except (IndexError, ValueError):
+            return None
+
+
+def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
+    """Read every laser scan of a CARMEN log, in line order.
+
+    Parameters
+    ----------
+    path
+        A ``.log`` file, or a gzip-compressed one (detected from its content).
+    max_range
+        Readings at or beyond this many metres are no-returns (the logs mark them with the
+        sensor's maximum, about 81.9 m or 50 m) and become ``+inf``, as REP-117 asks.
+
+    Returns
+    -------
+    list of Keyframe
+        One per FLASER, RLASER or ROBOTLASER1 line, ``scan_index`` counting them from 0. The
+        pose is the logged (for the corrected logs: SLAM-corrected) laser pose. Old-style lines
+        use CARMEN's beam rule (:func:`carmen_angle_increment`) from -pi/2; RLASER lines are
+        read like FLASER lines, their logged pose taken as the rear laser's own pose.
+        ROBOTLASER1 lines carry their own start angle, resolution and laser pose.
+
+    Raises
+    ------
+    MapFileNotFoundError
+        If ``path`` does not exist.
+    LogFormatError
+        For a line that is cut short or has a non-number; the message names line and field.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise MapFileNotFoundError(path, "CARMEN log")
+    if not max_range > 0:
+        raise ValueError(f"max_range must be > 0 metres, got {max_range}")
+    frames: list[Keyframe] = []
+    for number, text in _lines(path):
+        tokens = text.split()
+        if not tokens or tokens[0] not in (*OLD_STYLE, ROBOTLASER):
+            continue
+        line = _Line(tokens, path, number)
+        if tokens[0] == ROBOTLASER:
+            start = line.number_at(2, "start_angle")
+            increment = line.number_at(4, "angular_resolution")
+            beams = line.count_at(8, "num_readings")
+            ranges = line.ranges(9, beams)
+            remissions = line.count_at(9 + beams, "num_remissions")
+            at = 10 + beams + remissions
+            pose = line.pose_at(at, ("laser_pose_x", "laser_pose_y", "laser_pose_theta"))
+            stamp = line.stamp_at(at + 11)
+        else:
+            beams = line.count_at(1, "n")
+            if beams == 0:
+                raise line.error("a scan needs at least one beam", "n")
+            ranges = line.ranges(2, beams)
+            pose = line.pose_at(2 + beams, ("x", "y", "theta"))
+            start, increment = -math.pi / 2, carmen_angle_increment(beams)
+            stamp = line.stamp_at(2 + beams + 6)
+        if increment == 0:
+            raise line.error("angular resolution must not be 0", "angular_resolution")
+        ranges = np.where(ranges >= max_range, np.inf, ranges)
+        scan = LaserScan(ranges, start, increment, range_min=0.0, range_max=max_range)
+        frames.append(Keyframe(pose, scan, scan_index=len(frames), stamp=stamp))
+    return frames

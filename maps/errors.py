@@ -1,0 +1,70 @@
+"""Errors raised by the maps package; each names the file, line or field at fault."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def _where(path: str | Path | None, line: int | None, field: str | None) -> str:
+    parts = []
+    if path is not None:
+        parts.append(str(path))
+    if line is not None:
+        parts.append(f"line {line}")
+    if field is not None:
+        parts.append(f"field {field!r}")
+    return ", ".join(parts)
+
+
+class MapsError(Exception):
+    """Base class of every error raised by :mod:`maps`."""
+
+
+class MapFileNotFoundError(MapsError, FileNotFoundError):
+    """A map, image, log or bag file that does not exist."""
+
+    def __init__(self, path: str | Path, what: str = "file") -> None:
+        super().__init__(f"{what} not found: {path}")
+        self.filename = str(path)
+
+
+class FormatError(MapsError, ValueError):
+    """A file whose content is malformed, located by file, line and field.
+
+    Parameters
+    ----------
+    message
+        What is wrong, e.g. ``"expected a number, got 'abc'"``.
+    path, line, field
+        Where it is wrong; any may be None.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        path: str | Path | None = None,
+        line: int | None = None,
+        field: str | None = None,
+    ) -> None:
+        where = _where(path, line, field)
+        super().__init__(f"{where}: {message}" if where else message)
+        self.path = None if path is None else str(path)
+        self.line = line
+        self.field = field
+
+
+class MapFormatError(FormatError):
+    """A map_server YAML or map image that cannot be read as a map."""
+
+
+class LogFormatError(FormatError):
+    """A laser log (CARMEN, ROS bag) that cannot be read."""
+
+
+class InvalidMapError(MapsError, ValueError):
+    """Map parameters that make no sense (a zero resolution, a wrong array shape...)."""
+
+
+class InvalidScanError(MapsError, ValueError):
+    """A laser scan or pose with values that make no sense (NaN pose, negative angle step...)."""

@@ -1,0 +1,219 @@
+"""The occupancy grid: cells, resolution and origin, as ROS nav_msgs/OccupancyGrid defines them."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
+
+from maps.errors import InvalidMapError
+
+if TYPE_CHECKING:
+    from typing import Self
+
+UNKNOWN = -1
+FREE = 0
+OCCUPIED = 100
+#: Cells at or above this occupancy (0..100) count as occupied, below it as free.
+OCCUPIED_FROM = 50
+
+Pose = tuple[float, float, float]
+
+
+@dataclass(frozen=True, eq=False)
+class OccupancyGrid:
+    """A 2-D occupancy grid in the map frame (REP-103, metres).
+
+    Parameters
+    ----------
+    cells
+        ``(height, width)`` int8 occupancy as in nav_msgs/OccupancyGrid: -1 unknown, 0 free to
+        100 occupied. Rows are in image order: row 0 is the *top* of the map (largest y).
+    resolution
+        Cell size in metres.
+    origin
+        ``(x, y, yaw)`` of the lower-left corner of the lower-left cell in the map frame.
+
+    Examples
+    --------
+    >>> grid = OccupancyGrid(np.zeros((10, 20), np.int8), resolution=0.1)
+    >>> grid.world_to_cell(0.05, 0.05)
+    (array(9), array(0))
+    """
+
+    cells: NDArray[np.int8]
+    resolution: float
+    origin: Pose = (0.0, 0.0, 0.0)
+    _derived: dict[str, NDArray[np.generic]] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+
+    def __post_init__(self) -> None:
+        cells = np.asarray(self.cells)
+        if cells.ndim != 2 or cells.size == 0:
+            raise InvalidMapError(f"cells must be a non-empty 2-D array, got shape {cells.shape}")
+        if not np.issubdtype(cells.dtype, np.integer):
+            raise InvalidMapError(f"cells must be integers (-1..100), got dtype {cells.dtype}")
+        if cells.min() < UNKNOWN or cells.max() > OCCUPIED:
+            raise InvalidMapError(
+                f"cells must lie in -1..100, got {int(cells.min())}..{int(cells.max())}"
+            )
+        resolution = float(self.resolution)
+        if not np.isfinite(resolution) or resolution <= 0:
+            raise InvalidMapError(f"resolution must be a positive number of metres, got {resolution}")
+        if len(self.origin) != 3 or not np.all(np.isfinite(np.asarray(self.origin, float))):
+            raise InvalidMapError(f"origin must be three finite numbers (x, y, yaw), got {self.origin}")
+        cells = np.array(cells, dtype=np.int8, copy=True)
+        cells.setflags(write=False)
+        object.__setattr__(self, "cells", cells)
+        object.__setattr__(self, "resolution", resolution)
+        object.__setattr__(self, "origin", tuple(float(v) for v in self.origin))
+
+    # ------------------------------------------------------------------ construction and I/O
+    @classmethod
+    def from_masks(
+        cls,
+        free: ArrayLike,
+        resolution: float,
+        origin: Pose = (0.0, 0.0, 0.0),
+        unknown: ArrayLike | None = None,
+    ) -> Self:
+        """A grid whose ``free`` cells are free and every other cell occupied (or ``unknown``)."""
+        free_mask = np.asarray(free, bool)
+        cells = np.where(free_mask, FREE, OCCUPIED).astype(np.int8)
+        if unknown is not None:
+            cells[np.asarray(unknown, bool) & ~free_mask] = UNKNOWN
+        return cls(cells, resolution, origin)
+
+    @classmethod
+    def load(cls, path: str | Path) -> OccupancyGrid:
+        """Read a ROS map_server YAML and its image (see :func:`maps.map_server.load_map`)."""
+        from maps.map_server import load_map
+
+        return load_map(path)
+
+    @classmethod
+    def from_image(
+        cls, image: str | Path | NDArray[np.uint8], resolution: float, **options: object
+    ) -> OccupancyGrid:
+        """A grid from a plain image file or array (see :func:`maps.map_server.grid_from_image`)."""
+        from maps.map_server import grid_from_image
+
+        return grid_from_image(image, resolution, **options)  # type: ignore[arg-type]
+
+    def save(self, path: str | Path, *, overwrite: bool = False) -> Path:
+        """Write ``path`` (YAML) and its PGM image (see :func:`maps.map_server.save_map`)."""
+        from maps.map_server import save_map
+
+        return save_map(self, path, overwrite=overwrite)
+
+    # ------------------------------------------------------------------ cell classes
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(height, width)`` in cells."""
+        return (int(self.cells.shape[0]), int(self.cells.shape[1]))
+
+    @property
+    def free(self) -> NDArray[np.bool_]:
+        """Boolean mask of free cells (occupancy 0..49), rows as in the image."""
+        return (self.cells >= FREE) & (self.cells < OCCUPIED_FROM)
+
+    @property
+    def occupied(self) -> NDArray[np.bool_]:
+        """Boolean mask of occupied cells (occupancy 50..100)."""
+        return self.cells >= OCCUPIED_FROM
+
+    @property
+    def unknown(self) -> NDArray[np.bool_]:
+        """Boolean mask of unknown cells (-1)."""
+        return self.cells < FREE
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, OccupancyGrid):
+            return NotImplemented
+        return (
+            self.resolution == other.resolution
+            and self.origin == other.origin
+            and np.array_equal(self.cells, other.cells)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+    # ------------------------------------------------------------------ frames
+    def world_to_cell(
+        self, x: ArrayLike, y: ArrayLike
+    ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+        """Map-frame metres to ``(row, col)`` cell indices (may lie outside the grid)."""
+        ox, oy, yaw = self.origin
+        dx = np.asarray(x, float) - ox
+        dy = np.asarray(y, float) - oy
+        c, s = np.cos(yaw), np.sin(yaw)
+        u = (c * dx + s * dy) / self.resolution
+        v = (-s * dx + c * dy) / self.resolution
+        col = np.floor(u).astype(np.intp)
+        row = self.shape[0] - 1 - np.floor(v).astype(np.intp)
+        return row, col
+
+    def cell_to_world(
+        self, row: ArrayLike, col: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Centres of cells ``(row, col)`` in map-frame metres."""
+        ox, oy, yaw = self.origin
+        u = (np.asarray(col, float) + 0.5) * self.resolution
+        v = (self.shape[0] - 1 - np.asarray(row, float) + 0.5) * self.resolution
+        c, s = np.cos(yaw), np.sin(yaw)
+        return ox + c * u - s * v, oy + s * u + c * v
+
+    def contains(self, row: ArrayLike, col: ArrayLike) -> NDArray[np.bool_]:
+        """Whether cell indices lie inside the grid."""
+        r, c = np.asarray(row), np.asarray(col)
+        return (r >= 0) & (r < self.shape[0]) & (c >= 0) & (c < self.shape[1])
+
+    def is_free(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.bool_]:
+        """Whether map-frame points fall in free cells (points off the grid are not free)."""
+        row, col = self.world_to_cell(x, y)
+        inside = self.contains(row, col)
+        out = np.zeros(np.shape(row), bool)
+        out[inside] = self.free[row[inside], col[inside]]
+        return out
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """``(xmin, ymin, xmax, ymax)`` of the grid's extent in the map frame."""
+        h, w = self.shape
+        corners = np.array([[0, 0], [w, 0], [0, h], [w, h]], float) * self.resolution
+        ox, oy, yaw = self.origin
+        c, s = np.cos(yaw), np.sin(yaw)
+        xs = ox + c * corners[:, 0] - s * corners[:, 1]
+        ys = oy + s * corners[:, 0] + c * corners[:, 1]
+        return float(xs.min()), float(ys.min()), float(xs.max()), float(ys.max())
+
+    # ------------------------------------------------------------------ geometry
+    def clearance(self) -> NDArray[np.float64]:
+        """Distance in metres from each cell centre to the nearest non-free cell centre.
+
+        Non-free cells have 0. Cached: the grid is immutable.
+        """
+        if "clearance" not in self._derived:
+            dist = ndimage.distance_transform_edt(self.free) * self.resolution
+            dist.setflags(write=False)
+            self._derived["clearance"] = dist
+        return self._derived["clearance"]  # type: ignore[return-value]
+
+    def inflate(self, radius: float) -> OccupancyGrid:
+        """A grid where free cells closer than ``radius`` metres to a non-free cell are occupied.
+
+        A cell stays free when the nearest non-free cell's centre is more than
+        ``radius + resolution / 2`` away, i.e. a disc of ``radius`` centred on the cell clears
+        that cell's edge. Unknown cells block like occupied ones.
+        """
+        if not np.isfinite(radius) or radius < 0:
+            raise InvalidMapError(f"inflation radius must be >= 0 metres, got {radius}")
+        blocked = self.free & (self.clearance() <= radius + self.resolution / 2)
+        cells = self.cells.copy()
+        cells[blocked] = OCCUPIED
+        return OccupancyGrid(cells, self.resolution, self.origin)
+

@@ -1,0 +1,100 @@
+"""Build an occupancy grid from keyframes: ray-traced free space, beam end points occupied."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from maps.errors import InvalidScanError
+from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from maps.scan import Keyframe, transform_points
+
+#: Sub-pixel bits used when filling scan polygons with OpenCV.
+_SHIFT = 4
+
+
+def grid_from_keyframes(
+    keyframes: Sequence[Keyframe],
+    resolution: float = 0.05,
+    *,
+    max_range: float = 30.0,
+    occupied_ratio: float = 0.25,
+    margin: float = 1.0,
+) -> OccupancyGrid:
+    """An occupancy grid from keyframes with the counting (reflection) model.
+
+    Each scan clears the cells it saw through: the polygon from the sensor through its beam end
+    points, pulled one cell towards the sensor (beams with no valid reading, or longer than
+    ``max_range``, clear nothing). Each end point hits its cell. A cell is occupied when hits
+    make at least ``occupied_ratio`` of the scans that saw it, free when fewer, unknown when no
+    scan saw it. Moving people, seen once or twice in cells seen free many times, wash out.
+
+    Parameters
+    ----------
+    keyframes
+        Scans with their poses in the map frame.
+    resolution
+        Cell size of the grid, metres.
+    max_range
+        Readings beyond this many metres are ignored (long readings are noisy).
+    occupied_ratio
+        Hit ratio from which a cell is occupied.
+    margin
+        Metres of unknown border around the observed area.
+    """
+    if not keyframes:
+        raise InvalidScanError("cannot build a map from no keyframes")
+    if not resolution > 0 or not math.isfinite(resolution):
+        raise InvalidScanError(f"resolution must be a positive number of metres, got {resolution}")
+    ends, origins = [], []
+    for frame in keyframes:
+        scan = frame.scan
+        keep = scan.valid & (scan.ranges <= max_range)
+        ranges = np.where(keep, scan.ranges, 0.0)
+        local = np.column_stack((np.cos(scan.angles), np.sin(scan.angles)))
+        ends.append((transform_points(local * ranges[:, None], frame.pose), keep))
+        origins.append(frame.pose[:2])
+    every = np.vstack([p[k] for p, k in ends] + [np.array(origins)])
+    lo = every.min(axis=0) - margin
+    hi = every.max(axis=0) + margin
+    width = int(math.ceil((hi[0] - lo[0]) / resolution))
+    height = int(math.ceil((hi[1] - lo[1]) / resolution))
+    visits = np.zeros((height, width), np.uint32)
+    hits = np.zeros((height, width), np.uint32)
+
+    def to_pixels(xy: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Map metres to continuous (col, row) image coordinates, row 0 at the top."""
+        return np.column_stack(((xy[:, 0] - lo[0]) / resolution, height - (xy[:, 1] - lo[1]) / resolution))
+
+    for (points, keep), origin in zip(ends, origins, strict=True):
+        sensor = to_pixels(np.asarray([origin]))[0]
+        pixels = to_pixels(points)
+        # pull end points one cell towards the sensor so the free polygon stops short of walls
+        offset = pixels - sensor
+        length = np.maximum(np.hypot(offset[:, 0], offset[:, 1]), 1e-9)
+        pulled = sensor + offset * (np.maximum(length - 1.0, 0.0) / length)[:, None]
+        outline = np.where(keep[:, None], pulled, sensor)
+        corner = np.floor(np.vstack([outline, pixels[keep], sensor[None]]).min(axis=0)).astype(int)
+        far = np.ceil(np.vstack([outline, pixels[keep], sensor[None]]).max(axis=0)).astype(int) + 1
+        corner = np.maximum(corner, 0)
+        far = np.minimum(far, (width, height))
+        window = (slice(corner[1], far[1]), slice(corner[0], far[0]))
+        seen = np.zeros((far[1] - corner[1], far[0] - corner[0]), np.uint8)
+        polygon = np.round((np.vstack([sensor, outline]) - corner) * (1 << _SHIFT) - (1 << (_SHIFT - 1)))
+        cv2.fillPoly(seen, [polygon.astype(np.int32)], 1, lineType=cv2.LINE_8, shift=_SHIFT)
+        hit = np.zeros_like(seen)
+        cells = np.floor(pixels[keep]).astype(int) - corner
+        inside = (cells[:, 0] >= 0) & (cells[:, 1] >= 0) & (cells[:, 0] < seen.shape[1]) & (cells[:, 1] < seen.shape[0])
+        hit[cells[inside, 1], cells[inside, 0]] = 1
+        visits[window] += seen | hit
+        hits[window] += hit
+    cells = np.full((height, width), UNKNOWN, np.int8)
+    seen_any = visits > 0
+    ratio = np.divide(hits, visits, out=np.zeros(hits.shape), where=seen_any)
+    cells[seen_any & (ratio < occupied_ratio)] = FREE
+    cells[seen_any & (ratio >= occupied_ratio)] = OCCUPIED
+    return OccupancyGrid(cells, resolution, (float(lo[0]), float(lo[1]), 0.0))

@@ -1,0 +1,159 @@
+"""Laser scans (sensor_msgs/LaserScan, REP-117), keyframes and the keyframe selection rule."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from maps.errors import InvalidScanError
+from maps.grid import Pose
+
+
+@dataclass(frozen=True, eq=False)
+class LaserScan:
+    """One planar laser scan with the fields of sensor_msgs/LaserScan.
+
+    Readings follow REP-117: ``+inf`` means no return within range, ``-inf`` too close,
+    ``NaN`` an invalid measurement; readings outside ``[range_min, range_max]`` are not valid.
+    Beam ``i`` points at ``angle_min + i * angle_increment`` radians in the sensor frame
+    (counter-clockwise, x forward).
+    """
+
+    ranges: NDArray[np.float64]
+    angle_min: float
+    angle_increment: float
+    range_min: float = 0.0
+    range_max: float = math.inf
+
+    def __post_init__(self) -> None:
+        ranges = np.array(self.ranges, dtype=np.float64, copy=True)
+        if ranges.ndim != 1 or ranges.size == 0:
+            raise InvalidScanError(f"ranges must be a non-empty 1-D array, got shape {ranges.shape}")
+        for name in ("angle_min", "angle_increment", "range_min"):
+            if not math.isfinite(getattr(self, name)):
+                raise InvalidScanError(f"{name} must be finite, got {getattr(self, name)}")
+        if self.angle_increment == 0:
+            raise InvalidScanError("angle_increment must not be 0")
+        if self.range_min < 0 or not self.range_max > self.range_min:
+            raise InvalidScanError(
+                f"need 0 <= range_min < range_max, got {self.range_min}, {self.range_max}"
+            )
+        ranges.setflags(write=False)
+        object.__setattr__(self, "ranges", ranges)
+
+    def __len__(self) -> int:
+        return int(self.ranges.size)
+
+    @property
+    def angles(self) -> NDArray[np.float64]:
+        """Beam angles in radians, sensor frame."""
+        return self.angle_min + self.angle_increment * np.arange(self.ranges.size)
+
+    @property
+    def valid(self) -> NDArray[np.bool_]:
+        """Beams with a finite reading inside ``[range_min, range_max]``."""
+        r = self.ranges
+        with np.errstate(invalid="ignore"):
+            return np.isfinite(r) & (r >= self.range_min) & (r <= self.range_max)
+
+    @property
+    def no_return(self) -> NDArray[np.bool_]:
+        """Beams that saw nothing within range (``+inf``, or finite beyond ``range_max``)."""
+        with np.errstate(invalid="ignore"):
+            return np.isposinf(self.ranges) | (np.isfinite(self.ranges) & (self.ranges > self.range_max))
+
+    def points(self) -> NDArray[np.float64]:
+        """``(n, 2)`` end points of the valid beams in the sensor frame, metres."""
+        ok = self.valid
+        r, a = self.ranges[ok], self.angles[ok]
+        return np.column_stack((r * np.cos(a), r * np.sin(a)))
+
+
+def check_pose(pose: ArrayLike) -> Pose:
+    """``(x, y, yaw)`` as floats; raises InvalidScanError unless three finite numbers."""
+    values = np.asarray(pose, dtype=float).ravel()
+    if values.shape != (3,) or not np.all(np.isfinite(values)):
+        raise InvalidScanError(f"a pose must be three finite numbers (x, y, yaw), got {pose!r}")
+    return float(values[0]), float(values[1]), float(values[2])
+
+
+def transform_points(points: NDArray[np.float64], pose: Pose) -> NDArray[np.float64]:
+    """Points ``(n, 2)`` from a frame at ``pose`` into the map frame."""
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    rotation = np.array([[c, -s], [s, c]])
+    return points @ rotation.T + np.array([x, y])
+
+
+@dataclass(frozen=True, eq=False)
+class Keyframe:
+    """A laser scan taken at a pose of the sensor in the map frame.
+
+    Parameters
+    ----------
+    pose
+        ``(x, y, yaw)`` of the laser in the map frame (metres, radians).
+    scan
+        The scan.
+    scan_index
+        0-based position of this scan among the scans of its source (log line order, bag order,
+        simulation step), so results can be traced back to the raw data.
+    stamp
+        Time in seconds, if the source has a trustworthy one.
+    """
+
+    pose: Pose
+    scan: LaserScan
+    scan_index: int = 0
+    stamp: float | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "pose", check_pose(self.pose))
+        if int(self.scan_index) != self.scan_index or self.scan_index < 0:
+            raise InvalidScanError(f"scan_index must be an integer >= 0, got {self.scan_index!r}")
+
+    def points(self) -> NDArray[np.float64]:
+        """``(n, 2)`` end points of the valid beams in the map frame, metres."""
+        return transform_points(self.scan.points(), self.pose)
+
+
+def angle_difference(a: float, b: float) -> float:
+    """``a - b`` wrapped into ``[-pi, pi)``."""
+    return (a - b + math.pi) % (2 * math.pi) - math.pi
+
+
+def select_keyframes(
+    frames: Iterable[Keyframe], *, distance: float = 0.5, angle: float = math.radians(30)
+) -> list[Keyframe]:
+    """Keep a frame when the pose moved more than ``distance`` metres or turned more than
+    ``angle`` radians since the last kept one (the first frame is always kept).
+
+    Examples
+    --------
+    >>> scan = LaserScan(np.ones(3), -0.1, 0.1)
+    >>> frames = [Keyframe((0.1 * i, 0.0, 0.0), scan, i) for i in range(11)]
+    >>> [k.scan_index for k in select_keyframes(frames, distance=0.25)]
+    [0, 3, 6, 9]
+    """
+    if not distance >= 0 or not angle >= 0:
+        raise InvalidScanError(f"distance and angle must be >= 0, got {distance}, {angle}")
+    kept: list[Keyframe] = []
+    for frame in frames:
+        if kept:
+            lx, ly, lyaw = kept[-1].pose
+            x, y, yaw = frame.pose
+            moved = math.hypot(x - lx, y - ly) > distance
+            turned = abs(angle_difference(yaw, lyaw)) > angle
+            if not (moved or turned):
+                continue
+        kept.append(frame)
+    return kept
+
+
+def poses_array(frames: Sequence[Keyframe]) -> NDArray[np.float64]:
+    """``(n, 3)`` array of the frames' poses."""
+    return np.array([f.pose for f in frames], dtype=float).reshape(-1, 3)
