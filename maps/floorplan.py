@@ -90,8 +90,11 @@ class _Builder:
         self.rects: list[Rect] = []
         self.types: list[RoomType] = []
         self.doors: list[Door] = []
+        self.open_ends: set[int] = set()  # indices of cross corridors, open where they join
 
-    def add(self, rect: Rect, kind: RoomType) -> int:
+    def add(self, rect: Rect, kind: RoomType, *, open_ends: bool = False) -> int:
+        if open_ends:
+            self.open_ends.add(len(self.rects))
         self.rects.append(rect)
         self.types.append(kind)
         return len(self.rects)
@@ -131,12 +134,17 @@ class _Builder:
         labels = np.zeros(shape, np.int32)
         inner = Rect(OUTER_WALL, OUTER_WALL, self.width - OUTER_WALL, self.height - OUTER_WALL)
         half = WALL / 2
-        # corridors last, so a corridor junction belongs to the corridor drawn over it
-        order = sorted(range(len(self.rects)), key=lambda i: self.types[i] == "corridor")
+        # corridors last, cross corridors before the corridors they join: a junction belongs to
+        # the main corridor
+        order = sorted(
+            range(len(self.rects)),
+            key=lambda i: (self.types[i] == "corridor", i not in self.open_ends),
+        )
         for i in order:
             r = self.rects[i]
-            shrunk = Rect(max(r.x0 + half, inner.x0), max(r.y0 + half, inner.y0),
-                          min(r.x1 - half, inner.x1), min(r.y1 - half, inner.y1))
+            y_in = -half if i in self.open_ends else half
+            shrunk = Rect(max(r.x0 + half, inner.x0), max(r.y0 + y_in, inner.y0),
+                          min(r.x1 - half, inner.x1), min(r.y1 - y_in, inner.y1))
             window = self.cells(shrunk, shape)
             cells[window] = FREE
             labels[window] = i + 1
@@ -229,12 +237,14 @@ def generate_floor_plan(
             cross_x.append((float(x), float(x) + corridor_w))
         for k in range(n_corridors - 1):
             for x0, x1 in cross_x:
-                b.add(Rect(x0, corridor_ys[k][1], x1, corridor_ys[k + 1][0]), "corridor")
+                b.add(
+                    Rect(x0, corridor_ys[k][1], x1, corridor_ys[k + 1][0]), "corridor", open_ends=True
+                )
     elif rng.random() < 0.5:
         x0 = 0.0 if rng.random() < 0.5 else width - corridor_w
         cross_x.append((x0, x0 + corridor_w))
         crossed_rows = {len(rows) - 1}
-        b.add(Rect(x0, corridor_ys[0][1], x0 + corridor_w, height), "corridor")
+        b.add(Rect(x0, corridor_ys[0][1], x0 + corridor_w, height), "corridor", open_ends=True)
 
     # halls: two back-to-back rows between corridors, or a wide stretch of one row in a flat
     hall_spans: dict[int, list[tuple[float, float]]] = {}
