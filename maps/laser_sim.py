@@ -116,9 +116,10 @@ class RayCaster:
         t = np.zeros(theta.size)
         result = np.full(theta.size, np.inf)
         active = np.arange(theta.size)
-        # avoid dividing by zero for axis-parallel rays
-        inv_u = 1.0 / np.where(np.abs(du) < 1e-12, 1e-12, du)
-        inv_v = 1.0 / np.where(np.abs(dv) < 1e-12, 1e-12, dv)
+        # axis-parallel rays: a tiny component of the same sign, so the boundary test below and
+        # the division agree (a flipped sign would step backwards)
+        du_s = np.where(du >= 0, np.maximum(du, 1e-12), np.minimum(du, -1e-12))
+        dv_s = np.where(dv >= 0, np.maximum(dv, 1e-12), np.minimum(dv, -1e-12))
         while active.size:
             u = u0[active] + t[active] * du[active]
             v = v0[active] + t[active] * dv[active]
@@ -130,8 +131,8 @@ class RayCaster:
             keep = ~hit
             active, u, v, col, row = active[keep], u[keep], v[keep], col[keep], row[keep]
             # distance to the next cell boundary along the ray, and the safe sphere-tracing step
-            next_u = np.where(du[active] > 0, col + 1 - u, col - u) * inv_u[active]
-            next_v = np.where(dv[active] > 0, row + 1 - v, row - v) * inv_v[active]
+            next_u = np.where(du_s[active] > 0, col + 1 - u, col - u) / du_s[active]
+            next_v = np.where(dv_s[active] > 0, row + 1 - v, row - v) / dv_s[active]
             boundary = np.minimum(next_u, next_v) + 1e-6
             safe = self.clearance[row, col] - math.sqrt(2)
             t[active] += np.maximum(boundary, safe)

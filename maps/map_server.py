@@ -36,9 +36,10 @@ def cells_from_image(
 ) -> NDArray[np.int8]:
     """Occupancy values (-1..100) of an 8-bit image, exactly as map_server computes them.
 
-    Colour channels are averaged with integer division; a last alpha channel (2 or 4
-    channels) is left out of the average except in trinary mode, and in scale mode a fully
-    transparent pixel is unknown.
+    Colour channels are averaged with integer division. A last alpha channel (2 or 4
+    channels) is never averaged in (map_server averages it in trinary mode, a legacy quirk that
+    turns grey 245 with opaque alpha into free space and breaks the rule "grey >= 250 is free"
+    of the room-segmentation benchmark); in scale mode a fully transparent pixel is unknown.
     """
     if mode not in MODES:
         raise MapFormatError(f"unknown mode {mode!r}, expected one of {MODES}", field="mode")
@@ -47,7 +48,7 @@ def cells_from_image(
         pixels = pixels[:, :, None]
     channels = pixels.shape[2]
     has_alpha = channels in (2, 4)
-    averaged = channels if (mode == "trinary" or not has_alpha) else channels - 1
+    averaged = channels - 1 if has_alpha else channels
     grey = pixels[:, :, :averaged].astype(np.int32).sum(axis=2) // averaged
     alpha = pixels[:, :, -1] if has_alpha else np.full(grey.shape, 255)
     if negate:

@@ -1,0 +1,118 @@
+"""The demo: the whole pipeline on a generated building, writing pictures and a summary.
+
+Each stage is a function of the run's :class:`DemoRun`; it adds its results to the run and
+the summary, and its time is recorded. Later stages (segmentation, names, planning) append
+to :data:`STAGES`.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from maps.floorplan import FloorPlan, generate_floor_plan
+from maps.grid import OccupancyGrid
+from maps.laser_sim import LaserModel, simulate_scans
+from maps.mapping import grid_from_keyframes
+from maps.scan import Keyframe, poses_array, select_keyframes
+from maps.wander import Route, wander
+from topomap.drawing import draw_map
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class DemoRun:
+    """What the demo's stages share: options, intermediate results and the summary."""
+
+    out: Path
+    size: str = "office"
+    seed: int = 0
+    plan: FloorPlan | None = None
+    route: Route | None = None
+    scans: list[Keyframe] = field(default_factory=list)
+    keyframes: list[Keyframe] = field(default_factory=list)
+    grid: OccupancyGrid | None = None
+    summary: dict[str, Any] = field(default_factory=dict)
+
+
+def generate(run: DemoRun) -> None:
+    """Generate the building and its ground truth."""
+    run.plan = generate_floor_plan(run.size, furniture=0.3, random_state=run.seed)
+    xmin, ymin, xmax, ymax = run.plan.grid.bounds()
+    width, height = xmax - xmin, ymax - ymin
+    run.summary["building"] = {
+        "size": run.size,
+        "seed": run.seed,
+        "extent_m": [round(width, 2), round(height, 2)],
+        "cells": list(run.plan.grid.shape),
+        "spaces": dict(Counter(run.plan.types)),
+        "doors": len(run.plan.doors),
+    }
+
+
+def drive(run: DemoRun) -> None:
+    """Wander through every room, take a scan at every pose, keep the keyframes."""
+    assert run.plan is not None
+    run.route = wander(run.plan.grid, run.plan.labels, random_state=run.seed)
+    run.scans = simulate_scans(
+        run.plan.grid, run.route.poses, LaserModel(noise=0.01, dropout=0.01), random_state=run.seed
+    )
+    run.keyframes = select_keyframes(run.scans)
+    run.summary["robot"] = {
+        "route_m": round(run.route.length, 1),
+        "rooms_visited": len(run.route.visited),
+        "rooms_unreachable": len(run.route.unreachable),
+        "scans": len(run.scans),
+        "keyframes": len(run.keyframes),
+    }
+
+
+def build_map(run: DemoRun) -> None:
+    """Build an occupancy grid from the keyframes and compare it with the true plan."""
+    assert run.plan is not None
+    run.grid = grid_from_keyframes(run.keyframes, run.plan.grid.resolution)
+    run.grid.save(run.out / "map.yaml", overwrite=True)
+    truth = run.plan.grid
+    xs, ys = truth.cell_to_world(*np.nonzero(truth.free))
+    found = run.grid.is_free(xs, ys)
+    xb, yb = run.grid.cell_to_world(*np.nonzero(run.grid.free))
+    wrong = ~truth.is_free(xb, yb)
+    run.summary["map"] = {
+        "cells": list(run.grid.shape),
+        "true_free_cells_found": round(float(found.mean()), 4),
+        "free_cells_not_free_in_truth": round(float(wrong.mean()), 4),
+    }
+    draw_map(
+        run.out / "map.png",
+        run.grid,
+        route=run.route.poses if run.route is not None else None,
+        keyframes=poses_array(run.keyframes),
+        title=f"map from {len(run.keyframes)} keyframes of a generated {run.size} building",
+    )
+
+
+STAGES: list[Callable[[DemoRun], None]] = [generate, drive, build_map]
+
+
+def run_demo(out: str | Path, *, size: str = "office", seed: int = 0) -> dict[str, Any]:
+    """Run every stage, write ``summary.json`` and the pictures into ``out``; return the summary."""
+    run = DemoRun(Path(out), size=size, seed=seed)
+    run.out.mkdir(parents=True, exist_ok=True)
+    seconds: dict[str, float] = {}
+    for stage in STAGES:
+        start = time.perf_counter()
+        stage(run)
+        seconds[stage.__name__] = round(time.perf_counter() - start, 3)
+        log.info("%s: %.2f s", stage.__name__, seconds[stage.__name__])
+    run.summary["seconds"] = seconds
+    (run.out / "summary.json").write_text(json.dumps(run.summary, indent=2))
+    return run.summary
