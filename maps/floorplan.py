@@ -10,6 +10,7 @@ opens onto a corridor through a door; some rooms also open onto their neighbour.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import Literal
 
 import numpy as np
@@ -17,10 +18,11 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from maps.errors import InvalidMapError
-from maps.grid import OCCUPIED, UNKNOWN, FREE, OccupancyGrid
+from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from maps.seeding import RandomState, as_generator
 
 RoomType = Literal["room", "corridor", "hall"]
+Wall = Literal["top", "bottom", "left", "right"]
 SIZES: dict[str, tuple[float, float]] = {
     "flat": (20.0, 15.0),
     "office": (100.0, 60.0),
@@ -85,7 +87,9 @@ class FloorPlan:
 class _Builder:
     """Collects spaces and doors in metres, then rasterises them."""
 
-    def __init__(self, width: float, height: float, resolution: float, rng: np.random.Generator) -> None:
+    def __init__(
+        self, width: float, height: float, resolution: float, rng: np.random.Generator
+    ) -> None:
         self.width, self.height, self.res, self.rng = width, height, resolution, rng
         self.rects: list[Rect] = []
         self.types: list[RoomType] = []
@@ -99,12 +103,21 @@ class _Builder:
         self.types.append(kind)
         return len(self.rects)
 
-    def door(self, room: int, other: int, wall: Literal["top", "bottom", "left", "right"],
-             span: tuple[float, float] | None = None) -> None:
+    def door(
+        self,
+        room: int,
+        other: int,
+        wall: Wall,
+        span: tuple[float, float] | None = None,
+    ) -> None:
         """A door in ``room``'s ``wall`` onto ``other``, somewhere along ``span`` (metres)."""
         r = self.rects[room - 1]
         width = float(self.rng.uniform(0.8, 1.2))
-        lo, hi = span if span is not None else ((r.x0, r.x1) if wall in ("top", "bottom") else (r.y0, r.y1))
+        lo, hi = (
+            span
+            if span is not None
+            else ((r.x0, r.x1) if wall in ("top", "bottom") else (r.y0, r.y1))
+        )
         lo, hi = lo + width / 2 + 0.35, hi - width / 2 - 0.35
         if hi < lo:
             return
@@ -143,8 +156,12 @@ class _Builder:
         for i in order:
             r = self.rects[i]
             y_in = -half if i in self.open_ends else half
-            shrunk = Rect(max(r.x0 + half, inner.x0), max(r.y0 + y_in, inner.y0),
-                          min(r.x1 - half, inner.x1), min(r.y1 - y_in, inner.y1))
+            shrunk = Rect(
+                max(r.x0 + half, inner.x0),
+                max(r.y0 + y_in, inner.y0),
+                min(r.x1 - half, inner.x1),
+                min(r.y1 - y_in, inner.y1),
+            )
             window = self.cells(shrunk, shape)
             cells[window] = FREE
             labels[window] = i + 1
@@ -238,7 +255,9 @@ def generate_floor_plan(
         for k in range(n_corridors - 1):
             for x0, x1 in cross_x:
                 b.add(
-                    Rect(x0, corridor_ys[k][1], x1, corridor_ys[k + 1][0]), "corridor", open_ends=True
+                    Rect(x0, corridor_ys[k][1], x1, corridor_ys[k + 1][0]),
+                    "corridor",
+                    open_ends=True,
                 )
     elif rng.random() < 0.5:
         x0 = 0.0 if rng.random() < 0.5 else width - corridor_w
@@ -267,7 +286,7 @@ def generate_floor_plan(
         for m in members:
             hall_spans.setdefault(m, []).append((x0, x1))
             r_y0, _, k = rows[m]
-            wall = "top" if r_y0 < corridor_ys[k][0] else "bottom"
+            wall: Wall = "top" if r_y0 < corridor_ys[k][0] else "bottom"
             for part in ((x0, (x0 + x1) / 2), ((x0 + x1) / 2, x1)):
                 b.door(hall, corridors[k], wall, span=part)
 
@@ -281,13 +300,13 @@ def generate_floor_plan(
             x = max(x, c)
         if width - x > 2.5:
             stretches.append((x, width))
-        wall = "top" if y0 < corridor_ys[k][0] else "bottom"
+        facing: Wall = "top" if y0 < corridor_ys[k][0] else "bottom"
         for s0, s1 in stretches:
             cuts = _split(s1 - s0, 4.0, 9.0, rng)
             previous = None
-            for a, c in zip(cuts[:-1], cuts[1:], strict=True):
+            for a, c in pairwise(cuts):
                 room = b.add(Rect(s0 + a, y0, s0 + c, y1), "room")
-                b.door(room, corridors[k], wall)
+                b.door(room, corridors[k], facing)
                 if previous is not None and rng.random() < 0.15:
                     b.door(room, previous, "left")
                 previous = room
@@ -299,13 +318,17 @@ def generate_floor_plan(
     return FloorPlan(grid, labels, tuple(b.types), tuple(b.doors), tuple(b.rects))
 
 
-def _furnish(cells: NDArray[np.int8], labels: NDArray[np.int32], b: _Builder, density: float) -> None:
+def _furnish(
+    cells: NDArray[np.int8], labels: NDArray[np.int32], b: _Builder, density: float
+) -> None:
     """Drop furniture blocks into rooms and halls without disconnecting their floor."""
     res, rng = b.res, b.rng
     near_door = np.zeros(cells.shape, bool)
     for d in b.doors:
         reach = d.width / 2 + 0.8
-        near_door[b.cells(Rect(d.x - reach, d.y - reach, d.x + reach, d.y + reach), cells.shape)] = True
+        near_door[
+            b.cells(Rect(d.x - reach, d.y - reach, d.x + reach, d.y + reach), cells.shape)
+        ] = True
     for label, (rect, kind) in enumerate(zip(b.rects, b.types, strict=True), start=1):
         if kind == "corridor":
             continue

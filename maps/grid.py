@@ -64,9 +64,13 @@ class OccupancyGrid:
             )
         resolution = float(self.resolution)
         if not np.isfinite(resolution) or resolution <= 0:
-            raise InvalidMapError(f"resolution must be a positive number of metres, got {resolution}")
+            raise InvalidMapError(
+                f"resolution must be a positive number of metres, got {resolution}"
+            )
         if len(self.origin) != 3 or not np.all(np.isfinite(np.asarray(self.origin, float))):
-            raise InvalidMapError(f"origin must be three finite numbers (x, y, yaw), got {self.origin}")
+            raise InvalidMapError(
+                f"origin must be three finite numbers (x, y, yaw), got {self.origin}"
+            )
         cells = np.array(cells, dtype=np.int8, copy=True)
         cells.setflags(write=False)
         object.__setattr__(self, "cells", cells)
@@ -216,4 +220,3 @@ class OccupancyGrid:
         cells = self.cells.copy()
         cells[blocked] = OCCUPIED
         return OccupancyGrid(cells, self.resolution, self.origin)
-

@@ -54,7 +54,9 @@ class LaserModel:
                 f"need 0 <= min_range < max_range < inf, got {self.min_range}, {self.max_range}"
             )
         if self.noise < 0 or not 0 <= self.dropout <= 1:
-            raise InvalidScanError(f"need noise >= 0 and dropout in [0, 1], got {self.noise}, {self.dropout}")
+            raise InvalidScanError(
+                f"need noise >= 0 and dropout in [0, 1], got {self.noise}, {self.dropout}"
+            )
 
     @property
     def angle_increment(self) -> float:
@@ -70,7 +72,7 @@ class LaserModel:
     @property
     def angles(self) -> NDArray[np.float64]:
         """Beam angles in the sensor frame."""
-        return self.angle_min + self.angle_increment * np.arange(self.beams)
+        return self.angle_min + self.angle_increment * np.arange(self.beams, dtype=np.float64)
 
 
 class RayCaster:
@@ -102,7 +104,9 @@ class RayCaster:
             flat_out[lo:hi] = self._cast(starts[lo:hi], flat_theta[lo:hi], max_range)
         return out
 
-    def _cast(self, xy: NDArray[np.float64], theta: NDArray[np.float64], max_range: float) -> NDArray[np.float64]:
+    def _cast(
+        self, xy: NDArray[np.float64], theta: NDArray[np.float64], max_range: float
+    ) -> NDArray[np.float64]:
         grid = self.grid
         height, width = grid.shape
         ox, oy, oyaw = grid.origin
@@ -176,8 +180,10 @@ def simulate_scans(
     ranges[ranges < model.min_range] = -np.inf
     return [
         Keyframe(
-            tuple(pose),  # type: ignore[arg-type]
-            LaserScan(row, model.angle_min, model.angle_increment, model.min_range, model.max_range),
+            tuple(pose),
+            LaserScan(
+                row, model.angle_min, model.angle_increment, model.min_range, model.max_range
+            ),
             scan_index=i,
         )
         for i, (pose, row) in enumerate(zip(pose_array, ranges, strict=True))

@@ -83,7 +83,7 @@ def read_image(path: str | Path, *, field: str | None = None) -> NDArray[np.uint
     if pixels is None:
         raise MapFormatError("not an image OpenCV can read", path=path, field=field)
     if pixels.dtype == np.uint16:
-        pixels = (pixels >> 8).astype(np.uint8)
+        pixels = (pixels.astype(np.uint16) >> 8).astype(np.uint8)
     if pixels.dtype != np.uint8:
         raise MapFormatError(f"unsupported pixel type {pixels.dtype}", path=path, field=field)
     if pixels.ndim == 3 and pixels.shape[2] >= 3:  # OpenCV gives BGR(A); keep RGB(A) order
@@ -152,13 +152,17 @@ def load_map(path: str | Path) -> OccupancyGrid:
     doc = _parse_yaml(path)
     image = doc.get("image")
     if not isinstance(image, str) or not image:
-        raise MapFormatError(f"expected an image file name, got {image!r}", path=path, field="image")
+        raise MapFormatError(
+            f"expected an image file name, got {image!r}", path=path, field="image"
+        )
     resolution = _number(doc, "resolution", path, 1e-9, math.inf)
     occupied = _number(doc, "occupied_thresh", path, 0.0, 1.0)
     free = _number(doc, "free_thresh", path, 0.0, 1.0)
     if free > occupied:
         raise MapFormatError(
-            f"free_thresh {free} is above occupied_thresh {occupied}", path=path, field="free_thresh"
+            f"free_thresh {free} is above occupied_thresh {occupied}",
+            path=path,
+            field="free_thresh",
         )
     negate = doc.get("negate")
     if negate not in (0, 1):  # True and False compare equal to 1 and 0

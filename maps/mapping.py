@@ -68,15 +68,20 @@ def grid_from_keyframes(
 
     def to_pixels(xy: NDArray[np.float64]) -> NDArray[np.float64]:
         """Map metres to continuous (col, row) image coordinates, row 0 at the top."""
-        return np.column_stack(((xy[:, 0] - lo[0]) / resolution, height - (xy[:, 1] - lo[1]) / resolution))
+        return np.column_stack(
+            ((xy[:, 0] - lo[0]) / resolution, height - (xy[:, 1] - lo[1]) / resolution)
+        )
 
     for (points, keep), origin in zip(ends, origins, strict=True):
         sensor = to_pixels(np.asarray([origin]))[0]
-        pixels = to_pixels(points)
-        # pull end points one cell towards the sensor so the free polygon stops short of walls
-        offset = pixels - sensor
+        ends_px = to_pixels(points)
+        offset = ends_px - sensor
         length = np.maximum(np.hypot(offset[:, 0], offset[:, 1]), 1e-9)
+        # the free polygon stops a cell short of the end points; a hit is counted a quarter
+        # cell beyond its end point, inside the surface it lies on (not in the free cell next
+        # to a cell edge)
         pulled = sensor + offset * (np.maximum(length - 1.0, 0.0) / length)[:, None]
+        pixels = sensor + offset * ((length + 0.25) / length)[:, None]
         outline = np.where(keep[:, None], pulled, sensor)
         corner = np.floor(np.vstack([outline, pixels[keep], sensor[None]]).min(axis=0)).astype(int)
         far = np.ceil(np.vstack([outline, pixels[keep], sensor[None]]).max(axis=0)).astype(int) + 1
@@ -84,11 +89,18 @@ def grid_from_keyframes(
         far = np.minimum(far, (width, height))
         window = (slice(corner[1], far[1]), slice(corner[0], far[0]))
         seen = np.zeros((far[1] - corner[1], far[0] - corner[0]), np.uint8)
-        polygon = np.round((np.vstack([sensor, outline]) - corner) * (1 << _SHIFT) - (1 << (_SHIFT - 1)))
+        polygon = np.round(
+            (np.vstack([sensor, outline]) - corner) * (1 << _SHIFT) - (1 << (_SHIFT - 1))
+        )
         cv2.fillPoly(seen, [polygon.astype(np.int32)], 1, lineType=cv2.LINE_8, shift=_SHIFT)
         hit = np.zeros_like(seen)
         cells = np.floor(pixels[keep]).astype(int) - corner
-        inside = (cells[:, 0] >= 0) & (cells[:, 1] >= 0) & (cells[:, 0] < seen.shape[1]) & (cells[:, 1] < seen.shape[0])
+        inside = (
+            (cells[:, 0] >= 0)
+            & (cells[:, 1] >= 0)
+            & (cells[:, 0] < seen.shape[1])
+            & (cells[:, 1] < seen.shape[0])
+        )
         hit[cells[inside, 1], cells[inside, 0]] = 1
         visits[window] += seen | hit
         hits[window] += hit

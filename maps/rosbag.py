@@ -22,7 +22,9 @@ POSE_TYPES = (
 )
 
 
-def _pick_topic(topics: dict[str, str], wanted: tuple[str, ...], given: str | None, path: Path) -> str:
+def _pick_topic(
+    topics: dict[str, str], wanted: tuple[str, ...], given: str | None, path: Path
+) -> str:
     matching = sorted(name for name, kind in topics.items() if kind in wanted)
     if given is not None:
         if topics.get(given) not in wanted:
@@ -35,8 +37,7 @@ def _pick_topic(topics: dict[str, str], wanted: tuple[str, ...], given: str | No
         return given
     if len(matching) != 1:
         raise LogFormatError(
-            f"{'no' if not matching else 'several'} topics of type {wanted}: {matching}; "
-            "name one",
+            f"{'no' if not matching else 'several'} topics of type {wanted}: {matching}; name one",
             path=path,
             field="topic",
         )

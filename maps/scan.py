@@ -32,7 +32,9 @@ class LaserScan:
     def __post_init__(self) -> None:
         ranges = np.array(self.ranges, dtype=np.float64, copy=True)
         if ranges.ndim != 1 or ranges.size == 0:
-            raise InvalidScanError(f"ranges must be a non-empty 1-D array, got shape {ranges.shape}")
+            raise InvalidScanError(
+                f"ranges must be a non-empty 1-D array, got shape {ranges.shape}"
+            )
         for name in ("angle_min", "angle_increment", "range_min"):
             if not math.isfinite(getattr(self, name)):
                 raise InvalidScanError(f"{name} must be finite, got {getattr(self, name)}")
@@ -51,7 +53,7 @@ class LaserScan:
     @property
     def angles(self) -> NDArray[np.float64]:
         """Beam angles in radians, sensor frame."""
-        return self.angle_min + self.angle_increment * np.arange(self.ranges.size)
+        return self.angle_min + self.angle_increment * np.arange(self.ranges.size, dtype=np.float64)
 
     @property
     def valid(self) -> NDArray[np.bool_]:
@@ -64,7 +66,9 @@ class LaserScan:
     def no_return(self) -> NDArray[np.bool_]:
         """Beams that saw nothing within range (``+inf``, or finite beyond ``range_max``)."""
         with np.errstate(invalid="ignore"):
-            return np.isposinf(self.ranges) | (np.isfinite(self.ranges) & (self.ranges > self.range_max))
+            return np.isposinf(self.ranges) | (
+                np.isfinite(self.ranges) & (self.ranges > self.range_max)
+            )
 
     def points(self) -> NDArray[np.float64]:
         """``(n, 2)`` end points of the valid beams in the sensor frame, metres."""

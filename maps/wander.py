@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 from numpy.typing import NDArray
@@ -65,7 +66,7 @@ def _sample(points: NDArray[np.float64], step: float, turn_step: float) -> NDArr
     """Poses every ``step`` metres along a polyline, turning in place at its corners."""
     poses: list[NDArray[np.float64]] = []
     heading: float | None = None
-    for a, b in zip(points[:-1], points[1:], strict=True):
+    for a, b in pairwise(points):
         length = float(np.hypot(*(b - a)))
         if length < 1e-9:
             continue
@@ -75,7 +76,7 @@ def _sample(points: NDArray[np.float64], step: float, turn_step: float) -> NDArr
             n_turn = int(abs(turn) // turn_step)
             yaws = heading + turn * np.arange(1, n_turn + 1) / (n_turn + 1)
             poses.append(np.column_stack((np.full(n_turn, a[0]), np.full(n_turn, a[1]), yaws)))
-        n = max(int(length // step), 1)
+        n = max(math.ceil(length / step), 1)
         t = np.arange(n)[:, None] / n
         xy = a + t * (b - a)
         poses.append(np.column_stack((xy, np.full(n, new))))
@@ -142,7 +143,9 @@ def wander(
         path = np.array(mcp.traceback(goal))
         # a room the path really goes through (a metre or more, not just a door) is visited
         passed, counts = np.unique(room_of[path[:, 0], path[:, 1]], return_counts=True)
-        through = {int(lab) for lab, n in zip(passed, counts, strict=True) if n * SEARCH_CELL >= 1.0}
+        through = {
+            int(lab) for lab, n in zip(passed, counts, strict=True) if n * SEARCH_CELL >= 1.0
+        }
         for label in [reached[0], *sorted(through - {reached[0]})]:
             if label in targets:
                 visited.append(label)

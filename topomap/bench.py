@@ -14,7 +14,10 @@ from maps.laser_sim import LaserModel, RayCaster, simulate_scans
 
 
 def bench_sim(
-    out: str | Path, *, scans: tuple[int, ...] = (1_000, 10_000), beams: tuple[int, ...] = (181, 361),
+    out: str | Path,
+    *,
+    scans: tuple[int, ...] = (1_000, 10_000),
+    beams: tuple[int, ...] = (181, 361),
     seed: int = 0,
 ) -> list[dict[str, Any]]:
     """Time the laser simulator on a generated office floor (100 x 60 m, 5 cm cells).
@@ -39,11 +42,17 @@ def bench_sim(
             start = time.perf_counter()
             simulate_scans(plan.grid, poses, model, random_state=seed, caster=caster)
             seconds = time.perf_counter() - start
-            records.append({
-                "scans": n, "beams": b, "seconds": round(seconds, 4),
-                "scans_per_s": round(n / seconds), "rays_per_s": round(n * b / seconds),
-                "map_cells": list(plan.grid.shape), "setup_seconds": round(setup, 4),
-            })
+            records.append(
+                {
+                    "scans": n,
+                    "beams": b,
+                    "seconds": round(seconds, 4),
+                    "scans_per_s": round(n / seconds),
+                    "rays_per_s": round(n * b / seconds),
+                    "map_cells": list(plan.grid.shape),
+                    "setup_seconds": round(setup, 4),
+                }
+            )
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps(records, indent=2))

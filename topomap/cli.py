@@ -48,8 +48,10 @@ def cmd_map(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     grid.save(out / "map.yaml", overwrite=args.force)
     draw_map(out / "map.png", grid, keyframes=poses_array(keyframes), title=Path(args.log).name)
-    print(f"{len(frames)} scans, {len(keyframes)} keyframes -> {out / 'map.yaml'} "
-          f"({grid.shape[1]} x {grid.shape[0]} cells)")
+    print(
+        f"{len(frames)} scans, {len(keyframes)} keyframes -> {out / 'map.yaml'} "
+        f"({grid.shape[1]} x {grid.shape[0]} cells)"
+    )
     return 0
 
 
@@ -58,14 +60,16 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
     from maps.floorplan import generate_floor_plan
 
-    plan = generate_floor_plan(args.size, resolution=args.resolution, furniture=args.furniture,
-                               random_state=args.seed)
+    plan = generate_floor_plan(
+        args.size, resolution=args.resolution, furniture=args.furniture, random_state=args.seed
+    )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     plan.grid.save(out / "map.yaml", overwrite=args.force)
     cv2.imwrite(str(out / "rooms.png"), plan.labels.astype("uint16"))
-    (out / "rooms.json").write_text(json.dumps(
-        [{"id": i, "type": t} for i, t in enumerate(plan.types, start=1)], indent=1))
+    (out / "rooms.json").write_text(
+        json.dumps([{"id": i, "type": t} for i, t in enumerate(plan.types, start=1)], indent=1)
+    )
     print(f"{plan.n_rooms} spaces, {len(plan.doors)} doors -> {out}")
     return 0
 
@@ -75,8 +79,10 @@ def cmd_bench_sim(args: argparse.Namespace) -> int:
 
     records = bench_sim(args.out, scans=tuple(args.scans), beams=tuple(args.beams))
     print(_table(records, ["scans", "beams", "seconds", "scans_per_s", "rays_per_s"]))
-    print(f"set-up (distance transform of {records[0]['map_cells']} cells): "
-          f"{records[0]['setup_seconds']} s; wrote {args.out}/results.json")
+    print(
+        f"set-up (distance transform of {records[0]['map_cells']} cells): "
+        f"{records[0]['setup_seconds']} s; wrote {args.out}/results.json"
+    )
     return 0
 
 
@@ -125,8 +131,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status (2 for bad input)."""
     args = build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
-                        format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
     try:
         return int(args.func(args))
     except (MapsError, FileNotFoundError, FileExistsError, ValueError) as err:

@@ -29,8 +29,9 @@ def show_grid(ax: Axes, grid: OccupancyGrid) -> None:
     shade[grid.free] = 1.0
     shade[grid.occupied] = 0.0
     xmin, ymin, xmax, ymax = grid.bounds()
-    ax.imshow(shade, cmap="gray", vmin=0, vmax=1, extent=(xmin, xmax, ymin, ymax),
-              interpolation="nearest")
+    ax.imshow(
+        shade, cmap="gray", vmin=0, vmax=1, extent=(xmin, xmax, ymin, ymax), interpolation="nearest"
+    )
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_aspect("equal")
@@ -53,9 +54,16 @@ def draw_map(
     if route is not None:
         ax.plot(route[:, 0], route[:, 1], color="tab:blue", lw=0.6, alpha=0.7, label="route")
     if keyframes is not None:
-        ax.quiver(keyframes[:, 0], keyframes[:, 1], np.cos(keyframes[:, 2]),
-                  np.sin(keyframes[:, 2]), color="tab:red", scale=150, width=0.001,
-                  label=f"{len(keyframes)} keyframes")
+        ax.quiver(
+            keyframes[:, 0],
+            keyframes[:, 1],
+            np.cos(keyframes[:, 2]),
+            np.sin(keyframes[:, 2]),
+            color="tab:red",
+            scale=150,
+            width=0.001,
+            label=f"{len(keyframes)} keyframes",
+        )
     if route is not None or keyframes is not None:
         ax.legend(loc="upper right", fontsize=8)
     ax.set_title(title)

@@ -28,8 +28,11 @@ def test_save_load_round_trip(tmp_path_factory, cells, resolution, origin):
 
 
 @given(
-    x=st.floats(-5, 5), y=st.floats(-5, 5), yaw=st.floats(-math.pi, math.pi),
-    row=st.integers(0, 19), col=st.integers(0, 29),
+    x=st.floats(-5, 5),
+    y=st.floats(-5, 5),
+    yaw=st.floats(-math.pi, math.pi),
+    row=st.integers(0, 19),
+    col=st.integers(0, 29),
 )
 def test_cell_centre_maps_back_to_its_cell(x, y, yaw, row, col):
     grid = OccupancyGrid(np.zeros((20, 30), np.int8), 0.1, (x, y, yaw))
@@ -97,7 +100,10 @@ def _write(tmp_path, text, image=True):
     return path
 
 
-GOOD = "image: img.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n"
+GOOD = (
+    "image: img.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 0\n"
+    "occupied_thresh: 0.65\nfree_thresh: 0.196\n"
+)
 
 
 @pytest.mark.parametrize(
@@ -123,7 +129,7 @@ def test_bad_yaml_field_is_named(tmp_path, text, field):
 def test_bad_files(tmp_path):
     with pytest.raises(MapFileNotFoundError):
         load_map(tmp_path / "nothing.yaml")
-    with pytest.raises(MapFileNotFoundError, match="other.pgm"):
+    with pytest.raises(MapFileNotFoundError, match=r"other\.pgm"):
         load_map(_write(tmp_path, GOOD.replace("img.pgm", "other.pgm")))
     (tmp_path / "img.pgm").write_text("not an image")
     with pytest.raises(MapFormatError, match="image"):

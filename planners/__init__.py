@@ -1,0 +1,1 @@
+"""Planners on occupancy grids and region graphs (to come: issue 4)."""

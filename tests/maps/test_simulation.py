@@ -1,0 +1,121 @@
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+from maps.errors import InvalidMapError, InvalidScanError
+from maps.floorplan import generate_floor_plan
+from maps.grid import OccupancyGrid
+from maps.laser_sim import LaserModel, simulate_scans
+from maps.mapping import grid_from_keyframes
+from maps.scan import select_keyframes
+from maps.wander import wander
+
+
+def square_room(side_cells=200, resolution=0.05):
+    free = np.zeros((side_cells, side_cells), bool)
+    free[1:-1, 1:-1] = True
+    return OccupancyGrid.from_masks(free, resolution)
+
+
+@given(x=st.floats(1.0, 9.0), y=st.floats(1.0, 9.0), yaw=st.floats(-math.pi, math.pi))
+@settings(max_examples=30, deadline=None)
+def test_ranges_in_a_square_room_are_analytic(x, y, yaw):
+    grid = square_room()  # free space spans [0.05, 9.95] m on both axes
+    model = LaserModel(fov=2 * math.pi, beams=360, max_range=30.0)
+    (frame,) = simulate_scans(grid, [(x, y, yaw)], model)
+    angles = yaw + frame.scan.angles
+    c, s = np.cos(angles), np.sin(angles)
+    with np.errstate(divide="ignore"):
+        tx = np.where(c > 0, (9.95 - x) / c, (0.05 - x) / c)
+        ty = np.where(s > 0, (9.95 - y) / s, (0.05 - y) / s)
+    expected = np.minimum(
+        np.where(np.abs(c) < 1e-12, np.inf, tx), np.where(np.abs(s) < 1e-12, np.inf, ty)
+    )
+    np.testing.assert_allclose(frame.scan.ranges, expected, atol=1e-5)
+
+
+def test_max_range_noise_dropout_and_seed():
+    grid = square_room()
+    far = simulate_scans(grid, [(5.0, 5.0, 0.0)], LaserModel(max_range=2.0))[0]
+    assert np.all(np.isposinf(far.scan.ranges))
+    model = LaserModel(noise=0.05, dropout=0.2)
+    a = simulate_scans(grid, [(5.0, 5.0, 0.0)] * 50, model, random_state=3)
+    b = simulate_scans(grid, [(5.0, 5.0, 0.0)] * 50, model, random_state=3)
+    ranges = np.array([k.scan.ranges for k in a])
+    np.testing.assert_array_equal(ranges, np.array([k.scan.ranges for k in b]))
+    assert 0.15 < np.isinf(ranges).mean() < 0.25
+    errors = ranges[:, 90][np.isfinite(ranges[:, 90])] - 4.95
+    assert 0.03 < errors.std() < 0.07
+
+
+def test_bad_laser_models():
+    for kwargs in ({"beams": 1}, {"fov": 0.0}, {"max_range": math.inf}, {"dropout": 2.0}):
+        with pytest.raises(InvalidScanError):
+            LaserModel(**kwargs)
+    with pytest.raises(InvalidScanError):
+        simulate_scans(square_room(), [(1.0, float("nan"), 0.0)])
+
+
+def test_map_from_simulated_keyframes_matches_the_room():
+    grid = square_room()
+    rng = np.random.default_rng(0)
+    poses = np.column_stack((rng.uniform(2, 8, 40), rng.uniform(2, 8, 40), rng.uniform(-3, 3, 40)))
+    frames = simulate_scans(grid, poses, LaserModel(fov=2 * math.pi, beams=720))
+    built = grid_from_keyframes(frames, 0.05)
+    xs, ys = grid.cell_to_world(*np.nonzero(grid.free))
+    assert built.is_free(xs, ys).mean() > 0.97
+    wall_x, wall_y = grid.cell_to_world(*np.nonzero(grid.occupied))
+    rows, cols = built.world_to_cell(wall_x, wall_y)
+    inside = built.contains(rows, cols)
+    assert built.occupied[rows[inside], cols[inside]].mean() > 0.9
+    with pytest.raises(InvalidScanError):
+        grid_from_keyframes([])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("size", ["flat", (40.0, 30.0)])
+def test_generated_ground_truth(size, seed):
+    plan = generate_floor_plan(size, furniture=0.3, random_state=seed)
+    labels, free = plan.labels, plan.grid.free
+    assert set(plan.types) <= {"room", "corridor", "hall"} and "corridor" in plan.types
+    assert np.all(labels[free] > 0), "every free cell belongs to a room"
+    for label in range(1, plan.n_rooms + 1):
+        floor = free & (labels == label)
+        assert ndimage.label(floor)[1] == 1, f"space {label} is one piece"
+    assert ndimage.label(free)[1] == 1, "every space is reachable"
+    for door in plan.doors:
+        assert 0.8 <= door.width <= 1.2
+        assert plan.grid.is_free(door.x, door.y)
+    again = generate_floor_plan(size, furniture=0.3, random_state=seed)
+    assert again.grid == plan.grid and np.array_equal(again.labels, plan.labels)
+
+
+def test_office_and_campus_sizes():
+    office = generate_floor_plan("office", random_state=0)
+    counts = {t: office.types.count(t) for t in set(office.types)}
+    assert 40 <= counts["room"] <= 120 and counts["hall"] >= 1 and counts["corridor"] >= 3
+    campus = generate_floor_plan("campus", resolution=0.2, random_state=0)
+    assert campus.types.count("room") >= 200
+    with pytest.raises(InvalidMapError):
+        generate_floor_plan("castle")
+    with pytest.raises(InvalidMapError):
+        generate_floor_plan((5.0, 5.0))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_wandering_robot_visits_every_room_without_collision(seed):
+    plan = generate_floor_plan("flat", furniture=0.3, random_state=seed)
+    route = wander(plan.grid, plan.labels, robot_radius=0.25, random_state=seed)
+    assert set(route.visited) == set(range(1, plan.n_rooms + 1)) and not route.unreachable
+    assert plan.grid.inflate(0.25).is_free(route.poses[:, 0], route.poses[:, 1]).all()
+    steps = np.hypot(*np.diff(route.poses[:, :2], axis=0).T)
+    assert steps.max() <= 0.05 + 1e-9
+    visited_cells = plan.labels[plan.grid.world_to_cell(route.poses[:, 0], route.poses[:, 1])]
+    assert set(np.unique(visited_cells)) >= set(range(1, plan.n_rooms + 1))
+    frames = simulate_scans(plan.grid, route.poses, random_state=seed)
+    keyframes = select_keyframes(frames)
+    assert 10 < len(keyframes) < len(frames)
