@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from maps.errors import LogFormatError, MapFileNotFoundError
+from maps.errors import InvalidScanError, LogFormatError, MapFileNotFoundError
 from maps.scan import Keyframe, LaserScan
 
 log = logging.getLogger(__name__)
@@ -104,7 +104,12 @@ def read_rosbag(
             for connection, _, raw in reader.messages(connections=wanted):
                 message = reader.deserialize(raw, connection.msgtype)
                 if connection.topic == scan_name:
-                    scans.append((_stamp(message), _scan_of(message)))
+                    try:
+                        scan = _scan_of(message)
+                    except InvalidScanError as err:
+                        field = f"{scan_name} message {len(scans)}"
+                        raise LogFormatError(str(err), path=path, field=field) from err
+                    scans.append((_stamp(message), scan))
                 else:
                     poses.append((_stamp(message), _pose_of(message)))
     except AnyReaderError as err:

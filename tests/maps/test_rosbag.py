@@ -10,7 +10,7 @@ from maps.errors import LogFormatError, MapFileNotFoundError
 from maps.rosbag import read_rosbag
 
 
-def _messages(store):
+def _messages(store, increment=0.5):
     t = store.types
     time = t["builtin_interfaces/msg/Time"]
     fields = t["std_msgs/msg/Header"].__dataclass_fields__
@@ -27,7 +27,7 @@ def _messages(store):
                 header=header(stamp=stamp, frame_id="laser"),
                 angle_min=-0.5,
                 angle_max=0.5,
-                angle_increment=0.5,
+                angle_increment=increment,
                 time_increment=0.0,
                 scan_time=0.1,
                 range_min=0.1,
@@ -53,8 +53,8 @@ def _messages(store):
     return scans, poses
 
 
-def _write(writer, store, ros1):
-    scans, poses = _messages(store)
+def _write(writer, store, ros1, increment=0.5):
+    scans, poses = _messages(store, increment)
     kwargs = {"typestore": store}
     scan_c = writer.add_connection("/scan", "sensor_msgs/msg/LaserScan", **kwargs)
     pose_c = writer.add_connection("/pose", "geometry_msgs/msg/PoseStamped", **kwargs)
@@ -98,3 +98,11 @@ def test_bad_bags(tmp_path):
     (tmp_path / "junk.bag").write_bytes(b"not a bag at all")
     with pytest.raises(LogFormatError, match=r"junk\.bag"):
         read_rosbag(tmp_path / "junk.bag")
+
+
+def test_bad_scan_message_names_bag_and_message(tmp_path):
+    store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "zero.bag"
+    with Writer1(path) as writer:
+        _write(writer, store, True, increment=0.0)
+    with pytest.raises(LogFormatError, match=r"zero\.bag.*/scan message 0.*angle_increment"):
+        read_rosbag(path)
