@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from maps.errors import LogFormatError, MapFileNotFoundError
+from maps.errors import InvalidScanError, LogFormatError, MapFileNotFoundError
 from maps.scan import Keyframe, LaserScan
 
 #: Old-style lines: ``FLASER n r1 .. rn x y theta odom_x odom_y odom_theta ipc_ts host log_ts``.
@@ -128,7 +128,7 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
     if not path.is_file():
         raise MapFileNotFoundError(path, "CARMEN log")
     if not max_range > 0:
-        raise ValueError(f"max_range must be > 0 metres, got {max_range}")
+        raise InvalidScanError(f"max_range must be > 0 metres, got {max_range}")
     frames: list[Keyframe] = []
     for number, text in _lines(path):
         tokens = text.split()

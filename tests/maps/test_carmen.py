@@ -7,7 +7,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from maps.carmen import read_carmen
-from maps.errors import LogFormatError, MapFileNotFoundError
+from maps.errors import InvalidScanError, LogFormatError, MapFileNotFoundError
 
 LOGS = {"intel": (910, 180), "freiburg-079": (4791, 360), "aces": (440, 180), "csail": (406, 361)}
 
@@ -72,6 +72,13 @@ def test_bad_lines_name_line_and_field(tmp_path, text, field):
         read_carmen(path)
     assert info.value.line == 2 and info.value.field == field
     assert "bad.log" in str(info.value) and "line 2" in str(info.value)
+
+
+def test_bad_max_range(tmp_path):
+    path = tmp_path / "ok.log"
+    path.write_text(_line([1.0, 2.0]))
+    with pytest.raises(InvalidScanError, match="max_range"):
+        read_carmen(path, max_range=0.0)
 
 
 def test_missing_and_binary_files(tmp_path):
