@@ -83,10 +83,9 @@ def grid_from_keyframes(
         pulled = sensor + offset * (np.maximum(length - 1.0, 0.0) / length)[:, None]
         pixels = sensor + offset * ((length + 0.25) / length)[:, None]
         outline = np.where(keep[:, None], pulled, sensor)
-        corner = np.floor(np.vstack([outline, pixels[keep], sensor[None]]).min(axis=0)).astype(int)
-        far = np.ceil(np.vstack([outline, pixels[keep], sensor[None]]).max(axis=0)).astype(int) + 1
-        corner = np.maximum(corner, 0)
-        far = np.minimum(far, (width, height))
+        extent = np.vstack([outline, pixels[keep], sensor[None]])
+        corner = np.maximum(np.floor(extent.min(axis=0)).astype(int), 0)
+        far = np.minimum(np.ceil(extent.max(axis=0)).astype(int) + 1, (width, height))
         window = (slice(corner[1], far[1]), slice(corner[0], far[0]))
         seen = np.zeros((far[1] - corner[1], far[0] - corner[0]), np.uint8)
         polygon = np.round(
