@@ -11,6 +11,10 @@ import numpy as np
 
 from maps.floorplan import generate_floor_plan
 from maps.laser_sim import LaserModel, RayCaster, simulate_scans
+from maps.scan import Keyframe, select_keyframes
+from maps.wander import wander
+from segmentation.naive import naive_segment
+from segmentation.spectral import SpectralSegmenter
 
 
 def bench_sim(
@@ -51,6 +55,56 @@ def bench_sim(
                     "rays_per_s": round(n * b / seconds),
                     "map_cells": list(plan.grid.shape),
                     "setup_seconds": round(setup, 4),
+                }
+            )
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.json").write_text(json.dumps(records, indent=2))
+    return records
+
+
+def robot_keyframes(size: str, count: int, seed: int = 0) -> list[Keyframe]:
+    """The first ``count`` keyframes (181 beams, 180 degrees) of a robot wandering through a
+    generated building of ``size``."""
+    plan = generate_floor_plan(size, furniture=0.3, random_state=seed)
+    route = wander(plan.grid, plan.labels, random_state=seed)
+    scans = simulate_scans(plan.grid, route.poses, LaserModel(noise=0.01), random_state=seed)
+    keyframes = select_keyframes(scans)
+    if len(keyframes) < count:
+        raise ValueError(f"the {size} building gives {len(keyframes)} keyframes, not {count}")
+    return keyframes[:count]
+
+
+def bench_segment(
+    out: str | Path,
+    *,
+    sizes: tuple[int, ...] = (1_000, 2_000, 5_000, 10_000),
+    naive_up_to: int = 2_000,
+    building: str = "campus",
+    seed: int = 0,
+) -> list[dict[str, Any]]:
+    """Time the spectral partition (similarity + eigenvectors + k search) against the naive one.
+
+    Keyframes come from :func:`robot_keyframes`. Records ``{"method": "topomap" | "naive",
+    "keyframes", "seconds", "regions"}`` go to ``out/results.json``; the naive version (all
+    pairs, dense matrices, the same criterion) runs for sizes up to ``naive_up_to``.
+    """
+    keyframes = robot_keyframes(building, max(sizes), seed)
+    records: list[dict[str, Any]] = []
+    for n in sizes:
+        runs = [("topomap", lambda k: SpectralSegmenter(random_state=seed).fit(k).labels_)]
+        if n <= naive_up_to:
+            runs.append(("naive", lambda k: naive_segment(k, random_state=seed)))
+        for method, run in runs:
+            start = time.perf_counter()
+            labels = run(keyframes[:n])
+            seconds = time.perf_counter() - start
+            records.append(
+                {
+                    "method": method,
+                    "keyframes": n,
+                    "seconds": round(seconds, 3),
+                    "regions": int(labels.max()) + 1,
                 }
             )
     out = Path(out)

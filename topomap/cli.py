@@ -86,6 +86,121 @@ def cmd_bench_sim(args: argparse.Namespace) -> int:
     return 0
 
 
+def _segmenter_options(args: argparse.Namespace) -> dict[str, object]:
+    return {"criterion": args.criterion, "k": args.k, "p": args.p}
+
+
+def cmd_segment(args: argparse.Namespace) -> int:
+    from maps.grid import OccupancyGrid
+    from maps.scan import select_keyframes
+    from topomap.drawing import draw_regions
+    from topomap.topomap import TopoMap
+
+    out = Path(args.out)
+    if (args.map is None) == (args.scans is None):
+        raise ValueError("give either a map YAML or --scans LOG, not both")
+    if args.scans is not None:
+        frames = _read_keyframes(Path(args.scans), args)
+        keyframes = select_keyframes(frames, distance=args.distance)
+        topo = TopoMap.from_keyframes(keyframes, **_segmenter_options(args))
+        source = args.scans
+    else:
+        grid = OccupancyGrid.load(args.map)
+        topo = TopoMap.from_grid(grid, spacing=args.spacing, **_segmenter_options(args))
+        source = args.map
+    written = topo.save(out, overwrite=args.force)
+    if args.scans is not None:
+        written.append(topo.grid.save(out / "map.yaml", overwrite=args.force))
+        written.append(topo.save_keyframes(out / "keyframes.csv", overwrite=args.force))
+    count = topo.graph.number_of_nodes()
+    written.append(
+        draw_regions(
+            out / "segmentation.png",
+            topo.grid,
+            topo.regions.labels,
+            topo.graph,
+            title=f"{Path(source).name}: {count} regions",
+        )
+    )
+    summary = {
+        "source": str(source),
+        "regions": count,
+        "spectral_clusters": topo.segmenter.n_regions_,
+        "keyframes": len(topo.keyframes),
+        "doors": sum(len(d) for _, _, d in topo.graph.edges(data="doors")),
+        "silhouette_by_k": {str(k): round(v, 4) for k, v in topo.segmenter.silhouette_by_k_.items()},
+        "seconds": {k: round(v, 3) for k, v in topo.seconds.items()},
+    }
+    path = out / "summary.json"
+    if path.exists() and not args.force:
+        raise FileExistsError(f"{path} exists; pass --force to replace it")
+    path.write_text(json.dumps(summary, indent=2))
+    print(json.dumps(summary, indent=2))
+    print(f"wrote {', '.join(p.name for p in written)}, summary.json to {out}")
+    return 0
+
+
+def cmd_eval_segment(args: argparse.Namespace) -> int:
+    from topomap.evaluate import evaluate_all, means, read_anchors
+
+    records = evaluate_all(
+        args.data, progress=_progress, spacing=args.spacing, **_segmenter_options(args)
+    )
+    columns = ["map", "furnished", "variant", "keyframes", "segments", "rooms"]
+    print(_table(records, columns + ["recall", "precision", "mcc", "ari", "seconds"]))
+    print()
+    summary = means(records, read_anchors(args.data))
+    print(_table(summary, ["method", "furnished", "maps", "recall", "precision", "mcc", "ari",
+                           "mean_s", "max_s"]))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.json").write_text(json.dumps({"maps": records, "means": summary}, indent=2))
+    print(f"wrote {out / 'results.json'}")
+    return 0
+
+
+def cmd_bench_segment(args: argparse.Namespace) -> int:
+    from topomap.bench import bench_segment
+
+    records = bench_segment(
+        args.out, sizes=tuple(args.sizes), naive_up_to=args.naive_up_to, building=args.building
+    )
+    rows = []
+    for n in sorted({r["keyframes"] for r in records}):
+        by = {r["method"]: r for r in records if r["keyframes"] == n}
+        naive = by.get("naive")
+        rows.append(
+            {
+                "keyframes": n,
+                "topomap_s": by["topomap"]["seconds"],
+                "naive_s": naive["seconds"] if naive else "-",
+                "speed-up": f"{naive['seconds'] / by['topomap']['seconds']:.0f}x" if naive else "-",
+                "regions": by["topomap"]["regions"],
+            }
+        )
+    print(_table(rows, ["keyframes", "topomap_s", "naive_s", "speed-up", "regions"]))
+    print(f"wrote {args.out}/results.json")
+    return 0
+
+
+def _progress(items):  # type: ignore[no-untyped-def]
+    """A tqdm progress bar on stderr when tqdm is installed."""
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return items
+    return tqdm(list(items), file=sys.stderr, leave=False)
+
+
+def _add_segmenter_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--criterion", default="nn", choices=["nn", "hausdorff", "features"])
+    parser.add_argument("--k", type=int, help="guess of the number of regions (default: eigengap)")
+    parser.add_argument("--p", type=float, default=0.1, help="sparsification parameter in [0, 1)")
+    parser.add_argument(
+        "--spacing", type=float, default=0.8, help="virtual keyframe spacing on a map, metres"
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand."""
     parser = argparse.ArgumentParser(prog="topomap", description=__doc__)
@@ -118,6 +233,25 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--force", action="store_true", help="overwrite existing map files")
     gen.set_defaults(func=cmd_generate)
 
+    seg = sub.add_parser("segment", help="segment a map or a laser log into regions")
+    seg.add_argument("map", nargs="?", help="map_server YAML")
+    seg.add_argument("--scans", help="CARMEN log or ROS bag instead of a map")
+    seg.add_argument("--out", required=True)
+    seg.add_argument("--distance", type=float, default=0.5, help="keyframe spacing in a log, m")
+    seg.add_argument("--scan-topic")
+    seg.add_argument("--pose-topic")
+    seg.add_argument("--force", action="store_true", help="overwrite existing files")
+    _add_segmenter_options(seg)
+    seg.set_defaults(func=cmd_segment)
+
+    evaluation = sub.add_parser("eval", help="evaluations against ground truth")
+    eval_sub = evaluation.add_subparsers(dest="evaluation", required=True)
+    eval_seg = eval_sub.add_parser("segment", help="room segmentation on the ipa floor plans")
+    eval_seg.add_argument("data", help="folder of map YAMLs with *_gt_labels.png")
+    eval_seg.add_argument("--out", default="out/eval-segment")
+    _add_segmenter_options(eval_seg)
+    eval_seg.set_defaults(func=cmd_eval_segment)
+
     bench = sub.add_parser("bench", help="benchmarks: print a table, write results.json")
     bench_sub = bench.add_subparsers(dest="bench", required=True)
     sim = bench_sub.add_parser("sim", help="laser simulator speed")
@@ -125,6 +259,12 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--scans", type=int, nargs="+", default=[1_000, 10_000])
     sim.add_argument("--beams", type=int, nargs="+", default=[181, 361])
     sim.set_defaults(func=cmd_bench_sim)
+    seg_bench = bench_sub.add_parser("segment", help="spectral partition speed against naive")
+    seg_bench.add_argument("--out", default="out/bench-segment")
+    seg_bench.add_argument("--sizes", type=int, nargs="+", default=[1_000, 2_000, 5_000, 10_000])
+    seg_bench.add_argument("--naive-up-to", type=int, default=2_000)
+    seg_bench.add_argument("--building", default="campus", choices=["flat", "office", "campus"])
+    seg_bench.set_defaults(func=cmd_bench_segment)
     return parser
 
 

@@ -71,3 +71,49 @@ def draw_map(
     fig.savefig(path, dpi=150, bbox_inches="tight")
     plt.close(fig)
     return path
+
+
+def region_colours(count: int, seed: int = 7) -> NDArray[np.float64]:
+    """``(count + 1, 4)`` RGBA colours: index 0 transparent, the rest distinct pastel."""
+    rng = np.random.default_rng(seed)
+    colours = np.ones((count + 1, 4))
+    colours[1:, :3] = 0.35 + 0.6 * rng.random((count, 3))
+    colours[0] = 0.0
+    return colours
+
+
+def draw_regions(
+    path: str | Path, grid: OccupancyGrid, labels: NDArray[np.integer], graph: Any, title: str = ""
+) -> Path:
+    """Write a PNG of the regions in colour with the region graph drawn over them.
+
+    Nodes are drawn at each region's inside point with its id (and name, if it has one);
+    edges run from node to node through the centres of their widest door, drawn as a segment.
+    """
+    plt = _pyplot()
+    xmin, ymin, xmax, ymax = grid.bounds()
+    width = 12.0
+    fig, ax = plt.subplots(figsize=(width, max(3.0, width * (ymax - ymin) / (xmax - xmin))))
+    show_grid(ax, grid)
+    colours = region_colours(int(labels.max(initial=0)))
+    ax.imshow(
+        colours[labels], extent=(xmin, xmax, ymin, ymax), interpolation="nearest", alpha=0.8
+    )
+    for a, b, data in graph.edges(data=True):
+        door = data["doors"][0]
+        ends = np.array([door.start, door.end])
+        ax.plot(ends[:, 0], ends[:, 1], color="tab:red", lw=2.5)
+        line = np.array([[graph.nodes[a]["x"], graph.nodes[a]["y"]], door.centre])
+        line = np.vstack([line, [[graph.nodes[b]["x"], graph.nodes[b]["y"]]]])
+        ax.plot(line[:, 0], line[:, 1], color="black", lw=0.8)
+    for node, data in graph.nodes(data=True):
+        ax.plot(data["x"], data["y"], "o", color="black", ms=3)
+        ax.annotate(
+            str(data.get("name", node)), (data["x"], data["y"]), fontsize=6, ha="center",
+            va="bottom", xytext=(0, 2), textcoords="offset points",
+        )
+    ax.set_title(title)
+    path = Path(path)
+    fig.savefig(path, dpi=150, bbox_inches="tight")
+    plt.close(fig)
+    return path

@@ -1,0 +1,201 @@
+"""Writing and reading regions and the region graph: label PNG, GeoJSON, GraphML, node-link JSON.
+
+Geometry is in map-frame metres. GraphML holds only scalars, so (as OSMnx does) polygons are
+WKT strings and an edge's doors a JSON list of ``[x1, y1, x2, y2, cx, cy, width]``; node-link
+JSON uses the same encoding. Every reader returns an object equal to the one written.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import cv2
+import networkx as nx
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+from shapely.geometry import mapping, shape
+
+from segmentation.errors import ExportFormatError
+from segmentation.transitions import Transition
+
+FRAME_NOTE = "map frame (REP-103), metres"
+
+
+def _door_list(doors: tuple[Transition, ...]) -> str:
+    return json.dumps([[*t.start, *t.end, *t.centre, t.width] for t in doors])
+
+
+def _doors(text: str, a: int, b: int) -> tuple[Transition, ...]:
+    return tuple(
+        Transition(a, b, (x1, y1), (x2, y2), (cx, cy), width)
+        for x1, y1, x2, y2, cx, cy, width in json.loads(text)
+    )
+
+
+def _encoded(graph: nx.Graph) -> nx.Graph:
+    """A copy of ``graph`` with only scalar attributes."""
+    out = nx.Graph()
+    out.graph.update(
+        {
+            "resolution": graph.graph["resolution"],
+            "origin": json.dumps(list(graph.graph["origin"])),
+            "frame": FRAME_NOTE,
+        }
+    )
+    for node, data in graph.nodes(data=True):
+        attrs = dict(data)
+        attrs["polygon"] = shapely.to_wkt(data["polygon"], rounding_precision=-1)
+        out.add_node(int(node), **attrs)
+    for a, b, data in graph.edges(data=True):
+        attrs = dict(data)
+        attrs["doors"] = _door_list(data["doors"])
+        out.add_edge(int(a), int(b), **attrs)
+    return out
+
+
+def _decoded(graph: nx.Graph, source: Path) -> nx.Graph:
+    """Inverse of :func:`_encoded`."""
+    out = nx.Graph()
+    try:
+        out.graph["resolution"] = float(graph.graph["resolution"])
+        out.graph["origin"] = tuple(json.loads(graph.graph["origin"]))
+        for node, data in graph.nodes(data=True):
+            attrs = dict(data)
+            attrs["polygon"] = shapely.from_wkt(data["polygon"])
+            out.add_node(int(node), **attrs)
+        for a, b, data in graph.edges(data=True):
+            lo, hi = sorted((int(a), int(b)))
+            attrs = dict(data)
+            attrs["doors"] = _doors(data["doors"], lo, hi)
+            out.add_edge(lo, hi, **attrs)
+    except (KeyError, ValueError, TypeError, shapely.errors.GEOSException) as err:
+        raise ExportFormatError(f"{source}: not a topomap region graph: {err!r}") from err
+    return out
+
+
+def _refuse_overwrite(path: Path, overwrite: bool) -> None:
+    if path.exists() and not overwrite:
+        raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
+
+
+def write_graphml(graph: nx.Graph, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Write the region graph as GraphML."""
+    path = Path(path)
+    _refuse_overwrite(path, overwrite)
+    nx.write_graphml(_encoded(graph), path)
+    return path
+
+
+def read_graphml(path: str | Path) -> nx.Graph:
+    """Read a region graph written by :func:`write_graphml`."""
+    path = Path(path)
+    try:
+        raw = nx.read_graphml(path, node_type=int)
+    except FileNotFoundError:
+        raise
+    except Exception as err:  # networkx raises bare ElementTree / KeyError errors
+        raise ExportFormatError(f"{path}: not valid GraphML: {err}") from err
+    return _decoded(raw, path)
+
+
+def write_node_link(graph: nx.Graph, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Write the region graph as networkx node-link JSON (key ``edges``)."""
+    path = Path(path)
+    _refuse_overwrite(path, overwrite)
+    path.write_text(json.dumps(nx.node_link_data(_encoded(graph), edges="edges"), indent=1))
+    return path
+
+
+def read_node_link(path: str | Path) -> nx.Graph:
+    """Read a region graph written by :func:`write_node_link`."""
+    path = Path(path)
+    try:
+        raw = nx.node_link_graph(json.loads(path.read_text()), edges="edges")
+    except FileNotFoundError:
+        raise
+    except (ValueError, KeyError, TypeError) as err:
+        raise ExportFormatError(f"{path}: not node-link JSON: {err!r}") from err
+    return _decoded(raw, path)
+
+
+def write_geojson(graph: nx.Graph, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Write one GeoJSON Feature per region: its polygon and its scalar attributes.
+
+    Each Feature's properties hold ``id`` (the region's value in the label image), ``area_m2``
+    and the node's other scalar attributes. Coordinates are map-frame metres, not WGS84.
+    """
+    path = Path(path)
+    _refuse_overwrite(path, overwrite)
+    features = []
+    for node, data in sorted(graph.nodes(data=True)):
+        properties: dict[str, Any] = {"id": int(node)}
+        properties.update({k: v for k, v in data.items() if k != "polygon"})
+        features.append(
+            {"type": "Feature", "geometry": mapping(data["polygon"]), "properties": properties}
+        )
+    collection = {
+        "type": "FeatureCollection",
+        "properties": {
+            "frame": FRAME_NOTE,
+            "resolution": graph.graph["resolution"],
+            "origin": list(graph.graph["origin"]),
+        },
+        "features": features,
+    }
+    path.write_text(json.dumps(collection))
+    return path
+
+
+def read_geojson(path: str | Path) -> nx.Graph:
+    """The regions of a file written by :func:`write_geojson`, as a graph without edges."""
+    path = Path(path)
+    try:
+        collection = json.loads(path.read_text())
+        graph = nx.Graph(
+            resolution=float(collection["properties"]["resolution"]),
+            origin=tuple(collection["properties"]["origin"]),
+        )
+        for index, feature in enumerate(collection["features"]):
+            properties = dict(feature["properties"])
+            node = int(properties.pop("id"))
+            graph.add_node(node, polygon=shape(feature["geometry"]), **properties)
+    except FileNotFoundError:
+        raise
+    except (ValueError, KeyError, TypeError, AttributeError) as err:
+        where = f" feature {index}" if "index" in locals() else ""
+        raise ExportFormatError(f"{path}{where}: not topomap regions GeoJSON: {err!r}") from err
+    return graph
+
+
+def write_label_image(labels: NDArray[np.integer], path: str | Path, *, overwrite: bool = False):
+    """Write region ids as a 16-bit PNG, row 0 at the top like the map image."""
+    path = Path(path)
+    _refuse_overwrite(path, overwrite)
+    if labels.max(initial=0) > np.iinfo(np.uint16).max:
+        raise ExportFormatError(f"{path}: {labels.max()} regions do not fit a 16-bit PNG")
+    if not cv2.imwrite(str(path), labels.astype(np.uint16)):
+        raise OSError(f"could not write {path}")
+    return path
+
+
+def read_label_image(path: str | Path) -> NDArray[np.int32]:
+    """Read a 16-bit label PNG (0 = no region)."""
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if image is None:
+        if not Path(path).exists():
+            raise FileNotFoundError(f"no such label image: {path}")
+        raise ExportFormatError(f"{path}: not an image OpenCV can read")
+    if image.ndim != 2:
+        raise ExportFormatError(f"{path}: a label image has one channel, found {image.shape[2]}")
+    return image.astype(np.int32)
+
+
+WRITERS: dict[str, Callable[..., Path]] = {
+    "graph.graphml": write_graphml,
+    "graph.json": write_node_link,
+    "regions.geojson": write_geojson,
+}

@@ -1,0 +1,61 @@
+"""The region adjacency graph: a node per region, an edge per pair of touching regions."""
+
+from __future__ import annotations
+
+import networkx as nx
+import numpy as np
+from numpy.typing import NDArray
+
+from segmentation.regions import Regions
+from segmentation.transitions import Transition, find_transitions
+
+
+def region_graph(regions: Regions, keyframe_regions: NDArray[np.integer] | None = None) -> nx.Graph:
+    """Build the region adjacency graph of ``regions``.
+
+    Parameters
+    ----------
+    regions
+        The segmentation.
+    keyframe_regions
+        Region id of each keyframe (0 = none), to count keyframes per region.
+
+    Returns
+    -------
+    networkx.Graph
+        Node ``id`` (the region's value in the label image) with ``area_m2``, ``polygon``
+        (shapely, map-frame metres), ``x``, ``y`` (a point inside the region) and ``keyframes``.
+        Edge ``(a, b)`` with ``doors``: a tuple of :class:`Transition`, widest first, and
+        ``width``, the widest door's width. Graph attributes: ``resolution``, ``origin``.
+
+    Examples
+    --------
+    >>> import numpy as np, maps
+    >>> grid = maps.OccupancyGrid(np.zeros((4, 6), np.int8), resolution=0.5)
+    >>> labels = np.array([[1, 1, 1, 2, 2, 2]] * 4, np.int32)
+    >>> graph = region_graph(Regions(grid, labels))
+    >>> sorted(graph.edges), graph.edges[1, 2]["width"]
+    ([(1, 2)], 2.0)
+    """
+    counts = np.zeros(len(regions.cell_counts), np.int64)
+    if keyframe_regions is not None:
+        found = np.bincount(np.asarray(keyframe_regions, np.int64), minlength=len(counts))
+        counts[: len(found)] = found[: len(counts)]
+    graph = nx.Graph(resolution=regions.grid.resolution, origin=tuple(regions.grid.origin))
+    for region, polygon in regions.polygons.items():
+        point = polygon.representative_point()
+        graph.add_node(
+            region,
+            area_m2=regions.area(region),
+            polygon=polygon,
+            x=float(point.x),
+            y=float(point.y),
+            keyframes=int(counts[region]),
+        )
+    doors: dict[tuple[int, int], list[Transition]] = {}
+    for transition in find_transitions(regions.grid, regions.labels):
+        doors.setdefault((transition.a, transition.b), []).append(transition)
+    for (a, b), found_doors in doors.items():
+        found_doors.sort(key=lambda t: -t.width)
+        graph.add_edge(a, b, doors=tuple(found_doors), width=found_doors[0].width)
+    return graph

@@ -1,0 +1,102 @@
+"""Scores of a segmentation against a human one, as the room segmentation benchmarks define them.
+
+Recall and precision (micro and macro) after Bormann et al. (ICRA 2016); the per-zone Matthews
+correlation as MAORIS (Mielle et al., ICRA 2018) evaluates it; the adjusted Rand index.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import sparse
+from sklearn.metrics import adjusted_rand_score
+
+from segmentation.errors import SegmentationError
+
+#: Segments and rooms with at most this many pixels are not scored.
+MIN_PIXELS = 100
+
+
+@dataclass(frozen=True)
+class Scores:
+    """Scores of one segmentation (see the module docstring)."""
+
+    recall: float
+    precision: float
+    recall_macro: float
+    precision_macro: float
+    mcc: float
+    ari: float
+    segments: int
+    rooms: int
+
+    def as_dict(self) -> dict[str, float | int]:
+        """The scores as a plain dict."""
+        return asdict(self)
+
+
+def _keep_large(labels: NDArray[np.integer]) -> NDArray[np.int64]:
+    labels = labels.astype(np.int64)
+    sizes = np.bincount(labels.ravel())
+    small = sizes <= MIN_PIXELS
+    small[0] = True
+    return np.where(small[labels], 0, labels)
+
+
+def _mcc(tp: float, fp: float, fn: float, tn: float) -> float:
+    denominator = math.sqrt((tp + fp) * (tp + fn) * (tn + fp) * (tn + fn))
+    return (tp * tn - fp * fn) / denominator if denominator > 0 else 0.0
+
+
+def score(segments: NDArray[np.integer], truth: NDArray[np.integer]) -> Scores:
+    """Score label image ``segments`` against ``truth`` (both 0 = unlabelled).
+
+    Sizes ``|s|``, ``|g|`` count every pixel of a segment / room; overlaps ``O[s, g]`` and ``N``
+    count the pixels labelled on both sides.
+    """
+    if segments.shape != truth.shape:
+        raise SegmentationError(
+            f"segmentation shape {segments.shape} differs from ground truth {truth.shape}"
+        )
+    seg, gt = _keep_large(segments), _keep_large(truth)
+    seg_ids, seg_index = np.unique(seg, return_inverse=True)
+    gt_ids, gt_index = np.unique(gt, return_inverse=True)
+    seg_index, gt_index = seg_index.reshape(seg.shape), gt_index.reshape(gt.shape)
+    seg_size = np.bincount(seg_index.ravel())[seg_ids > 0]
+    gt_size = np.bincount(gt_index.ravel())[gt_ids > 0]
+    both = (seg > 0) & (gt > 0)
+    overlap = sparse.coo_matrix(
+        (np.ones(int(both.sum())), (seg_index[both], gt_index[both])),
+        shape=(len(seg_ids), len(gt_ids)),
+    ).toarray()[seg_ids > 0][:, gt_ids > 0]
+    n_seg, n_gt = overlap.shape
+    if n_seg == 0 or n_gt == 0:
+        return Scores(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, n_seg, n_gt)
+    recall = overlap.max(axis=0)
+    precision = overlap.max(axis=1)
+    total = float(both.sum())
+    pair_scores: list[float] = []
+    order = np.argsort(-overlap, axis=None, kind="stable")
+    used_s, used_g = np.zeros(n_seg, bool), np.zeros(n_gt, bool)
+    for flat in order:
+        s, g = divmod(int(flat), n_gt)
+        if used_s[s] or used_g[g] or overlap[s, g] == 0:
+            continue
+        used_s[s] = used_g[g] = True
+        tp = float(overlap[s, g])
+        fp, fn = seg_size[s] - tp, gt_size[g] - tp
+        pair_scores.append(_mcc(tp, fp, fn, total - (fp - gt_size[g])))
+    unpaired = int((~used_s).sum() + (~used_g).sum())
+    return Scores(
+        recall=float(np.mean(recall / gt_size)),
+        precision=float(np.mean(precision / seg_size)),
+        recall_macro=float(recall.sum() / gt_size.sum()),
+        precision_macro=float(precision.sum() / seg_size.sum()),
+        mcc=float(np.sum(pair_scores) / (len(pair_scores) + unpaired)),
+        ari=float(adjusted_rand_score(gt[both], seg[both])),
+        segments=n_seg,
+        rooms=n_gt,
+    )

@@ -1,0 +1,80 @@
+"""Refinement of a spectral partition: boundaries moved to doors, open cuts merged away.
+
+Two steps, each a function:
+
+- :func:`snap_to_basins`: the free space is cut into basins of its clearance (distance to the
+  nearest wall): a watershed from the open spaces meets at the narrowest passages, the doors.
+  Each basin takes the region that covers most of it, so region boundaries move to doors.
+- :func:`merge_open_boundaries`: spectral clusters also split long corridors and large rooms
+  where nothing narrows the space. Two touching regions are merged when their widest opening is
+  at least ``ratio`` times the width of the narrower region (twice its largest clearance): a
+  door is much narrower than the spaces it joins, a cut through a corridor or a room is not.
+  The most open pair is merged first.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+from skimage.morphology import h_maxima
+from skimage.segmentation import watershed
+
+from maps.grid import OccupancyGrid
+from segmentation.errors import ParameterError
+from segmentation.regions import consecutive, merge_small, pieces
+from segmentation.transitions import find_transitions
+
+
+def basins(grid: OccupancyGrid, depth: float = 0.3) -> NDArray[np.int32]:
+    """Watershed basins of the clearance, from maxima at least ``depth`` metres deep."""
+    clearance = grid.clearance()
+    steps = np.round(clearance / grid.resolution).astype(np.int32)
+    peaks = h_maxima(steps, max(1, round(depth / grid.resolution)))
+    markers, _ = ndimage.label(peaks & grid.free, structure=np.ones((3, 3)))
+    return watershed(-clearance, markers, mask=grid.free, connectivity=1).astype(np.int32)
+
+
+def snap_to_basins(
+    grid: OccupancyGrid, labels: NDArray[np.int32], min_area: float = 1.0
+) -> NDArray[np.int32]:
+    """Give each basin of :func:`basins` the region covering most of its cells."""
+    basin = basins(grid)
+    both = (basin > 0) & (labels > 0)
+    pair, count = np.unique(
+        np.stack([basin[both], labels[both]]), axis=1, return_counts=True
+    )
+    winner = np.zeros(int(basin.max(initial=0)) + 1, np.int32)
+    order = np.lexsort((count, pair[0]))  # per basin, the largest count last
+    winner[pair[0, order]] = pair[1, order]
+    snapped = np.where(basin > 0, winner[basin], labels)
+    return pieces(grid, snapped, min_area)
+
+
+def merge_open_boundaries(
+    grid: OccupancyGrid, labels: NDArray[np.int32], ratio: float = 0.7
+) -> NDArray[np.int32]:
+    """Merge regions of ``labels`` joined by openings at least ``ratio`` of their width."""
+    if not ratio > 0:
+        raise ParameterError(f"ratio must be > 0, got {ratio!r}")
+    count = int(labels.max(initial=0))
+    if count < 2:
+        return labels
+    ids = np.arange(count + 1)
+    width = 2 * np.asarray(ndimage.maximum(grid.clearance(), labels, ids), float)
+    openings = find_transitions(grid, labels)
+    a = np.array([t.a for t in openings], np.int64)
+    b = np.array([t.b for t in openings], np.int64)
+    span = np.array([t.width for t in openings])
+    parent = ids.copy()
+    while len(span):
+        ga, gb = parent[a], parent[b]
+        between = ga != gb
+        score = np.where(between, span / np.minimum(width[ga], width[gb]), -np.inf)
+        best = int(np.argmax(score))
+        if score[best] < ratio:
+            break
+        keep, gone = int(ga[best]), int(gb[best])
+        parent[parent == gone] = keep
+        width[keep] = max(width[keep], width[gone])
+    return consecutive(parent[labels])

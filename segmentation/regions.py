@@ -1,0 +1,203 @@
+"""From clustered keyframes to a dense segmentation of the free space into regions."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+import shapely
+from numpy.typing import NDArray
+from scipy import ndimage
+from shapely import affinity
+from shapely.geometry.base import BaseGeometry
+from skimage.measure import label as connected_pieces
+from skimage.segmentation import watershed
+
+from maps.grid import OccupancyGrid
+from segmentation.errors import SegmentationError
+
+
+def boundary_pairs(labels: NDArray[np.integer]) -> tuple[NDArray[np.int64], ...]:
+    """Cells on both sides of every 4-neighbour boundary between two different labels > 0.
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(row_a, col_a, row_b, col_b)`` with ``labels[a] < labels[b]``.
+    """
+    found: list[NDArray[np.int64]] = []
+    for axis in (0, 1):
+        a = labels[:-1, :] if axis == 0 else labels[:, :-1]
+        b = labels[1:, :] if axis == 0 else labels[:, 1:]
+        rows, cols = np.nonzero((a != b) & (a > 0) & (b > 0))
+        step = (1, 0) if axis == 0 else (0, 1)
+        found.append(np.stack([rows, cols, rows + step[0], cols + step[1]]))
+    pairs = np.concatenate(found, axis=1)
+    swap = labels[pairs[0], pairs[1]] > labels[pairs[2], pairs[3]]
+    pairs[:, swap] = pairs[[2, 3, 0, 1]][:, swap]
+    return tuple(pairs.astype(np.int64))
+
+
+def merge_small(labels: NDArray[np.int32], min_cells: int) -> NDArray[np.int32]:
+    """Merge regions under ``min_cells`` cells into the neighbour they share most boundary with.
+
+    Smallest first; a small region with no neighbour is dropped (set to 0).
+    """
+    labels = labels.copy()
+    while True:
+        sizes = np.bincount(labels.ravel())
+        small = np.flatnonzero((sizes > 0) & (sizes < min_cells))
+        small = small[small > 0]
+        if len(small) == 0:
+            return labels
+        ra, ca, rb, cb = boundary_pairs(labels)
+        a, b = labels[ra, ca], labels[rb, cb]
+        pair, length = np.unique(np.stack([np.r_[a, b], np.r_[b, a]]), axis=1, return_counts=True)
+        target = np.arange(len(sizes))
+        for region in small[np.argsort(sizes[small], kind="stable")]:
+            mine = pair[0] == region
+            if not mine.any():
+                target[region] = 0
+                continue
+            target[region] = pair[1, mine][np.argmax(length[mine])]
+            break  # one merge per pass keeps the neighbour counts right
+        else:
+            labels = target[labels].astype(np.int32)
+            return labels
+        labels = target[labels].astype(np.int32)
+
+
+def consecutive(labels: NDArray[np.integer]) -> NDArray[np.int32]:
+    """Relabel to ``1..N`` in order of first appearance (row-major), keeping 0."""
+    values, first, inverse = np.unique(labels.ravel(), return_index=True, return_inverse=True)
+    order = np.argsort(first[values > 0] if values[0] == 0 else first, kind="stable")
+    rank = np.zeros(len(values), np.int32)
+    positive = np.flatnonzero(values > 0)
+    rank[positive[order]] = np.arange(1, len(positive) + 1)
+    return rank[inverse].reshape(labels.shape)
+
+
+def dense_labels(
+    grid: OccupancyGrid,
+    rows: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    keyframe_labels: NDArray[np.int64],
+    *,
+    min_area: float = 1.0,
+) -> NDArray[np.int32]:
+    """Give every free cell the cluster of the geodesically nearest keyframe.
+
+    Parameters
+    ----------
+    grid
+        The map.
+    rows, cols
+        Cells of the keyframes; those outside the grid or not free are ignored.
+    keyframe_labels
+        Cluster of each keyframe, ``>= 0``.
+    min_area
+        Connected pieces under this many square metres merge into a neighbour.
+
+    Returns
+    -------
+    ndarray of int32
+        ``labels`` of the grid's shape: 0 for non-free cells, ``1..N`` for the regions, each one
+        connected (4-neighbour) piece of free space.
+    """
+    free = grid.free
+    if not free.any():
+        raise SegmentationError("the map has no free cell to segment")
+    inside = grid.contains(rows, cols)
+    rows, cols, keyframe_labels = rows[inside], cols[inside], keyframe_labels[inside]
+    on_free = free[rows, cols]
+    markers = np.zeros(grid.shape, np.int32)
+    markers[rows[on_free], cols[on_free]] = keyframe_labels[on_free] + 1
+    labels = watershed(np.zeros(grid.shape), markers, mask=free, connectivity=1)
+    return pieces(grid, labels, min_area)
+
+
+def pieces(grid: OccupancyGrid, labels: NDArray[np.integer], min_area: float) -> NDArray[np.int32]:
+    """Regions made connected: free cells without a label get one per connected piece, each
+    label is split into its 4-connected pieces, and pieces under ``min_area`` square metres
+    merge into a neighbour."""
+    free = grid.free
+    unreached, _ = ndimage.label(free & (labels == 0))
+    labels = np.where(unreached > 0, unreached + labels.max(), np.where(free, labels, 0))
+    labels = connected_pieces(labels, background=0, connectivity=1)
+    min_cells = max(1, round(min_area / grid.resolution**2))
+    return consecutive(merge_small(labels.astype(np.int32), min_cells))
+
+
+@dataclass(frozen=True, eq=False)
+class Regions:
+    """A segmentation of a grid's free space: ``labels[r, c]`` is the region of a cell.
+
+    Parameters
+    ----------
+    grid
+        The map.
+    labels
+        int32 array of the grid's shape, 0 = no region, ``1..N`` = regions.
+    """
+
+    grid: OccupancyGrid
+    labels: NDArray[np.int32]
+    _cache: dict[str, object] = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.labels.shape != self.grid.shape:
+            raise SegmentationError(
+                f"labels shape {self.labels.shape} differs from the grid's {self.grid.shape}"
+            )
+
+    @property
+    def ids(self) -> list[int]:
+        """Region ids present, ascending."""
+        return [int(v) for v in np.unique(self.labels) if v > 0]
+
+    @cached_property
+    def cell_counts(self) -> NDArray[np.int64]:
+        """Cells per region id (index 0 = unlabelled cells)."""
+        return np.bincount(self.labels.ravel())
+
+    def area(self, region: int) -> float:
+        """Area of ``region`` in square metres (cells times cell area)."""
+        return float(self.cell_counts[region]) * self.grid.resolution**2
+
+    def at(self, x: float, y: float) -> int:
+        """The region at map point ``(x, y)``, 0 if none."""
+        row, col = self.grid.world_to_cell(x, y)
+        if not self.grid.contains(row, col):
+            return 0
+        return int(self.labels[row, col])
+
+    @cached_property
+    def polygons(self) -> dict[int, BaseGeometry]:
+        """Outline of each region in map-frame metres, along cell edges, holes kept.
+
+        Built as the union of the region's runs of cells along each row.
+        """
+        labels = self.labels
+        height = labels.shape[0]
+        padded = np.pad(labels, ((0, 0), (1, 1)), constant_values=-1)
+        change = padded[:, 1:] != padded[:, :-1]
+        rows, cols = np.nonzero(change[:, :-1])  # a run of equal labels starts at (row, col)
+        ends = np.nonzero(change[:, 1:])[1] + 1  # ... and ends before this column
+        values = labels[rows, cols]
+        keep = values > 0
+        rows, cols, ends, values = rows[keep], cols[keep], ends[keep], values[keep]
+        res = self.grid.resolution
+        boxes = shapely.box(cols * res, (height - 1 - rows) * res, ends * res, (height - rows) * res)
+        ox, oy, yaw = self.grid.origin
+        c, s = np.cos(yaw), np.sin(yaw)
+        result: dict[int, BaseGeometry] = {}
+        order = np.argsort(values, kind="stable")
+        bounds = np.searchsorted(values[order], np.arange(1, int(values.max(initial=0)) + 2))
+        for region in range(1, len(bounds)):
+            chosen = order[bounds[region - 1] : bounds[region]]
+            if len(chosen) == 0:
+                continue
+            shape = shapely.union_all(boxes[chosen])
+            result[region] = affinity.affine_transform(shape, [c, -s, s, c, ox, oy])
+        return result

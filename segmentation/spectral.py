@@ -1,0 +1,204 @@
+"""Spectral partition of keyframes: sparsification, the normalised Laplacian, adaptive k.
+
+The paper's pipeline on a sparse affinity matrix ``S``:
+
+1. sparsify: ``switch = S_min + p (S_max - S_min)`` over the pairs present; entries at or below
+   it become 0 (eqs. 4-5);
+2. the normalised Laplacian ``L_sym = I - D^-1/2 S D^-1/2`` (eq. 6) and its smallest
+   eigenvectors, from a sparse shift-invert eigensolver;
+3. for every ``k`` in a range around a guess ``k'`` (given, or the largest eigengap), k-means on
+   the rows of the first ``k`` eigenvectors (normalised to unit length) several times; the
+   clustering with the highest silhouette coefficient (eqs. 8-10) wins.
+
+Connected components of the sparsified graph never share a cluster: a cluster that spans two
+components is split, and components too small to embed are clusters of their own.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import sparse
+from scipy.sparse import linalg as splinalg
+from scipy.sparse.csgraph import connected_components, laplacian
+from sklearn.cluster import KMeans
+from sklearn.metrics import silhouette_score
+
+from maps.scan import Keyframe
+from maps.seeding import RandomState, as_generator
+from segmentation.errors import ParameterError
+from segmentation.similarity import Criterion, PointsSimilarity, as_criterion
+
+log = logging.getLogger(__name__)
+
+#: Above this many keyframes the silhouette is estimated on a random sample of this size.
+SILHOUETTE_SAMPLE = 1500
+#: Up to this many keyframes a dense eigensolver is faster than the sparse one.
+DENSE_UP_TO = 600
+
+
+def sparsify(affinity: sparse.spmatrix, p: float) -> sparse.csr_matrix:
+    """Drop the similarities at or below ``S_min + p (S_max - S_min)`` (eqs. 4-5).
+
+    ``S_min`` and ``S_max`` are taken over the entries present (the pairs that can be similar).
+    """
+    if not 0 <= p < 1:
+        raise ParameterError(f"p must lie in [0, 1), got {p!r}")
+    matrix = sparse.csr_matrix(affinity, dtype=float, copy=True)
+    if matrix.nnz == 0:
+        return matrix
+    low, high = matrix.data.min(), matrix.data.max()
+    if high > low:
+        matrix.data[matrix.data <= low + p * (high - low)] = 0.0
+        matrix.eliminate_zeros()
+    return matrix
+
+
+def spectrum(affinity: sparse.csr_matrix, count: int) -> tuple[NDArray[np.float64], NDArray]:
+    """The ``count`` smallest eigenvalues and eigenvectors of ``L_sym`` of a connected graph."""
+    n = affinity.shape[0]
+    lap = laplacian(affinity, normed=True).tocsc()
+    if count >= n - 1 or n <= DENSE_UP_TO:
+        values, vectors = np.linalg.eigh(lap.toarray())
+        return values[:count], vectors[:, :count]
+    values, vectors = splinalg.eigsh(
+        lap, k=count, sigma=-1e-3, which="LM", v0=np.ones(n) / math.sqrt(n)
+    )
+    order = np.argsort(values)
+    return values[order], vectors[:, order]
+
+
+def eigengap(values: NDArray[np.float64], low: int = 2) -> int:
+    """The ``k >= low`` after which the eigenvalues jump the most (``k`` = number kept)."""
+    if len(values) <= low:
+        return len(values)
+    gaps = np.diff(values)
+    return int(np.argmax(gaps[low - 1 :])) + low
+
+
+def best_clustering(
+    embedding: NDArray[np.float64], k: int, n_init: int, rng: np.random.Generator
+) -> tuple[float, NDArray[np.int64]]:
+    """k-means ``n_init`` times on the first ``k`` columns; the best silhouette and labels."""
+    rows = embedding[:, :k]
+    rows = rows / np.maximum(np.linalg.norm(rows, axis=1, keepdims=True), 1e-12)
+    best: tuple[float, NDArray[np.int64]] = (-math.inf, np.zeros(len(rows), np.int64))
+    sample = SILHOUETTE_SAMPLE if len(rows) > SILHOUETTE_SAMPLE else None
+    for _ in range(n_init):
+        seed = int(rng.integers(2**31 - 1))
+        labels = KMeans(k, n_init=1, random_state=seed).fit_predict(rows)
+        if len(np.unique(labels)) < 2:
+            continue
+        score = float(silhouette_score(rows, labels, sample_size=sample, random_state=seed))
+        if score > best[0]:
+            best = (score, labels.astype(np.int64))
+    return best
+
+
+@dataclass
+class SpectralSegmenter:
+    """Cluster keyframes into regions by the paper's spectral partition.
+
+    Parameters
+    ----------
+    criterion
+        ``"nn"`` (nearest neighbour, default), ``"hausdorff"``, ``"features"``, a
+        :class:`~segmentation.similarity.Criterion`, or a callable ``f(points_i, points_j)``.
+    p
+        Sparsification parameter in ``[0, 1)`` (eqs. 4-5).
+    k
+        The guess ``k'`` for the number of regions; ``None`` estimates it from the largest
+        eigengap among the first ``max_regions`` eigenvalues.
+    spread
+        ``k`` is searched in ``k' - spread .. k' + spread``.
+    max_regions
+        Cap on ``k`` (and on the eigenvalues computed to estimate it).
+    n_init
+        k-means runs per ``k``; the best silhouette wins.
+    random_state
+        Seed or Generator; the same seed gives the same labels.
+
+    Attributes
+    ----------
+    labels_ : ndarray of int, shape (n_keyframes,)
+        Region of each keyframe, ``0 .. n_regions_ - 1``.
+    n_regions_ : int
+    silhouette_by_k_ : dict of int to float
+        Best silhouette per ``k`` tried.
+    affinity_ : scipy.sparse.csr_matrix
+        The sparsified similarity matrix.
+    eigenvalues_ : ndarray
+        The smallest eigenvalues of ``L_sym`` (of the largest component).
+    """
+
+    criterion: str | Criterion | PointsSimilarity = "nn"
+    p: float = 0.1
+    k: int | None = None
+    spread: int = 2
+    max_regions: int = 100
+    n_init: int = 3
+    random_state: RandomState = None
+    labels_: NDArray[np.int64] = field(init=False, repr=False)
+    n_regions_: int = field(init=False, repr=False)
+    silhouette_by_k_: dict[int, float] = field(init=False, repr=False)
+    affinity_: sparse.csr_matrix = field(init=False, repr=False)
+    eigenvalues_: NDArray[np.float64] = field(init=False, repr=False)
+
+    def _check(self, n: int) -> None:
+        if self.k is not None and not (isinstance(self.k, int | np.integer) and 1 <= self.k <= n):
+            raise ParameterError(f"k must be an integer in 1..{n} (the keyframes), got {self.k!r}")
+        for name in ("spread", "n_init", "max_regions"):
+            value = getattr(self, name)
+            if not isinstance(value, int | np.integer) or value < (0 if name == "spread" else 1):
+                raise ParameterError(f"{name} must be a positive integer, got {value!r}")
+
+    def fit(self, keyframes: Sequence[Keyframe]) -> SpectralSegmenter:
+        """Compute the affinity of ``keyframes`` and cluster them (see the module docstring)."""
+        criterion = as_criterion(self.criterion)
+        self._check(len(keyframes))
+        return self.fit_affinity(criterion.affinity(keyframes))
+
+    def fit_affinity(self, affinity: sparse.spmatrix) -> SpectralSegmenter:
+        """Cluster from a precomputed symmetric affinity matrix."""
+        n = affinity.shape[0]
+        self._check(n)
+        rng = as_generator(self.random_state)
+        self.affinity_ = sparsify(affinity, self.p)
+        count, component = connected_components(self.affinity_, directed=False)
+        sizes = np.bincount(component)
+        main = np.flatnonzero(sizes[component] >= 3)
+        self.silhouette_by_k_ = {}
+        self.eigenvalues_ = np.zeros(0)
+        labels = np.zeros(n, np.int64)
+        if len(main) >= 3:
+            labels[main] = self._cluster(self.affinity_[main][:, main], rng)
+        labels = labels * count + component  # never one cluster across two components
+        self.labels_ = np.unique(labels, return_inverse=True)[1].astype(np.int64)
+        self.n_regions_ = int(self.labels_.max()) + 1
+        return self
+
+    def _cluster(self, affinity: sparse.csr_matrix, rng: np.random.Generator) -> NDArray[np.int64]:
+        n = affinity.shape[0]
+        if self.k == 1:
+            return np.zeros(n, np.int64)
+        components = connected_components(affinity, directed=False)[0]
+        top = min(n - 1, self.max_regions) if self.k is None else min(n - 1, self.k + self.spread)
+        top = max(top, 1)
+        values, vectors = spectrum(affinity, min(n - 1, top + 1))
+        self.eigenvalues_ = values
+        guess = self.k if self.k is not None else eigengap(values, max(2, components))
+        ks = [k for k in range(guess - self.spread, guess + self.spread + 1) if 2 <= k < n]
+        ks = [k for k in ks if k <= vectors.shape[1]] or [min(max(2, guess), vectors.shape[1])]
+        best: tuple[float, NDArray[np.int64]] = (-math.inf, np.zeros(n, np.int64))
+        for k in ks:
+            score, labels = best_clustering(vectors, k, self.n_init, rng)
+            self.silhouette_by_k_[k] = score
+            if score > best[0]:
+                best = (score, labels)
+        log.debug("k' = %d, silhouette by k: %s", guess, self.silhouette_by_k_)
+        return best[1]

@@ -1,0 +1,70 @@
+"""Virtual keyframes for map-only input: poses spread over the free space, simulated scans."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from maps.grid import OccupancyGrid
+from maps.laser_sim import LaserModel, simulate_scans
+from maps.scan import Keyframe
+from maps.seeding import RandomState
+from segmentation.errors import ParameterError, SegmentationError
+
+#: The default virtual laser: a full circle of 180 beams reaching 15 m, no noise.
+VIRTUAL_LASER = LaserModel(fov=2 * math.pi, beams=180, max_range=15.0)
+
+
+def virtual_poses(
+    grid: OccupancyGrid, spacing: float = 0.6, min_clearance: float = 0.2
+) -> NDArray[np.float64]:
+    """``(n, 3)`` poses on a square lattice of ``spacing`` metres over the free space.
+
+    Only cells at least ``min_clearance`` metres from any non-free cell are used. Every
+    connected piece of that space that the lattice misses gets one pose, at its most open cell,
+    so no room is left without a keyframe.
+
+    Raises
+    ------
+    SegmentationError
+        The grid has no cell with that clearance.
+    """
+    if not spacing > 0 or not min_clearance >= 0:
+        raise ParameterError(
+            f"need spacing > 0 and min_clearance >= 0 metres, got {spacing!r}, {min_clearance!r}"
+        )
+    clearance = grid.clearance()
+    open_space = clearance >= max(min_clearance, grid.resolution)
+    if not open_space.any():
+        raise SegmentationError(
+            f"the map has no free cell {min_clearance} m away from walls and unknown space"
+        )
+    step = max(1, round(spacing / grid.resolution))
+    lattice = np.zeros_like(open_space)
+    lattice[step // 2 :: step, step // 2 :: step] = True
+    chosen = open_space & lattice
+    pieces, count = ndimage.label(open_space, structure=np.ones((3, 3)))
+    covered = np.zeros(count + 1, bool)
+    covered[pieces[chosen]] = True
+    for piece in np.flatnonzero(~covered[1:]) + 1:
+        best = ndimage.maximum_position(clearance, pieces, piece)
+        chosen[best] = True
+    rows, cols = np.nonzero(chosen)
+    x, y = grid.cell_to_world(rows, cols)
+    return np.column_stack([x, y, np.zeros(len(rows))])
+
+
+def virtual_keyframes(
+    grid: OccupancyGrid,
+    spacing: float = 0.6,
+    *,
+    model: LaserModel = VIRTUAL_LASER,
+    min_clearance: float = 0.2,
+    random_state: RandomState = None,
+) -> list[Keyframe]:
+    """Keyframes a robot with laser ``model`` would record at :func:`virtual_poses`."""
+    poses = virtual_poses(grid, spacing, min_clearance)
+    return simulate_scans(grid, poses, model, random_state=random_state)

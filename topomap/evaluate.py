@@ -1,0 +1,129 @@
+"""Evaluation of the segmentation on floor plans with human ground truth (the ipa benchmark)."""
+
+from __future__ import annotations
+
+import csv
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from maps.errors import MapFileNotFoundError
+from maps.grid import OccupancyGrid
+from segmentation.export import read_label_image
+from segmentation.metrics import score
+from topomap.topomap import TopoMap
+
+METRICS = ["recall", "precision", "mcc", "ari"]
+
+
+@dataclass(frozen=True)
+class FloorPlan:
+    """One map of the benchmark: its YAML, its ground-truth label image, furnished or not."""
+
+    name: str
+    yaml: Path
+    truth: Path
+    furnished: bool
+
+
+def floor_plans(data_dir: str | Path) -> list[FloorPlan]:
+    """Every ``NAME.yaml`` / ``NAME_furnitures.yaml`` with a ``NAME_gt_labels.png`` beside it."""
+    data_dir = Path(data_dir)
+    if not data_dir.is_dir():
+        raise MapFileNotFoundError(f"no such data folder: {data_dir}")
+    found = []
+    for yaml in sorted(data_dir.glob("*.yaml")):
+        name = yaml.stem
+        base = name.removesuffix("_furnitures")
+        truth = data_dir / f"{base}_gt_labels.png"
+        if truth.exists():
+            found.append(FloorPlan(name, yaml, truth, name != base))
+    if not found:
+        raise MapFileNotFoundError(f"{data_dir}: no map YAML with a *_gt_labels.png beside it")
+    return found
+
+
+def evaluate(plan: FloorPlan, **options: Any) -> list[dict[str, Any]]:
+    """Segment one floor plan; score the spectral partition alone and after refinement."""
+    grid = OccupancyGrid.load(plan.yaml)
+    truth = read_label_image(plan.truth)
+    start = time.perf_counter()
+    topo = TopoMap.from_grid(grid, **options)
+    total = time.perf_counter() - start
+    refine = topo.seconds.get("refine", 0.0)
+    records = []
+    for variant, regions, seconds in (
+        ("spectral", topo.spectral, total - refine - topo.seconds["graph"]),
+        ("refined", topo.regions, total),
+    ):
+        scores = score(regions.labels, truth).as_dict()
+        records.append(
+            {
+                "map": plan.name.removesuffix("_furnitures"),
+                "furnished": plan.furnished,
+                "variant": variant,
+                "keyframes": len(topo.keyframes),
+                "seconds": round(seconds, 3),
+                **{k: round(v, 4) if isinstance(v, float) else v for k, v in scores.items()},
+            }
+        )
+    return records
+
+
+def evaluate_all(
+    data_dir: str | Path,
+    progress: Callable[[Iterator[FloorPlan]], Iterator[FloorPlan]] = iter,
+    **options: Any,
+) -> list[dict[str, Any]]:
+    """:func:`evaluate` on every floor plan of ``data_dir``."""
+    return [r for plan in progress(iter(floor_plans(data_dir))) for r in evaluate(plan, **options)]
+
+
+def read_anchors(data_dir: str | Path) -> list[dict[str, Any]]:
+    """Rows of ``anchors.csv`` (other systems' scores), numbers parsed; [] if it is absent."""
+    path = Path(data_dir) / "anchors.csv"
+    if not path.exists():
+        return []
+    rows = []
+    with path.open() as stream:
+        for row in csv.DictReader(stream):
+            rows.append(
+                {
+                    "map": row["map"],
+                    "furnished": row["furnished"] == "1",
+                    "variant": row["method"],
+                    "recall": float(row["recall_micro"]),
+                    "precision": float(row["precision_micro"]),
+                    "mcc": float(row["mcc"]),
+                    "seconds": float(row["runtime_s"]),
+                }
+            )
+    return rows
+
+
+def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Mean scores per (variant, furnished), ours and the anchors', over the maps we ran."""
+    ours = {(r["map"], r["furnished"]) for r in records}
+    rows = []
+    for source in (records, [a for a in anchors if (a["map"], a["furnished"]) in ours]):
+        groups: dict[tuple[str, bool], list[dict[str, Any]]] = {}
+        for r in source:
+            groups.setdefault((r["variant"], r["furnished"]), []).append(r)
+        for (variant, furnished), group in groups.items():
+            row: dict[str, Any] = {
+                "method": variant,
+                "furnished": furnished,
+                "maps": len(group),
+            }
+            for metric in ("recall", "precision", "mcc", "ari"):
+                values = [g[metric] for g in group if metric in g]
+                row[metric] = round(float(np.mean(values)), 3) if values else "-"
+            times = [g["seconds"] for g in group]
+            row["mean_s"] = round(float(np.mean(times)), 2)
+            row["max_s"] = round(float(np.max(times)), 2)
+            rows.append(row)
+    return sorted(rows, key=lambda r: (r["furnished"], r["method"]))

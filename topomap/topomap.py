@@ -1,0 +1,170 @@
+"""The :class:`TopoMap` facade: keyframes or a map in, regions and their graph out."""
+
+from __future__ import annotations
+
+import csv
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+import numpy as np
+from numpy.typing import NDArray
+
+from maps.grid import OccupancyGrid
+from maps.mapping import grid_from_keyframes
+from maps.scan import Keyframe, poses_array
+from maps.seeding import RandomState
+from segmentation.export import write_graphml, write_label_image, write_geojson, write_node_link
+from segmentation.graph import region_graph
+from segmentation.refine import merge_open_boundaries, snap_to_basins
+from segmentation.regions import Regions, dense_labels
+from segmentation.spectral import SpectralSegmenter
+from segmentation.virtual import virtual_keyframes
+
+
+@dataclass
+class TopoMap:
+    """A map segmented into regions, with the region adjacency graph.
+
+    Build one with :meth:`from_grid` (a map only: virtual keyframes are simulated) or
+    :meth:`from_keyframes` (a robot's keyframes).
+
+    Attributes
+    ----------
+    grid
+        The occupancy map.
+    keyframes
+        The keyframes that were clustered (virtual ones for a map-only input).
+    segmenter
+        The fitted :class:`~segmentation.spectral.SpectralSegmenter`.
+    spectral
+        The spectral partition alone, made dense (every free cell gets the cluster of its
+        geodesically nearest keyframe).
+    regions
+        The regions after refinement (boundaries at doors, open cuts merged), or the spectral
+        partition when built with ``refine=False``.
+    graph
+        Region adjacency graph of :attr:`regions` (see :func:`segmentation.graph.region_graph`).
+    seconds
+        Time per stage.
+    """
+
+    grid: OccupancyGrid
+    keyframes: list[Keyframe]
+    segmenter: SpectralSegmenter
+    spectral: Regions
+    regions: Regions
+    graph: nx.Graph
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @classmethod
+    def from_grid(
+        cls,
+        grid: OccupancyGrid,
+        *,
+        spacing: float = 0.8,
+        refine: bool = True,
+        random_state: RandomState = 0,
+        **segmenter: Any,
+    ) -> TopoMap:
+        """Segment a map: virtual 360 degree keyframes every ``spacing`` metres, then the
+        spectral pipeline. ``segmenter`` options go to :class:`SpectralSegmenter`."""
+        start = time.perf_counter()
+        keyframes = virtual_keyframes(grid, spacing, random_state=random_state)
+        seconds = {"keyframes": time.perf_counter() - start}
+        return cls._build(grid, keyframes, refine, random_state, segmenter, seconds)
+
+    @classmethod
+    def from_keyframes(
+        cls,
+        keyframes: Sequence[Keyframe],
+        grid: OccupancyGrid | None = None,
+        *,
+        resolution: float = 0.05,
+        refine: bool = True,
+        random_state: RandomState = 0,
+        **segmenter: Any,
+    ) -> TopoMap:
+        """Segment a robot's keyframes; the map is built from them unless ``grid`` is given."""
+        seconds: dict[str, float] = {}
+        if grid is None:
+            start = time.perf_counter()
+            grid = grid_from_keyframes(keyframes, resolution)
+            seconds["map"] = time.perf_counter() - start
+        return cls._build(grid, list(keyframes), refine, random_state, segmenter, seconds)
+
+    @classmethod
+    def _build(
+        cls,
+        grid: OccupancyGrid,
+        keyframes: list[Keyframe],
+        refine: bool,
+        random_state: RandomState,
+        options: dict[str, Any],
+        seconds: dict[str, float],
+    ) -> TopoMap:
+        clock = time.perf_counter()
+
+        def lap(stage: str) -> None:
+            nonlocal clock
+            now = time.perf_counter()
+            seconds[stage] = now - clock
+            clock = now
+
+        segmenter = SpectralSegmenter(random_state=random_state, **options).fit(keyframes)
+        lap("spectral")
+        poses = poses_array(keyframes)
+        rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])
+        spectral = Regions(grid, dense_labels(grid, rows, cols, segmenter.labels_))
+        lap("regions")
+        regions = spectral
+        if refine:
+            snapped = snap_to_basins(grid, spectral.labels)
+            regions = Regions(grid, merge_open_boundaries(grid, snapped))
+            lap("refine")
+        graph = region_graph(regions, _regions_of(regions, rows, cols))
+        lap("graph")
+        return cls(grid, keyframes, segmenter, spectral, regions, graph, seconds)
+
+    def region_at(self, x: float, y: float) -> int:
+        """The region id at map point ``(x, y)``, 0 if none."""
+        return self.regions.at(x, y)
+
+    def keyframe_regions(self) -> NDArray[np.int64]:
+        """Region of each keyframe's position (0 if it is not on a free cell)."""
+        poses = poses_array(self.keyframes)
+        rows, cols = self.grid.world_to_cell(poses[:, 0], poses[:, 1])
+        return _regions_of(self.regions, rows, cols)
+
+    def save(self, out: str | Path, *, overwrite: bool = False) -> list[Path]:
+        """Write ``regions.png``, ``graph.graphml``, ``graph.json`` and ``regions.geojson``."""
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        return [
+            write_label_image(self.regions.labels, out / "regions.png", overwrite=overwrite),
+            write_graphml(self.graph, out / "graph.graphml", overwrite=overwrite),
+            write_node_link(self.graph, out / "graph.json", overwrite=overwrite),
+            write_geojson(self.graph, out / "regions.geojson", overwrite=overwrite),
+        ]
+
+    def save_keyframes(self, path: str | Path, *, overwrite: bool = False) -> Path:
+        """Write ``scan_index,x,y,theta,region``, one row per keyframe."""
+        path = Path(path)
+        if path.exists() and not overwrite:
+            raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
+        with path.open("w", newline="") as stream:
+            writer = csv.writer(stream)
+            writer.writerow(["scan_index", "x", "y", "theta", "region"])
+            for frame, region in zip(self.keyframes, self.keyframe_regions(), strict=True):
+                writer.writerow([frame.scan_index, *(f"{v:.4f}" for v in frame.pose), region])
+        return path
+
+
+def _regions_of(regions: Regions, rows: NDArray, cols: NDArray) -> NDArray[np.int64]:
+    inside = regions.grid.contains(rows, cols)
+    found = np.zeros(len(rows), np.int64)
+    found[inside] = regions.labels[rows[inside], cols[inside]]
+    return found
