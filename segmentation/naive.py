@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.sparse.csgraph import laplacian
 from scipy.spatial import cKDTree
+from threadpoolctl import threadpool_limits
 
 from maps.scan import Keyframe
 from maps.seeding import RandomState, as_generator
@@ -43,7 +44,7 @@ def naive_nearest_neighbour(
 def naive_segment(
     keyframes: Sequence[Keyframe],
     *,
-    p: float = 0.1,
+    p: float = 0.3,
     k: int | None = None,
     spread: int = 2,
     max_regions: int = 100,
@@ -61,6 +62,7 @@ def naive_segment(
     guess = k if k is not None else eigengap(values[: min(n - 1, max_regions + 1)])
     rng = as_generator(random_state)
     best: tuple[float, NDArray[np.int64]] = (-math.inf, np.zeros(n, np.int64))
-    for count in range(max(2, guess - spread), min(n - 1, guess + spread) + 1):
-        best = max(best, best_clustering(vectors, count, n_init, rng), key=lambda b: b[0])
+    with threadpool_limits(1):
+        for count in range(max(2, guess - spread), min(n - 1, guess + spread) + 1):
+            best = max(best, best_clustering(vectors, count, n_init, rng), key=lambda b: b[0])
     return best[1]

@@ -35,6 +35,13 @@ def basins(grid: OccupancyGrid, depth: float = 0.3) -> NDArray[np.int32]:
     return watershed(-clearance, markers, mask=grid.free, connectivity=1).astype(np.int32)
 
 
+def count_basins(grid: OccupancyGrid, min_area: float = 1.0) -> int:
+    """Number of :func:`basins` of at least ``min_area`` square metres: a guess of the number of
+    places (rooms, corridor pieces) for the spectral ``k``."""
+    sizes = np.bincount(basins(grid).ravel())[1:]
+    return max(1, int((sizes * grid.resolution**2 >= min_area).sum()))
+
+
 def snap_to_basins(
     grid: OccupancyGrid, labels: NDArray[np.int32], min_area: float = 1.0
 ) -> NDArray[np.int32]:
@@ -69,11 +76,11 @@ def merge_open_boundaries(
     parent = ids.copy()
     while len(span):
         ga, gb = parent[a], parent[b]
-        between = ga != gb
-        score = np.where(between, span / np.minimum(width[ga], width[gb]), -np.inf)
-        best = int(np.argmax(score))
-        if score[best] < ratio:
+        fit_a, fit_b = span / width[ga], span / width[gb]
+        across = (ga != gb) & (np.minimum(fit_a, fit_b) >= ratio) & (np.maximum(fit_a, fit_b) <= 2 - ratio)
+        if not across.any():
             break
+        best = int(np.argmax(np.where(across, np.minimum(fit_a, fit_b), -np.inf)))
         keep, gone = int(ga[best]), int(gb[best])
         parent[parent == gone] = keep
         width[keep] = max(width[keep], width[gone])

@@ -176,7 +176,8 @@ class Regions:
     def polygons(self) -> dict[int, BaseGeometry]:
         """Outline of each region in map-frame metres, along cell edges, holes kept.
 
-        Built as the union of the region's runs of cells along each row.
+        Built as the union of the region's runs of cells along each row; coordinates are
+        rounded to the nanometre.
         """
         labels = self.labels
         height = labels.shape[0]
@@ -198,6 +199,7 @@ class Regions:
             chosen = order[bounds[region - 1] : bounds[region]]
             if len(chosen) == 0:
                 continue
-            shape = shapely.union_all(boxes[chosen])
-            result[region] = affinity.affine_transform(shape, [c, -s, s, c, ox, oy])
+            shape = affinity.affine_transform(shapely.union_all(boxes[chosen]), [c, -s, s, c, ox, oy])
+            # nanometre coordinates: text exports (WKT, JSON) then read back the same numbers
+            result[region] = shapely.transform(shape, lambda xy: np.round(xy, 9))
         return result

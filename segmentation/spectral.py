@@ -28,6 +28,7 @@ from scipy.sparse import linalg as splinalg
 from scipy.sparse.csgraph import connected_components, laplacian
 from sklearn.cluster import KMeans
 from sklearn.metrics import silhouette_score
+from threadpoolctl import threadpool_limits
 
 from maps.scan import Keyframe
 from maps.seeding import RandomState, as_generator
@@ -137,7 +138,7 @@ class SpectralSegmenter:
     """
 
     criterion: str | Criterion | PointsSimilarity = "nn"
-    p: float = 0.1
+    p: float = 0.3
     k: int | None = None
     spread: int = 2
     max_regions: int = 100
@@ -149,13 +150,20 @@ class SpectralSegmenter:
     affinity_: sparse.csr_matrix = field(init=False, repr=False)
     eigenvalues_: NDArray[np.float64] = field(init=False, repr=False)
 
-    def _check(self, n: int) -> None:
-        if self.k is not None and not (isinstance(self.k, int | np.integer) and 1 <= self.k <= n):
-            raise ParameterError(f"k must be an integer in 1..{n} (the keyframes), got {self.k!r}")
+    def __post_init__(self) -> None:
+        if self.k is not None and not (isinstance(self.k, int | np.integer) and self.k >= 1):
+            raise ParameterError(f"k must be an integer >= 1, got {self.k!r}")
+        if not (isinstance(self.p, int | float) and 0 <= self.p < 1):
+            raise ParameterError(f"p must lie in [0, 1), got {self.p!r}")
         for name in ("spread", "n_init", "max_regions"):
             value = getattr(self, name)
             if not isinstance(value, int | np.integer) or value < (0 if name == "spread" else 1):
                 raise ParameterError(f"{name} must be a positive integer, got {value!r}")
+        as_criterion(self.criterion)
+
+    def _check(self, n: int) -> None:
+        if self.k is not None and self.k > n:
+            raise ParameterError(f"k must be an integer in 1..{n} (the keyframes), got {self.k!r}")
 
     def fit(self, keyframes: Sequence[Keyframe]) -> SpectralSegmenter:
         """Compute the affinity of ``keyframes`` and cluster them (see the module docstring)."""
@@ -195,10 +203,12 @@ class SpectralSegmenter:
         ks = [k for k in range(guess - self.spread, guess + self.spread + 1) if 2 <= k < n]
         ks = [k for k in ks if k <= vectors.shape[1]] or [min(max(2, guess), vectors.shape[1])]
         best: tuple[float, NDArray[np.int64]] = (-math.inf, np.zeros(n, np.int64))
-        for k in ks:
-            score, labels = best_clustering(vectors, k, self.n_init, rng)
-            self.silhouette_by_k_[k] = score
-            if score > best[0]:
-                best = (score, labels)
+        # Many small k-means problems: thread start-up would cost more than it saves.
+        with threadpool_limits(1):
+            for k in ks:
+                score, labels = best_clustering(vectors, k, self.n_init, rng)
+                self.silhouette_by_k_[k] = score
+                if score > best[0]:
+                    best = (score, labels)
         log.debug("k' = %d, silhouette by k: %s", guess, self.silhouette_by_k_)
         return best[1]

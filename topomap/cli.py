@@ -194,8 +194,10 @@ def _progress(items):  # type: ignore[no-untyped-def]
 
 def _add_segmenter_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--criterion", default="nn", choices=["nn", "hausdorff", "features"])
-    parser.add_argument("--k", type=int, help="guess of the number of regions (default: eigengap)")
-    parser.add_argument("--p", type=float, default=0.1, help="sparsification parameter in [0, 1)")
+    parser.add_argument(
+        "--k", type=int, help="guess of the number of regions (default: clearance basins)"
+    )
+    parser.add_argument("--p", type=float, default=0.3, help="sparsification parameter in [0, 1)")
     parser.add_argument(
         "--spacing", type=float, default=0.8, help="virtual keyframe spacing on a map, metres"
     )

@@ -1,8 +1,8 @@
 """The demo: the whole pipeline on a generated building, writing pictures and a summary.
 
 Each stage is a function of the run's :class:`DemoRun`; it adds its results to the run and
-the summary, and its time is recorded. Later stages (segmentation, names, planning) append
-to :data:`STAGES`.
+the summary, and its time is recorded. Later stages (names, planning) append to
+:data:`STAGES`.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from maps.floorplan import FloorPlan, generate_floor_plan
 from maps.grid import OccupancyGrid
@@ -24,7 +25,9 @@ from maps.laser_sim import LaserModel, simulate_scans
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array, select_keyframes
 from maps.wander import Route, wander
-from topomap.drawing import draw_map
+from segmentation.metrics import score
+from topomap.drawing import draw_map, draw_regions
+from topomap.topomap import TopoMap
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +44,7 @@ class DemoRun:
     scans: list[Keyframe] = field(default_factory=list)
     keyframes: list[Keyframe] = field(default_factory=list)
     grid: OccupancyGrid | None = None
+    topo: TopoMap | None = None
     summary: dict[str, Any] = field(default_factory=dict)
 
 
@@ -100,7 +104,56 @@ def build_map(run: DemoRun) -> None:
     )
 
 
-STAGES: list[Callable[[DemoRun], None]] = [generate, drive, build_map]
+def _truth_on(grid: OccupancyGrid, plan: FloorPlan) -> NDArray[np.int32]:
+    """The plan's room labels looked up at the centres of ``grid``'s cells (0 outside)."""
+    rows, cols = np.indices(grid.shape)
+    x, y = grid.cell_to_world(rows.ravel(), cols.ravel())
+    prow, pcol = plan.grid.world_to_cell(x, y)
+    inside = plan.grid.contains(prow, pcol)
+    truth = np.zeros(rows.size, np.int32)
+    truth[inside] = plan.labels[prow[inside], pcol[inside]]
+    return truth.reshape(grid.shape)
+
+
+def _segment(run: DemoRun, topo: TopoMap, name: str, truth: NDArray[np.int32]) -> None:
+    folder = run.out / name
+    topo.save(folder, overwrite=True)
+    draw_regions(
+        folder / "segmentation.png",
+        topo.grid,
+        topo.regions.labels,
+        topo.graph,
+        title=f"{name}: {topo.graph.number_of_nodes()} regions",
+    )
+    run.summary[name] = {
+        "keyframes": len(topo.keyframes),
+        "regions": topo.graph.number_of_nodes(),
+        "doors": sum(len(d) for _, _, d in topo.graph.edges(data="doors")),
+        "spectral": _rounded(score(topo.spectral.labels, truth).as_dict()),
+        "refined": _rounded(score(topo.regions.labels, truth).as_dict()),
+        "seconds": {k: round(v, 3) for k, v in topo.seconds.items()},
+    }
+
+
+def _rounded(scores: dict[str, float | int]) -> dict[str, float | int]:
+    return {k: round(v, 4) if isinstance(v, float) else v for k, v in scores.items()}
+
+
+def segment_log(run: DemoRun) -> None:
+    """Segment the robot's keyframes on the map built from them; score against the plan."""
+    assert run.plan is not None and run.grid is not None
+    run.topo = TopoMap.from_keyframes(run.keyframes, run.grid, random_state=run.seed)
+    _segment(run, run.topo, "segment_log", _truth_on(run.grid, run.plan))
+
+
+def segment_plan(run: DemoRun) -> None:
+    """Segment the true plan alone (virtual keyframes), as floor plans are segmented."""
+    assert run.plan is not None
+    topo = TopoMap.from_grid(run.plan.grid, random_state=run.seed)
+    _segment(run, topo, "segment_plan", run.plan.labels)
+
+
+STAGES: list[Callable[[DemoRun], None]] = [generate, drive, build_map, segment_log, segment_plan]
 
 
 def run_demo(out: str | Path, *, size: str = "office", seed: int = 0) -> dict[str, Any]:

@@ -99,7 +99,7 @@ def read_anchors(data_dir: str | Path) -> list[dict[str, Any]]:
                     "recall": float(row["recall_micro"]),
                     "precision": float(row["precision_micro"]),
                     "mcc": float(row["mcc"]),
-                    "seconds": float(row["runtime_s"]),
+                    "seconds": float(row["runtime_s"]) if row["runtime_s"] else None,
                 }
             )
     return rows
@@ -122,8 +122,8 @@ def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[
             for metric in ("recall", "precision", "mcc", "ari"):
                 values = [g[metric] for g in group if metric in g]
                 row[metric] = round(float(np.mean(values)), 3) if values else "-"
-            times = [g["seconds"] for g in group]
-            row["mean_s"] = round(float(np.mean(times)), 2)
-            row["max_s"] = round(float(np.max(times)), 2)
+            times = [g["seconds"] for g in group if g["seconds"] is not None]
+            row["mean_s"] = round(float(np.mean(times)), 2) if times else "-"
+            row["max_s"] = round(float(np.max(times)), 2) if times else "-"
             rows.append(row)
     return sorted(rows, key=lambda r: (r["furnished"], r["method"]))

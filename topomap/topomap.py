@@ -5,7 +5,7 @@ from __future__ import annotations
 import csv
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +19,7 @@ from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
 from segmentation.export import write_graphml, write_label_image, write_geojson, write_node_link
 from segmentation.graph import region_graph
-from segmentation.refine import merge_open_boundaries, snap_to_basins
+from segmentation.refine import count_basins, merge_open_boundaries, snap_to_basins
 from segmentation.regions import Regions, dense_labels
 from segmentation.spectral import SpectralSegmenter
 from segmentation.virtual import virtual_keyframes
@@ -71,11 +71,14 @@ class TopoMap:
         **segmenter: Any,
     ) -> TopoMap:
         """Segment a map: virtual 360 degree keyframes every ``spacing`` metres, then the
-        spectral pipeline. ``segmenter`` options go to :class:`SpectralSegmenter`."""
+        spectral pipeline. ``segmenter`` options go to :class:`SpectralSegmenter`; without
+        ``k``, the guess ``k'`` is the number of clearance basins of the map
+        (:func:`~segmentation.refine.count_basins`)."""
+        spectral = SpectralSegmenter(random_state=random_state, **segmenter)
         start = time.perf_counter()
         keyframes = virtual_keyframes(grid, spacing, random_state=random_state)
         seconds = {"keyframes": time.perf_counter() - start}
-        return cls._build(grid, keyframes, refine, random_state, segmenter, seconds)
+        return cls._build(grid, keyframes, spectral, refine, seconds)
 
     @classmethod
     def from_keyframes(
@@ -88,22 +91,23 @@ class TopoMap:
         random_state: RandomState = 0,
         **segmenter: Any,
     ) -> TopoMap:
-        """Segment a robot's keyframes; the map is built from them unless ``grid`` is given."""
+        """Segment a robot's keyframes; the map is built from them unless ``grid`` is given.
+        Options as for :meth:`from_grid`."""
+        spectral = SpectralSegmenter(random_state=random_state, **segmenter)
         seconds: dict[str, float] = {}
         if grid is None:
             start = time.perf_counter()
             grid = grid_from_keyframes(keyframes, resolution)
             seconds["map"] = time.perf_counter() - start
-        return cls._build(grid, list(keyframes), refine, random_state, segmenter, seconds)
+        return cls._build(grid, list(keyframes), spectral, refine, seconds)
 
     @classmethod
     def _build(
         cls,
         grid: OccupancyGrid,
         keyframes: list[Keyframe],
+        segmenter: SpectralSegmenter,
         refine: bool,
-        random_state: RandomState,
-        options: dict[str, Any],
         seconds: dict[str, float],
     ) -> TopoMap:
         clock = time.perf_counter()
@@ -114,7 +118,9 @@ class TopoMap:
             seconds[stage] = now - clock
             clock = now
 
-        segmenter = SpectralSegmenter(random_state=random_state, **options).fit(keyframes)
+        if segmenter.k is None:
+            segmenter = replace(segmenter, k=min(len(keyframes), count_basins(grid)))
+        segmenter.fit(keyframes)
         lap("spectral")
         poses = poses_array(keyframes)
         rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])

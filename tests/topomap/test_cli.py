@@ -92,3 +92,86 @@ def test_module_entry_point():
         check=False,
     )
     assert done.returncode == 0 and "demo" in done.stdout
+
+
+def _check_segment_outputs(out: Path, map_image: Path) -> np.ndarray:
+    labels = cv2.imread(str(out / "regions.png"), cv2.IMREAD_UNCHANGED)
+    image = cv2.imread(str(map_image), cv2.IMREAD_UNCHANGED)
+    assert labels.dtype == np.uint16 and labels.shape == image.shape[:2]
+    ids = sorted(int(v) for v in np.unique(labels) if v)
+    geo = json.loads((out / "regions.geojson").read_text())
+    assert sorted(f["properties"]["id"] for f in geo["features"]) == ids
+    for feature in geo["features"]:
+        cells = (labels == feature["properties"]["id"]).sum()
+        assert feature["properties"]["area_m2"] == pytest.approx(cells * 0.05**2)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["regions"] == len(ids)
+    assert {"spectral", "regions", "graph"} <= set(summary["seconds"])
+    graph = json.loads((out / "graph.json").read_text())
+    assert sorted(n["id"] for n in graph["nodes"]) == ids and "edges" in graph
+    assert (out / "graph.graphml").read_text().startswith("<?xml")
+    assert cv2.imread(str(out / "segmentation.png")) is not None
+    return labels
+
+
+def test_segment_a_map(tmp_path):
+    assert main(["generate", "--size", "flat", "--seed", "1", "--out", str(tmp_path / "g")]) == 0
+    out = tmp_path / "seg"
+    assert main(["segment", str(tmp_path / "g" / "map.yaml"), "--out", str(out)]) == 0
+    labels = _check_segment_outputs(out, tmp_path / "g" / "map.pgm")
+    rooms = cv2.imread(str(tmp_path / "g" / "rooms.png"), cv2.IMREAD_UNCHANGED)
+    assert len(np.unique(labels)) - 1 == len(np.unique(rooms)) - 1  # one region per room
+    assert main(["segment", str(tmp_path / "g" / "map.yaml"), "--out", str(out)]) == 2
+
+
+def test_segment_a_real_log(tmp_path, data_dir):
+    log = data_dir / "carmen" / "intel-corrected.log.gz"
+    assert main(["segment", "--scans", str(log), "--out", str(tmp_path)]) == 0
+    labels = _check_segment_outputs(tmp_path, tmp_path / "map.pgm")
+    # the Intel lab: a corridor ring with a few dozen rooms around it
+    assert 15 <= len(np.unique(labels)) - 1 <= 80
+    rows = (tmp_path / "keyframes.csv").read_text().splitlines()
+    assert rows[0] == "scan_index,x,y,theta,region"
+    assert len(rows) - 1 == json.loads((tmp_path / "summary.json").read_text())["keyframes"]
+
+
+def test_eval_segment_scores_against_ground_truth(tmp_path, data_dir):
+    data = tmp_path / "data"
+    data.mkdir()
+    for name in ["lab_ipa.yaml", "lab_ipa.png", "lab_ipa_gt_labels.png", "anchors.csv"]:
+        (data / name).symlink_to(data_dir / "ipa" / name)
+    out = tmp_path / "out"
+    assert main(["eval", "segment", str(data), "--out", str(out)]) == 0
+    results = json.loads((out / "results.json").read_text())
+    assert [(r["map"], r["variant"]) for r in results["maps"]] == [
+        ("lab_ipa", "spectral"), ("lab_ipa", "refined")]
+    methods = {m["method"] for m in results["means"]}
+    assert {"spectral", "refined", "ipa_distance", "ipa_morphological"} <= methods
+    refined = results["maps"][1]
+    assert refined["mcc"] > 0.6 and refined["rooms"] == 10
+
+
+def test_bench_segment_writes_records(tmp_path, capsys):
+    args = ["bench", "segment", "--out", str(tmp_path), "--sizes", "40", "80",
+            "--naive-up-to", "40", "--building", "flat"]
+    assert main(args) == 0
+    records = json.loads((tmp_path / "results.json").read_text())
+    assert [(r["method"], r["keyframes"]) for r in records] == [
+        ("topomap", 40), ("naive", 40), ("topomap", 80)]
+    assert all(r["seconds"] > 0 for r in records)
+    assert "speed-up" in capsys.readouterr().out
+
+
+def test_segment_bad_input(tmp_path, capsys):
+    walls = maps_grid_without_free_space(tmp_path)
+    assert main(["segment", str(walls), "--out", str(tmp_path / "o")]) == 2
+    assert "no free cell" in capsys.readouterr().err
+    assert main(["segment", "--out", str(tmp_path / "o")]) == 2
+    assert "either a map YAML or --scans" in capsys.readouterr().err
+    assert main(["segment", str(walls), "--out", str(tmp_path / "o"), "--p", "2"]) == 2
+    assert "p must lie" in capsys.readouterr().err
+
+
+def maps_grid_without_free_space(folder: Path) -> Path:
+    grid = OccupancyGrid(np.full((20, 20), 100, np.int8), 0.05)
+    return grid.save(folder / "walls.yaml")

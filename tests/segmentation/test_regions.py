@@ -1,0 +1,86 @@
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from skimage.measure import label as connected
+
+import maps
+from segmentation.errors import SegmentationError
+from segmentation.refine import merge_open_boundaries, snap_to_basins
+from segmentation.regions import Regions, dense_labels
+from segmentation.transitions import find_transitions
+from segmentation.virtual import virtual_poses
+
+
+@st.composite
+def maps_with_keyframes(draw):
+    free = draw(arrays(bool, st.tuples(st.integers(3, 25), st.integers(3, 25))))
+    free[0, 0] = True
+    rows, cols = np.nonzero(free)
+    picks = draw(st.lists(st.integers(0, len(rows) - 1), min_size=1, max_size=8))
+    labels = draw(st.lists(st.integers(0, 3), min_size=len(picks), max_size=len(picks)))
+    grid = maps.OccupancyGrid.from_masks(free, 0.5)
+    return grid, rows[picks], cols[picks], np.array(labels)
+
+
+@given(maps_with_keyframes(), st.sampled_from([0.25, 1.0, 3.0]))
+def test_regions_partition_the_free_space_into_connected_pieces(case, min_area):
+    grid, rows, cols, keyframe_labels = case
+    labels = dense_labels(grid, rows, cols, keyframe_labels, min_area=min_area)
+    assert np.all(labels[~grid.free] == 0)
+    ids = np.unique(labels[labels > 0])
+    assert ids.tolist() == list(range(1, len(ids) + 1))
+    for region in ids:
+        assert connected(labels == region, connectivity=1).max() == 1
+    # free cells are dropped only as islands too small to be a region
+    dropped = grid.free & (labels == 0)
+    if dropped.any():
+        pieces = connected(grid.free, connectivity=1)
+        for piece in np.unique(pieces[dropped]):
+            assert (pieces == piece).sum() * 0.25 < min_area
+    regions = Regions(grid, labels)
+    for region, polygon in regions.polygons.items():
+        assert polygon.area == pytest.approx(regions.area(region))
+
+
+def test_a_door_is_found_and_snapped_to(two_rooms):
+    grid = two_rooms(door=1.0)
+    xs = np.array([1.0, 2.0, 3.0, 3.9, 4.8, 6.0, 7.0])  # keyframe at 4.8 m is in the right room
+    rows, cols = grid.world_to_cell(xs, np.full(len(xs), 2.0))
+    labels = dense_labels(grid, rows, cols, np.array([0, 0, 0, 0, 0, 1, 1]))
+    snapped = snap_to_basins(grid, labels)
+    left = snapped[grid.world_to_cell(2.0, 2.0)]
+    right = snapped[grid.world_to_cell(6.0, 2.0)]
+    assert left != right and len(np.unique(snapped[snapped > 0])) == 2
+    door = find_transitions(grid, snapped)
+    assert len(door) == 1
+    assert door[0].width == pytest.approx(1.0, abs=0.06)
+    assert abs(door[0].centre[0] - 4.15) < 0.2  # in the wall, not in a room
+
+
+def test_open_cuts_merge_but_doors_do_not(two_rooms):
+    grid = two_rooms(door=1.0)
+    labels = np.zeros(grid.shape, np.int32)
+    rows, cols = np.nonzero(grid.free)
+    x, _ = grid.cell_to_world(rows, cols)
+    labels[rows, cols] = np.select([x < 2.0, x < 4.1], [1, 2], 3)  # the left room cut in two
+    merged = merge_open_boundaries(grid, labels)
+    assert len(np.unique(merged[merged > 0])) == 2
+    assert merged[grid.world_to_cell(1.0, 2.0)] == merged[grid.world_to_cell(3.0, 2.0)]
+
+
+def test_virtual_poses_cover_every_room_and_avoid_walls():
+    plan = maps.generate_floor_plan("flat", random_state=2)
+    poses = virtual_poses(plan.grid, spacing=0.8)
+    rows, cols = plan.grid.world_to_cell(poses[:, 0], poses[:, 1])
+    assert np.all(plan.grid.clearance()[rows, cols] >= 0.2)
+    assert set(plan.labels[rows, cols]) == set(range(1, plan.n_rooms + 1))
+
+
+def test_a_map_without_free_space_is_an_error():
+    grid = maps.OccupancyGrid(np.full((10, 10), 100, np.int8), 0.05)
+    with pytest.raises(SegmentationError, match="no free cell"):
+        virtual_poses(grid)
+    with pytest.raises(SegmentationError, match="no free cell"):
+        dense_labels(grid, np.array([1]), np.array([1]), np.array([0]))

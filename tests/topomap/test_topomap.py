@@ -1,0 +1,52 @@
+import csv
+
+import numpy as np
+import pytest
+
+import maps
+from maps.scan import select_keyframes
+from segmentation.metrics import score
+from topomap.evaluate import evaluate, floor_plans
+from topomap.topomap import TopoMap
+
+
+@pytest.fixture(scope="module")
+def flat():
+    return maps.generate_floor_plan("flat", random_state=1)
+
+
+def test_a_generated_flat_is_segmented_into_its_rooms(flat):
+    topo = TopoMap.from_grid(flat.grid, random_state=0)
+    assert score(topo.regions.labels, flat.labels).mcc > 0.9
+    assert score(topo.spectral.labels, flat.labels).mcc > 0.8
+    assert set(topo.seconds) == {"keyframes", "spectral", "regions", "refine", "graph"}
+    # every region is a node, touching regions are joined, and the doors are door-sized
+    assert sorted(topo.graph.nodes) == topo.regions.ids
+    widths = [d.width for _, _, doors in topo.graph.edges(data="doors") for d in doors]
+    assert widths and np.median(widths) < 1.5
+    for node, data in topo.graph.nodes(data=True):
+        assert topo.region_at(data["x"], data["y"]) == node
+    again = TopoMap.from_grid(flat.grid, random_state=0)
+    np.testing.assert_array_equal(again.regions.labels, topo.regions.labels)
+
+
+def test_robot_keyframes_give_regions_and_a_keyframe_table(flat, tmp_path):
+    route = maps.wander(flat.grid, flat.labels, random_state=0)
+    scans = maps.simulate_scans(flat.grid, route.poses, maps.LaserModel(noise=0.01), random_state=0)
+    keyframes = select_keyframes(scans)
+    topo = TopoMap.from_keyframes(keyframes, flat.grid, random_state=0)
+    assert score(topo.regions.labels, flat.labels).mcc > 0.7
+    rows = list(csv.DictReader(topo.save_keyframes(tmp_path / "k.csv").open()))
+    assert len(rows) == len(keyframes)
+    assert list(rows[0]) == ["scan_index", "x", "y", "theta", "region"]
+    for row, frame in zip(rows, keyframes, strict=True):
+        assert int(row["scan_index"]) == frame.scan_index
+        assert int(row["region"]) == topo.region_at(float(row["x"]), float(row["y"]))
+
+
+def test_a_real_floor_plan_beats_the_classic_segmentations(data_dir):
+    (plan,) = [p for p in floor_plans(data_dir / "ipa") if p.name == "office_b"]
+    spectral, refined = evaluate(plan)
+    assert spectral["variant"] == "spectral" and refined["variant"] == "refined"
+    # anchors.csv on office_b: ipa distance MCC 0.949, MAORIS 0.999; ours must not fall behind
+    assert refined["mcc"] > 0.95 and refined["recall"] > 0.95 and refined["precision"] > 0.95
