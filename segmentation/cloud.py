@@ -67,7 +67,7 @@ class ScanCloud:
     @property
     def points(self) -> NDArray[np.float64]:
         """``(m, 2)`` cell centres in metres."""
-        return (self.cells + 0.5) * self.resolution
+        return (self.cells + 0.5).astype(np.float64) * self.resolution
 
     @property
     def counts(self) -> NDArray[np.int64]:

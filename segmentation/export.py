@@ -153,20 +153,21 @@ def write_geojson(graph: nx.Graph, path: str | Path, *, overwrite: bool = False)
 def read_geojson(path: str | Path) -> nx.Graph:
     """The regions of a file written by :func:`write_geojson`, as a graph without edges."""
     path = Path(path)
+    index = -1
     try:
         collection = json.loads(path.read_text())
         graph = nx.Graph(
             resolution=float(collection["properties"]["resolution"]),
             origin=tuple(collection["properties"]["origin"]),
         )
-        for index, feature in enumerate(collection["features"]):
+        for index, feature in enumerate(collection["features"]):  # noqa: B007 (named in errors)
             properties = dict(feature["properties"])
             node = int(properties.pop("id"))
             graph.add_node(node, polygon=shape(feature["geometry"]), **properties)
     except FileNotFoundError:
         raise
     except (ValueError, KeyError, TypeError, AttributeError) as err:
-        where = f" feature {index}" if "index" in locals() else ""
+        where = f" feature {index}" if index >= 0 else ""
         raise ExportFormatError(f"{path}{where}: not topomap regions GeoJSON: {err!r}") from err
     return graph
 

@@ -22,7 +22,7 @@ from skimage.segmentation import watershed
 
 from maps.grid import OccupancyGrid
 from segmentation.errors import ParameterError
-from segmentation.regions import consecutive, merge_small, pieces
+from segmentation.regions import consecutive, pieces
 from segmentation.transitions import find_transitions
 
 
@@ -48,9 +48,7 @@ def snap_to_basins(
     """Give each basin of :func:`basins` the region covering most of its cells."""
     basin = basins(grid)
     both = (basin > 0) & (labels > 0)
-    pair, count = np.unique(
-        np.stack([basin[both], labels[both]]), axis=1, return_counts=True
-    )
+    pair, count = np.unique(np.stack([basin[both], labels[both]]), axis=1, return_counts=True)
     winner = np.zeros(int(basin.max(initial=0)) + 1, np.int32)
     order = np.lexsort((count, pair[0]))  # per basin, the largest count last
     winner[pair[0, order]] = pair[1, order]
@@ -77,7 +75,11 @@ def merge_open_boundaries(
     while len(span):
         ga, gb = parent[a], parent[b]
         fit_a, fit_b = span / width[ga], span / width[gb]
-        across = (ga != gb) & (np.minimum(fit_a, fit_b) >= ratio) & (np.maximum(fit_a, fit_b) <= 2 - ratio)
+        across = (
+            (ga != gb)
+            & (np.minimum(fit_a, fit_b) >= ratio)
+            & (np.maximum(fit_a, fit_b) <= 2 - ratio)
+        )
         if not across.any():
             break
         best = int(np.argmax(np.where(across, np.minimum(fit_a, fit_b), -np.inf)))

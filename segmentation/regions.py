@@ -189,7 +189,9 @@ class Regions:
         keep = values > 0
         rows, cols, ends, values = rows[keep], cols[keep], ends[keep], values[keep]
         res = self.grid.resolution
-        boxes = shapely.box(cols * res, (height - 1 - rows) * res, ends * res, (height - rows) * res)
+        boxes = shapely.box(
+            cols * res, (height - 1 - rows) * res, ends * res, (height - rows) * res
+        )
         ox, oy, yaw = self.grid.origin
         c, s = np.cos(yaw), np.sin(yaw)
         result: dict[int, BaseGeometry] = {}
@@ -199,7 +201,9 @@ class Regions:
             chosen = order[bounds[region - 1] : bounds[region]]
             if len(chosen) == 0:
                 continue
-            shape = affinity.affine_transform(shapely.union_all(boxes[chosen]), [c, -s, s, c, ox, oy])
+            shape = affinity.affine_transform(
+                shapely.union_all(boxes[chosen]), [c, -s, s, c, ox, oy]
+            )
             # nanometre coordinates: text exports (WKT, JSON) then read back the same numbers
             result[region] = shapely.transform(shape, lambda xy: np.round(xy, 9))
         return result

@@ -64,7 +64,9 @@ def incidence(owner: NDArray[np.int64], item: NDArray[np.int64], n: int) -> spar
     """Binary ``(n, n_items)`` matrix: keyframe ``owner[t]`` has item ``item[t]``."""
     _, columns = np.unique(item, return_inverse=True)
     data = np.ones(len(owner), np.float64)
-    matrix = sparse.csr_matrix((data, (owner, columns)), shape=(n, int(columns.max(initial=-1)) + 1))
+    matrix = sparse.csr_matrix(
+        (data, (owner, columns)), shape=(n, int(columns.max(initial=-1)) + 1)
+    )
     matrix.data[:] = 1.0
     return matrix
 
@@ -253,9 +255,7 @@ class Pairwise:
             [float(self.similarity(points[a], points[b])) for a, b in zip(i, j, strict=True)]
         )
         if not np.all(np.isfinite(values)) or np.any(values < 0):
-            raise ParameterError(
-                f"similarity {self.similarity!r} must return finite values >= 0"
-            )
+            raise ParameterError(f"similarity {self.similarity!r} must return finite values >= 0")
         return symmetric(values, i, j, cloud.n_keyframes)
 
 

@@ -6,7 +6,9 @@ import argparse
 import json
 import logging
 import sys
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 from maps.errors import MapsError
 
@@ -86,7 +88,7 @@ def cmd_bench_sim(args: argparse.Namespace) -> int:
     return 0
 
 
-def _segmenter_options(args: argparse.Namespace) -> dict[str, object]:
+def _segmenter_options(args: argparse.Namespace) -> dict[str, Any]:
     return {"criterion": args.criterion, "k": args.k, "p": args.p}
 
 
@@ -128,7 +130,9 @@ def cmd_segment(args: argparse.Namespace) -> int:
         "spectral_clusters": topo.segmenter.n_regions_,
         "keyframes": len(topo.keyframes),
         "doors": sum(len(d) for _, _, d in topo.graph.edges(data="doors")),
-        "silhouette_by_k": {str(k): round(v, 4) for k, v in topo.segmenter.silhouette_by_k_.items()},
+        "silhouette_by_k": {
+            str(k): round(v, 4) for k, v in topo.segmenter.silhouette_by_k_.items()
+        },
         "seconds": {k: round(v, 3) for k, v in topo.seconds.items()},
     }
     path = out / "summary.json"
@@ -147,11 +151,15 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
         args.data, progress=_progress, spacing=args.spacing, **_segmenter_options(args)
     )
     columns = ["map", "furnished", "variant", "keyframes", "segments", "rooms"]
-    print(_table(records, columns + ["recall", "precision", "mcc", "ari", "seconds"]))
+    print(_table(records, [*columns, "recall", "precision", "mcc", "ari", "seconds"]))
     print()
     summary = means(records, read_anchors(args.data))
-    print(_table(summary, ["method", "furnished", "maps", "recall", "precision", "mcc", "ari",
-                           "mean_s", "max_s"]))
+    print(
+        _table(
+            summary,
+            ["method", "furnished", "maps", "recall", "precision", "mcc", "ari", "mean_s", "max_s"],
+        )
+    )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps({"maps": records, "means": summary}, indent=2))
@@ -183,13 +191,13 @@ def cmd_bench_segment(args: argparse.Namespace) -> int:
     return 0
 
 
-def _progress(items):  # type: ignore[no-untyped-def]
+def _progress(items: Iterator[Any]) -> Iterator[Any]:
     """A tqdm progress bar on stderr when tqdm is installed."""
     try:
         from tqdm import tqdm
     except ImportError:
         return items
-    return tqdm(list(items), file=sys.stderr, leave=False)
+    return iter(tqdm(list(items), file=sys.stderr, leave=False))
 
 
 def _add_segmenter_options(parser: argparse.ArgumentParser) -> None:

@@ -96,9 +96,7 @@ def draw_regions(
     fig, ax = plt.subplots(figsize=(width, max(3.0, width * (ymax - ymin) / (xmax - xmin))))
     show_grid(ax, grid)
     colours = region_colours(int(labels.max(initial=0)))
-    ax.imshow(
-        colours[labels], extent=(xmin, xmax, ymin, ymax), interpolation="nearest", alpha=0.8
-    )
+    ax.imshow(colours[labels], extent=(xmin, xmax, ymin, ymax), interpolation="nearest", alpha=0.8)
     for a, b, data in graph.edges(data=True):
         door = data["doors"][0]
         ends = np.array([door.start, door.end])
@@ -109,8 +107,13 @@ def draw_regions(
     for node, data in graph.nodes(data=True):
         ax.plot(data["x"], data["y"], "o", color="black", ms=3)
         ax.annotate(
-            str(data.get("name", node)), (data["x"], data["y"]), fontsize=6, ha="center",
-            va="bottom", xytext=(0, 2), textcoords="offset points",
+            str(data.get("name", node)),
+            (data["x"], data["y"]),
+            fontsize=6,
+            ha="center",
+            va="bottom",
+            xytext=(0, 2),
+            textcoords="offset points",
         )
     ax.set_title(title)
     path = Path(path)

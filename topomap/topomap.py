@@ -17,7 +17,7 @@ from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
-from segmentation.export import write_graphml, write_label_image, write_geojson, write_node_link
+from segmentation.export import write_geojson, write_graphml, write_label_image, write_node_link
 from segmentation.graph import region_graph
 from segmentation.refine import count_basins, merge_open_boundaries, snap_to_basins
 from segmentation.regions import Regions, dense_labels

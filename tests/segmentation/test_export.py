@@ -43,8 +43,11 @@ def assert_same_graph(a: nx.Graph, b: nx.Graph, *, edges: bool = True) -> None:
 
 @st.composite
 def segmentations(draw):
-    labels = draw(arrays(np.int32, st.tuples(st.integers(2, 12), st.integers(2, 12)),
-                         elements=st.integers(0, 4)))
+    labels = draw(
+        arrays(
+            np.int32, st.tuples(st.integers(2, 12), st.integers(2, 12)), elements=st.integers(0, 4)
+        )
+    )
     resolution = draw(st.sampled_from([0.05, 0.1, 0.25]))
     origin = (draw(st.floats(-50, 50)), draw(st.floats(-50, 50)), draw(st.sampled_from([0.0, 0.5])))
     grid = maps.OccupancyGrid.from_masks(labels > 0, resolution, origin)
@@ -84,17 +87,20 @@ def test_graph_nodes_and_doors(two_rooms):
 def test_unreadable_files_are_named(tmp_path):
     bad = tmp_path / "g.graphml"
     bad.write_text("<graphml><oops")
-    with pytest.raises(ExportFormatError, match="g.graphml"):
+    with pytest.raises(ExportFormatError, match=r"g\.graphml"):
         read_graphml(bad)
     bad_json = tmp_path / "g.json"
     bad_json.write_text(json.dumps({"nodes": [{"id": 1}], "edges": []}))
-    with pytest.raises(ExportFormatError, match="g.json"):
+    with pytest.raises(ExportFormatError, match=r"g\.json"):
         read_node_link(bad_json)
-    features = {"type": "FeatureCollection", "properties": {"resolution": 0.05, "origin": [0, 0, 0]},
-                "features": [{"type": "Feature", "geometry": None, "properties": {}}]}
+    features = {
+        "type": "FeatureCollection",
+        "properties": {"resolution": 0.05, "origin": [0, 0, 0]},
+        "features": [{"type": "Feature", "geometry": None, "properties": {}}],
+    }
     bad_geo = tmp_path / "r.geojson"
     bad_geo.write_text(json.dumps(features))
-    with pytest.raises(ExportFormatError, match="r.geojson feature 0"):
+    with pytest.raises(ExportFormatError, match=r"r\.geojson feature 0"):
         read_geojson(bad_geo)
     with pytest.raises(FileNotFoundError):
         read_label_image(tmp_path / "missing.png")

@@ -45,8 +45,13 @@ def test_hausdorff_matches_scipy_on_candidate_pairs(flat_keyframes):
     points = cloud.split()
     i, j = candidate_pairs(cloud, criterion.reach)
     distance = np.array(
-        [max(directed_hausdorff(points[a], points[b])[0], directed_hausdorff(points[b], points[a])[0])
-         for a, b in zip(i, j, strict=True)]
+        [
+            max(
+                directed_hausdorff(points[a], points[b])[0],
+                directed_hausdorff(points[b], points[a])[0],
+            )
+            for a, b in zip(i, j, strict=True)
+        ]
     )
     np.testing.assert_allclose(affinity[i, j], 1 - distance / distance.max(), atol=1e-9)
 
@@ -74,7 +79,9 @@ def test_two_views_of_one_room_share_its_four_corners():
 def test_rooms_behind_a_wall_are_not_similar(two_rooms):
     # a wall thicker than the tolerance keeps the two sides' points apart
     grid = two_rooms(door=0.0, wall=0.3)
-    frames = simulate_scans(grid, [[2, 2, 0], [2.5, 2.5, 0], [6, 2, 0]], LaserModel(fov=2 * math.pi))
+    frames = simulate_scans(
+        grid, [[2, 2, 0], [2.5, 2.5, 0], [6, 2, 0]], LaserModel(fov=2 * math.pi)
+    )
     affinity = NearestNeighbour().affinity(frames).toarray()
     assert affinity[0, 1] > 0.3
     assert affinity[0, 2] < 0.1 and affinity[1, 2] < 0.1

@@ -31,9 +31,7 @@ def room_of(plan, keyframes):
 )
 def test_sparsify_keeps_exactly_the_similarities_above_the_switch(values, p):
     n = len(values) + 1
-    matrix = sparse.csr_matrix(
-        (values, (np.arange(len(values)), np.arange(1, n))), shape=(n, n)
-    )
+    matrix = sparse.csr_matrix((values, (np.arange(len(values)), np.arange(1, n))), shape=(n, n))
     kept = sparsify(matrix + matrix.T, p)
     low, high = min(values), max(values)
     switch = low + p * (high - low)
@@ -61,8 +59,11 @@ def test_rooms_are_recovered_and_the_seed_fixes_the_result(flat):
 
 def test_disconnected_parts_never_share_a_region(flat):
     _, keyframes = flat
-    far = [Keyframe((x + 500.0, y, t), k.scan, k.scan_index) for k in keyframes[:40]
-           for x, y, t in [k.pose]]
+    far = [
+        Keyframe((x + 500.0, y, t), k.scan, k.scan_index)
+        for k in keyframes[:40]
+        for x, y, t in [k.pose]
+    ]
     both = [*keyframes[:40], *far]
     labels = SpectralSegmenter(k=2, random_state=0).fit(both).labels_
     assert not set(labels[:40]) & set(labels[40:])

@@ -20,7 +20,14 @@ def test_demo_writes_picture_map_and_summary(tmp_path):
     assert summary["robot"]["keyframes"] > 10
     assert summary["map"]["true_free_cells_found"] > 0.9
     assert summary["map"]["free_cells_not_free_in_truth"] < 0.03
-    assert set(summary["seconds"]) == {"generate", "drive", "build_map"}
+    assert set(summary["seconds"]) == {
+        "generate",
+        "drive",
+        "build_map",
+        "segment_log",
+        "segment_plan",
+    }
+    assert summary["segment_plan"]["refined"]["mcc"] > 0.8
     picture = cv2.imread(str(tmp_path / "map.png"))
     assert picture is not None and picture.shape[0] > 200
     assert OccupancyGrid.load(tmp_path / "map.yaml").free.sum() > 1000
@@ -144,7 +151,9 @@ def test_eval_segment_scores_against_ground_truth(tmp_path, data_dir):
     assert main(["eval", "segment", str(data), "--out", str(out)]) == 0
     results = json.loads((out / "results.json").read_text())
     assert [(r["map"], r["variant"]) for r in results["maps"]] == [
-        ("lab_ipa", "spectral"), ("lab_ipa", "refined")]
+        ("lab_ipa", "spectral"),
+        ("lab_ipa", "refined"),
+    ]
     methods = {m["method"] for m in results["means"]}
     assert {"spectral", "refined", "ipa_distance", "ipa_morphological"} <= methods
     refined = results["maps"][1]
@@ -152,12 +161,26 @@ def test_eval_segment_scores_against_ground_truth(tmp_path, data_dir):
 
 
 def test_bench_segment_writes_records(tmp_path, capsys):
-    args = ["bench", "segment", "--out", str(tmp_path), "--sizes", "40", "80",
-            "--naive-up-to", "40", "--building", "flat"]
+    args = [
+        "bench",
+        "segment",
+        "--out",
+        str(tmp_path),
+        "--sizes",
+        "40",
+        "80",
+        "--naive-up-to",
+        "40",
+        "--building",
+        "flat",
+    ]
     assert main(args) == 0
     records = json.loads((tmp_path / "results.json").read_text())
     assert [(r["method"], r["keyframes"]) for r in records] == [
-        ("topomap", 40), ("naive", 40), ("topomap", 80)]
+        ("topomap", 40),
+        ("naive", 40),
+        ("topomap", 80),
+    ]
     assert all(r["seconds"] > 0 for r in records)
     assert "speed-up" in capsys.readouterr().out
 
