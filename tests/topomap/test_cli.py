@@ -68,7 +68,11 @@ def test_bad_input_gives_a_clear_error(tmp_path, capsys):
 
 @pytest.mark.parametrize(
     ("script", "args"),
-    [("simulate_robot_run.py", ["3"]), ("map_from_carmen_log.py", ["LOG", "OUT"])],
+    [
+        ("simulate_robot_run.py", ["3"]),
+        ("map_from_carmen_log.py", ["LOG", "OUT"]),
+        ("segment_generated_building.py", ["OUT"]),
+    ],
 )
 def test_examples_run(tmp_path, data_dir, script, args):
     args = [
