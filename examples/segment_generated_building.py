@@ -15,9 +15,8 @@ print(
     f"MCC {score(topo.regions.labels, plan.labels).mcc:.2f}"
 )
 for a, b, doors in topo.graph.edges(data="doors"):
-    print(
-        f"region {a} - region {b}: door {doors[0].width:.2f} m wide at ({doors[0].centre[0]:.2f}, {doors[0].centre[1]:.2f})"
-    )
+    x, y = doors[0].centre
+    print(f"region {a} - region {b}: door {doors[0].width:.2f} m wide at ({x:.2f}, {y:.2f})")
 out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("out/example-segment")
 topo.save(out, overwrite=True)
 print(f"wrote {out}/regions.png, graph.graphml, graph.json, regions.geojson")
