@@ -6,10 +6,11 @@ Two steps, each a function:
   nearest wall): a watershed from the open spaces meets at the narrowest passages, the doors.
   Each basin takes the region that covers most of it, so region boundaries move to doors.
 - :func:`merge_open_boundaries`: spectral clusters also split long corridors and large rooms
-  where nothing narrows the space. Two touching regions are merged when their widest opening is
-  at least ``ratio`` times the width of the narrower region (twice its largest clearance): a
-  door is much narrower than the spaces it joins, a cut through a corridor or a room is not.
-  The most open pair is merged first.
+  where nothing narrows the space. Two touching regions are merged when an opening between them
+  is about as wide as each of them (between ``ratio`` and ``2 - ratio`` times its width, twice
+  its largest clearance): a door is much narrower than the spaces it joins, and a bay opening
+  onto the side of a corridor is much wider than the corridor, but a cut across a corridor or a
+  room is neither. The most open pair is merged first.
 """
 
 from __future__ import annotations
@@ -35,18 +36,21 @@ def basins(grid: OccupancyGrid, depth: float = 0.3) -> NDArray[np.int32]:
     return watershed(-clearance, markers, mask=grid.free, connectivity=1).astype(np.int32)
 
 
-def count_basins(grid: OccupancyGrid, min_area: float = 1.0) -> int:
-    """Number of :func:`basins` of at least ``min_area`` square metres: a guess of the number of
-    places (rooms, corridor pieces) for the spectral ``k``."""
-    sizes = np.bincount(basins(grid).ravel())[1:]
+def count_basins(grid: OccupancyGrid, basin: NDArray[np.int32], min_area: float = 1.0) -> int:
+    """Number of ``basin`` labels (from :func:`basins`) of at least ``min_area`` square metres:
+    a guess of the number of places (rooms, corridor pieces) for the spectral ``k``."""
+    sizes = np.bincount(basin.ravel())[1:]
     return max(1, int((sizes * grid.resolution**2 >= min_area).sum()))
 
 
 def snap_to_basins(
-    grid: OccupancyGrid, labels: NDArray[np.int32], min_area: float = 1.0
+    grid: OccupancyGrid,
+    labels: NDArray[np.int32],
+    basin: NDArray[np.int32] | None = None,
+    min_area: float = 1.0,
 ) -> NDArray[np.int32]:
-    """Give each basin of :func:`basins` the region covering most of its cells."""
-    basin = basins(grid)
+    """Give each basin (of :func:`basins`, unless given) the region covering most of its cells."""
+    basin = basins(grid) if basin is None else basin
     both = (basin > 0) & (labels > 0)
     pair, count = np.unique(np.stack([basin[both], labels[both]]), axis=1, return_counts=True)
     winner = np.zeros(int(basin.max(initial=0)) + 1, np.int32)
@@ -59,7 +63,8 @@ def snap_to_basins(
 def merge_open_boundaries(
     grid: OccupancyGrid, labels: NDArray[np.int32], ratio: float = 0.7
 ) -> NDArray[np.int32]:
-    """Merge regions of ``labels`` joined by openings at least ``ratio`` of their width."""
+    """Merge regions of ``labels`` joined by an opening between ``ratio`` and ``2 - ratio``
+    times the width of each of the two (a cut across both), most open first."""
     if not ratio > 0:
         raise ParameterError(f"ratio must be > 0, got {ratio!r}")
     count = int(labels.max(initial=0))

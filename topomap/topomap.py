@@ -19,7 +19,7 @@ from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
 from segmentation.export import write_geojson, write_graphml, write_label_image, write_node_link
 from segmentation.graph import region_graph
-from segmentation.refine import count_basins, merge_open_boundaries, snap_to_basins
+from segmentation.refine import basins, count_basins, merge_open_boundaries, snap_to_basins
 from segmentation.regions import Regions, dense_labels
 from segmentation.spectral import SpectralSegmenter
 from segmentation.virtual import virtual_keyframes
@@ -118,8 +118,10 @@ class TopoMap:
             seconds[stage] = now - clock
             clock = now
 
+        basin = basins(grid) if refine or segmenter.k is None else None
         if segmenter.k is None:
-            segmenter = replace(segmenter, k=min(len(keyframes), count_basins(grid)))
+            assert basin is not None
+            segmenter = replace(segmenter, k=min(len(keyframes), count_basins(grid, basin)))
         segmenter.fit(keyframes)
         lap("spectral")
         poses = poses_array(keyframes)
@@ -128,7 +130,7 @@ class TopoMap:
         lap("regions")
         regions = spectral
         if refine:
-            snapped = snap_to_basins(grid, spectral.labels)
+            snapped = snap_to_basins(grid, spectral.labels, basin)
             regions = Regions(grid, merge_open_boundaries(grid, snapped))
             lap("refine")
         graph = region_graph(regions, _regions_of(regions, rows, cols))
