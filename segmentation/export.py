@@ -8,7 +8,6 @@ JSON uses the same encoding. Every reader returns an object equal to the one wri
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -193,10 +192,3 @@ def read_label_image(path: str | Path) -> NDArray[np.int32]:
     if image.ndim != 2:
         raise ExportFormatError(f"{path}: a label image has one channel, found {image.shape[2]}")
     return image.astype(np.int32)
-
-
-WRITERS: dict[str, Callable[..., Path]] = {
-    "graph.graphml": write_graphml,
-    "graph.json": write_node_link,
-    "regions.geojson": write_geojson,
-}

@@ -51,21 +51,12 @@ def merge_small(labels: NDArray[np.int32], min_cells: int) -> NDArray[np.int32]:
         small = small[small > 0]
         if len(small) == 0:
             return labels
+        region = small[np.argmin(sizes[small])]  # one merge per pass keeps the boundaries right
         ra, ca, rb, cb = boundary_pairs(labels)
         a, b = labels[ra, ca], labels[rb, cb]
-        pair, length = np.unique(np.stack([np.r_[a, b], np.r_[b, a]]), axis=1, return_counts=True)
-        target = np.arange(len(sizes))
-        for region in small[np.argsort(sizes[small], kind="stable")]:
-            mine = pair[0] == region
-            if not mine.any():
-                target[region] = 0
-                continue
-            target[region] = pair[1, mine][np.argmax(length[mine])]
-            break  # one merge per pass keeps the neighbour counts right
-        else:
-            labels = target[labels].astype(np.int32)
-            return labels
-        labels = target[labels].astype(np.int32)
+        neighbours = np.concatenate([b[a == region], a[b == region]])
+        target = np.bincount(neighbours).argmax() if len(neighbours) else 0
+        labels[labels == region] = target
 
 
 def consecutive(labels: NDArray[np.integer]) -> NDArray[np.int32]:

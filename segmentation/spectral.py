@@ -134,7 +134,7 @@ class SpectralSegmenter:
     affinity_ : scipy.sparse.csr_matrix
         The sparsified similarity matrix.
     eigenvalues_ : ndarray
-        The smallest eigenvalues of ``L_sym`` (of the largest component).
+        The smallest eigenvalues of ``L_sym`` of the keyframes in components of 3 or more.
     """
 
     criterion: str | Criterion | PointsSimilarity = "nn"
