@@ -1,0 +1,179 @@
+"""OMPL geometric planners on a workspace: the flat baseline, and the local planner of legs."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+from maps.seeding import RandomState, as_generator
+from planners.errors import InvalidQueryError, NoPathError
+from planners.path import Path
+from planners.workspace import Workspace
+
+ou.setLogLevel(ou.LOG_WARN)
+
+#: OMPL geometric planners that solve a single start/goal query.
+PLANNERS = (
+    "AORRTC",
+    "BFMT",
+    "BITstar",
+    "BKPIECE1",
+    "FMT",
+    "InformedRRTstar",
+    "KPIECE1",
+    "LBKPIECE1",
+    "PRM",
+    "PRMstar",
+    "RRT",
+    "RRTConnect",
+    "RRTstar",
+    "SORRTstar",
+)
+#: Planners whose roadmap is kept between queries.
+ROADMAP_PLANNERS = ("PRM", "PRMstar")
+
+
+class _ExactMotion(ob.MotionValidator):
+    """OMPL motion validator that defers to the workspace's exact straight-motion test."""
+
+    def __init__(self, si: ob.SpaceInformation, space: Workspace) -> None:
+        super().__init__(si)
+        self._space = space
+
+    def checkMotion(self, s1: Any, s2: Any, *last_valid: Any) -> bool:  # noqa: N802 (OMPL API)
+        if last_valid:
+            raise NotImplementedError("motion checks reporting the last valid state")
+        return self._space.segment_free((s1[0], s1[1]), (s2[0], s2[1]))
+
+
+class FlatPlanner:
+    """An OMPL geometric planner over the whole workspace (or a box of it).
+
+    The state space is ``RealVectorStateSpace(2)`` in ``bounds``; a state is valid when the
+    workspace says so, and motions are checked exactly (see :mod:`planners.workspace`); the
+    validity checking resolution is one cell. Only exact solutions count; the solution is
+    simplified by OMPL's ``PathSimplifier``.
+
+    Parameters
+    ----------
+    space
+        The free space.
+    planner
+        Name of an OMPL geometric planner (:data:`PLANNERS`).
+    time_limit
+        Seconds allowed per query.
+    bounds
+        ``(xmin, ymin, xmax, ymax)`` of the state space; the map's bounds by default.
+    simplify
+        Simplify solutions with ``PathSimplifier.simplifyMax``.
+    random_state
+        Seeds OMPL's random number generator. OMPL has one seed per process: only the
+        first planner made in a process makes runs repeatable.
+    """
+
+    def __init__(
+        self,
+        space: Workspace,
+        planner: str = "RRTConnect",
+        *,
+        time_limit: float = 10.0,
+        bounds: tuple[float, float, float, float] | None = None,
+        simplify: bool = True,
+        random_state: RandomState = 0,
+    ) -> None:
+        if planner not in PLANNERS:
+            raise ValueError(f"unknown OMPL planner {planner!r}; known: {', '.join(PLANNERS)}")
+        if not time_limit > 0:
+            raise ValueError(f"time_limit must be > 0 seconds, got {time_limit}")
+        ou.RNG.setSeed(int(as_generator(random_state).integers(1, 2**31 - 1)))
+        self.space, self.time_limit, self.simplify = space, float(time_limit), simplify
+        self.name = f"flat_{planner.lower()}"
+        xmin, ymin, xmax, ymax = space.grid.bounds() if bounds is None else bounds
+        self._state_space = ob.RealVectorStateSpace(2)
+        box = ob.RealVectorBounds(2)
+        box.setLow(0, xmin)
+        box.setLow(1, ymin)
+        box.setHigh(0, xmax)
+        box.setHigh(1, ymax)
+        self._state_space.setBounds(box)
+        self._si = ob.SpaceInformation(self._state_space)
+        free = space.point_free
+        self._si.setStateValidityChecker(lambda s: free(s[0], s[1]))
+        self._motion = _ExactMotion(self._si, space)
+        self._si.setMotionValidator(self._motion)
+        extent = max(xmax - xmin, ymax - ymin, space.grid.resolution)
+        self._si.setStateValidityCheckingResolution(space.grid.resolution / extent)
+        self._si.setup()
+        self._planner = getattr(og, planner)(self._si)
+        self._keeps_roadmap = planner in ROADMAP_PLANNERS
+        if self._keeps_roadmap:
+            self._planner.setProblemDefinition(ob.ProblemDefinition(self._si))
+            self._planner.setup()
+
+    def grow_roadmap(self, seconds: float) -> None:
+        """Grow a roadmap planner's graph for ``seconds`` before any query (preprocessing)."""
+        if not self._keeps_roadmap:
+            raise ValueError(f"{self.name} keeps no roadmap")
+        self._planner.growRoadmap(seconds)
+
+    def plan(self, start: ArrayLike, goal: ArrayLike) -> Path:
+        """Plan from ``start`` to ``goal``.
+
+        Raises
+        ------
+        InvalidQueryError
+            A start or goal a robot cannot stand on, or outside the planner's bounds.
+        NoPathError
+            No exact solution within the time limit, or start and goal are not connected.
+        """
+        clock = time.perf_counter()
+        s, g = self.space.check(start, "start"), self.space.check(goal, "goal")
+        if self.space.component_at(s) != self.space.component_at(g):
+            raise NoPathError(f"start {s} and goal {g} lie in different parts of the free space")
+        problem = ob.ProblemDefinition(self._si)
+        problem.setStartAndGoalStates(self._state(s, "start"), self._state(g, "goal"))
+        if self._keeps_roadmap:
+            self._planner.clearQuery()
+            # any path is accepted: PRM returns the first one its roadmap finds
+            problem.setOptimizationObjective(_first_solution(self._si))
+        else:
+            self._planner.clear()
+        self._planner.setProblemDefinition(problem)
+        self._planner.solve(self.time_limit)
+        if not problem.hasExactSolution():
+            raise NoPathError(f"{self.name} found no path from {s} to {g} in {self.time_limit:g} s")
+        solution = problem.getSolutionPath()
+        planned = time.perf_counter()
+        if self.simplify:
+            og.PathSimplifier(self._si).simplifyMax(solution)
+        waypoints = np.array(
+            [
+                (solution.getState(i)[0], solution.getState(i)[1])
+                for i in range(solution.getStateCount())
+            ]
+        )
+        done = time.perf_counter()
+        return Path(
+            waypoints,
+            self.name,
+            seconds={"planning": planned - clock, "simplification": done - planned},
+        )
+
+    def _state(self, point: tuple[float, float], what: str) -> Any:
+        state = self._state_space.allocState()
+        state[0], state[1] = point
+        if not self._state_space.satisfiesBounds(state):
+            raise InvalidQueryError(f"{what} {point} lies outside the planner's bounds")
+        return state
+
+
+def _first_solution(si: ob.SpaceInformation) -> ob.OptimizationObjective:
+    objective = ob.PathLengthOptimizationObjective(si)
+    objective.setCostThreshold(ob.Cost(float("inf")))
+    return objective

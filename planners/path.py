@@ -1,0 +1,142 @@
+"""A planned path, and shortening a valid polyline without leaving the free space."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from planners.workspace import PointLike, Workspace
+
+
+def polyline_length(waypoints: ArrayLike) -> float:
+    """Length of a polyline, metres."""
+    p = np.asarray(waypoints, float).reshape(-1, 2)
+    return float(np.hypot(*np.diff(p, axis=0).T).sum())
+
+
+@dataclass(frozen=True)
+class Path:
+    """A collision-free path from start to goal.
+
+    Attributes
+    ----------
+    waypoints
+        ``(n, 2)`` map-frame points, start first, goal last.
+    planner
+        Name of the planner that made it.
+    regions
+        Regions crossed, in order (empty for planners that do not know regions).
+    seconds
+        Time per stage of the query, e.g. ``graph_search``, ``local_planning``, ``smoothing``.
+    """
+
+    waypoints: NDArray[np.float64]
+    planner: str
+    regions: tuple[int, ...] = ()
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def length(self) -> float:
+        """Length in metres."""
+        return polyline_length(self.waypoints)
+
+    @property
+    def total_seconds(self) -> float:
+        """Whole query time."""
+        return float(sum(self.seconds.values()))
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready description."""
+        return {
+            "planner": self.planner,
+            "length_m": round(self.length, 4),
+            "waypoints": [[round(float(x), 4), round(float(y), 4)] for x, y in self.waypoints],
+            "regions": list(self.regions),
+            "seconds": {k: round(v, 6) for k, v in self.seconds.items()},
+        }
+
+
+def shortcut(space: Workspace, waypoints: ArrayLike) -> NDArray[np.intp]:
+    """Indices of the points of a valid polyline worth keeping: from each kept point, go
+    straight to the last point of the run of later points it sees. The kept polyline is
+    valid."""
+    p = np.asarray(waypoints, float).reshape(-1, 2)
+    kept = [0]
+    while kept[-1] < len(p) - 1:
+        i = kept[-1]
+        j = i + 1
+        while j + 1 < len(p) and space.segment_free(p[i], p[j + 1]):
+            j += 1
+        kept.append(j)
+    return np.array(kept)
+
+
+def slide_through_portals(
+    space: Workspace,
+    waypoints: ArrayLike,
+    portals: Mapping[int, tuple[PointLike, PointLike]],
+    *,
+    passes: int = 50,
+) -> NDArray[np.float64]:
+    """Shorten a valid polyline by moving the points where it crosses portals (door lines)
+    along them, keeping every segment valid.
+
+    Each pass puts every crossing point, in turn, where the polyline through its neighbours
+    is shortest on its portal segment (the straight line between the neighbours, or the line
+    to the neighbour mirrored in the portal, clamped to the segment), backing off by halves
+    when that move would make a segment invalid. Passes stop when no point moves by more
+    than a thousandth of a cell.
+
+    Parameters
+    ----------
+    space
+        The free space the polyline lies in.
+    waypoints
+        ``(n, 2)`` valid polyline.
+    portals
+        Waypoint index -> ``(end, end)`` of the segment that point may slide on.
+    """
+    p = np.asarray(waypoints, float).reshape(-1, 2).copy()
+    tolerance = space.grid.resolution * 1e-3
+    for _ in range(passes):
+        largest = 0.0
+        for i, (e1, e2) in portals.items():
+            if not 0 < i < len(p) - 1:
+                continue
+            best = _best_on_segment(
+                p[i - 1], p[i + 1], np.asarray(e1, float), np.asarray(e2, float)
+            )
+            for _halving in range(8):
+                if space.segment_free(p[i - 1], best) and space.segment_free(best, p[i + 1]):
+                    largest = max(largest, float(np.hypot(*(best - p[i]))))
+                    p[i] = best
+                    break
+                best = (best + p[i]) / 2
+        if largest < tolerance:
+            break
+    return p
+
+
+def _best_on_segment(
+    a: NDArray[np.float64], c: NDArray[np.float64], e1: NDArray[np.float64], e2: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The point of segment ``e1 e2`` minimising the distance from ``a`` plus to ``c``."""
+    along = e2 - e1
+    span = float(along @ along)
+    if span == 0:
+        return e1.copy()
+    normal = np.array([-along[1], along[0]])
+    side_a, side_c = float((a - e1) @ normal), float((c - e1) @ normal)
+    if side_a * side_c > 0:  # same side: mirror c in the portal line
+        c = c - 2 * side_c / span * normal
+        side_c = -side_c
+    if side_a == side_c:
+        t = float((a - e1) @ along) / span
+    else:
+        hit = a + side_a / (side_a - side_c) * (c - a)
+        t = float((hit - e1) @ along) / span
+    return e1 + min(max(t, 0.0), 1.0) * along

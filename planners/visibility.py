@@ -1,0 +1,162 @@
+"""Reference planner: the exact shortest path, from the visibility graph of obstacle corners.
+
+In the inflated grid the free space is a union of cells; its shortest paths bend only at
+grid vertices where three of the four cells are free (convex obstacle corners). The graph
+joins corner pairs in straight sight whose line is tangent to the obstacle at both ends;
+a query joins start and goal to the corners they see and runs Dijkstra. Motions use the
+workspace's exact validity rule, so the length is the optimum every planner is judged by.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import sparse
+from scipy.sparse.csgraph import dijkstra
+
+from planners.errors import NoPathError
+from planners.path import Path
+from planners.workspace import Workspace, cell_beyond
+
+#: Candidate pairs tested at once (bounds memory, not results).
+_CHUNK = 2_000_000
+
+
+class VisibilityGraph:
+    """Exact Euclidean shortest paths in a :class:`~planners.workspace.Workspace`.
+
+    Parameters
+    ----------
+    space
+        The free space; building the graph is the preprocessing, timed in
+        :attr:`build_seconds`.
+    """
+
+    name = "exact"
+
+    def __init__(self, space: Workspace) -> None:
+        clock = time.perf_counter()
+        self.space = space
+        self.corners, self._blocked = _convex_corners(space.free)
+        n = len(self.corners)
+        rows, cols = [], []
+        per_chunk = max(1, _CHUNK // max(n, 1))  # corners whose pairs are tested together
+        for first in range(0, n, per_chunk):
+            i, j = _pairs(first, min(n, first + per_chunk), n)
+            keep = _tangent(self.corners[j] - self.corners[i], self._blocked[i])
+            keep &= _tangent(self.corners[j] - self.corners[i], self._blocked[j])
+            i, j = i[keep], j[keep]
+            seen = self._visible(self.corners[i], self.corners[j])
+            rows.append(i[seen])
+            cols.append(j[seen])
+        i, j = np.concatenate([*rows, []]).astype(int), np.concatenate([*cols, []]).astype(int)
+        length = np.hypot(*(self.corners[j] - self.corners[i]).T) * space.grid.resolution
+        self._edges = (i, j, length)
+        self.build_seconds = time.perf_counter() - clock
+
+    @property
+    def n_edges(self) -> int:
+        """Corner-to-corner edges in the graph."""
+        return len(self._edges[0])
+
+    def _visible(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Exact straight-sight test of lattice segments, cheap samples first."""
+        alive = np.ones(len(a), bool)
+        d = b - a
+        sampled = np.all(d != 0, axis=1)  # motions along grid lines go to the exact test
+        longest = float(np.abs(d).max(initial=1.0))
+        level = 1
+        while longest / 2**level > 2 and alive.any():  # samples until 2 cells apart
+            idx = np.flatnonzero(alive & sampled)
+            for frac in np.arange(1, 2**level, 2) / 2**level:
+                p = a[idx] + frac * d[idx]
+                ok = self.space.cells_free(
+                    cell_beyond(p[:, 0], d[idx, 0]), cell_beyond(p[:, 1], d[idx, 1])
+                )
+                alive[idx[~ok]] = False
+                idx = idx[ok]
+            level += 1
+        idx = np.flatnonzero(alive)
+        for chunk in np.array_split(idx, max(1, len(idx) // 20_000)):
+            alive[chunk] = self.space.lattice_segments_free(a[chunk], b[chunk])
+        return alive
+
+    def plan(self, start: ArrayLike, goal: ArrayLike) -> Path:
+        """The shortest valid path from ``start`` to ``goal``.
+
+        Raises
+        ------
+        InvalidQueryError
+            A start or goal a robot cannot stand on.
+        NoPathError
+            Start and goal lie in different pieces of the free space.
+        """
+        clock = time.perf_counter()
+        space = self.space
+        s, g = space.check(start, "start"), space.check(goal, "goal")
+        if space.component_at(s) != space.component_at(g):
+            raise NoPathError(f"start {s} and goal {g} lie in different parts of the free space")
+        n = len(self.corners)
+        ends = space.to_lattice([s, g])
+        i, j, length = self._edges
+        rows, cols, weights = [i], [j], [length]
+        for end, node in ((ends[0], n), (ends[1], n + 1)):
+            d = self.corners - end
+            candidates = np.flatnonzero(_tangent(d, self._blocked))
+            a = np.repeat(end[None], len(candidates), axis=0)
+            seen = candidates[space.lattice_segments_free(a, self.corners[candidates])]
+            rows.append(np.full(len(seen), node))
+            cols.append(seen)
+            weights.append(np.hypot(*d[seen].T) * space.grid.resolution)
+        if space.segment_free(s, g):
+            rows.append(np.array([n]))
+            cols.append(np.array([n + 1]))
+            weights.append(np.array([np.hypot(s[0] - g[0], s[1] - g[1])]))
+        graph = sparse.coo_matrix(
+            (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+            shape=(n + 2, n + 2),
+        ).tocsr()
+        dist, parent = dijkstra(graph, directed=False, indices=n, return_predecessors=True)
+        if not np.isfinite(dist[n + 1]):
+            raise NoPathError(f"no path found from {s} to {g}")
+        order = [n + 1]
+        while order[-1] != n:
+            order.append(int(parent[order[-1]]))
+        nodes = np.vstack([self.corners, ends])
+        waypoints = space.from_lattice(nodes[order[::-1]])
+        waypoints[0], waypoints[-1] = s, g
+        return Path(waypoints, self.name, seconds={"search": time.perf_counter() - clock})
+
+
+def _convex_corners(free: NDArray[np.bool_]) -> tuple[NDArray[np.float64], NDArray[np.int8]]:
+    """Lattice vertices with exactly one blocked cell around them, and that cell's quadrant
+    ``(sign u, sign v)`` seen from the vertex."""
+    lattice = np.pad(free[::-1], 1)  # lattice[v + 1, u + 1] is cell (u, v); off-grid blocked
+    quads = {
+        (-1, -1): lattice[:-1, :-1],
+        (1, -1): lattice[:-1, 1:],
+        (-1, 1): lattice[1:, :-1],
+        (1, 1): lattice[1:, 1:],
+    }
+    count = sum(q.astype(np.int8) for q in quads.values())
+    points, signs = [], []
+    for sign, quad in quads.items():
+        v, u = np.nonzero((count == 3) & ~quad)
+        points.append(np.column_stack([u, v]).astype(float))
+        signs.append(np.tile(np.array(sign, np.int8), (len(u), 1)))
+    return np.concatenate(points), np.concatenate(signs)
+
+
+def _pairs(first: int, last: int, n: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """All ``(i, j)`` with ``first <= i < last`` and ``i < j < n``."""
+    counts = n - 1 - np.arange(first, last)
+    i = np.repeat(np.arange(first, last), counts)
+    j = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + i + 1
+    return i, j
+
+
+def _tangent(d: NDArray[np.float64], blocked: NDArray[np.int8]) -> NDArray[np.bool_]:
+    """Whether the line through a corner along ``d`` leaves its blocked cell on one side."""
+    return d[:, 0] * d[:, 1] * blocked[:, 0] * blocked[:, 1] <= 0
