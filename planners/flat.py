@@ -91,7 +91,7 @@ class FlatPlanner:
             raise ValueError(f"unknown OMPL planner {planner!r}; known: {', '.join(PLANNERS)}")
         if not time_limit > 0:
             raise ValueError(f"time_limit must be > 0 seconds, got {time_limit}")
-        ou.RNG.setSeed(int(as_generator(random_state).integers(1, 2**31 - 1)))
+        _seed_once(random_state)
         self.space, self.time_limit, self.simplify = space, float(time_limit), simplify
         self.name = f"flat_{planner.lower()}"
         xmin, ymin, xmax, ymax = space.grid.bounds() if bounds is None else bounds
@@ -171,6 +171,18 @@ class FlatPlanner:
         if not self._state_space.satisfiesBounds(state):
             raise InvalidQueryError(f"{what} {point} lies outside the planner's bounds")
         return state
+
+
+_seeded = False
+
+
+def _seed_once(random_state: RandomState) -> None:
+    """Seed OMPL's process-wide generator the first time a planner is made; OMPL warns and
+    ignores later seeds once sampling has started."""
+    global _seeded
+    if not _seeded and random_state is not None:
+        ou.RNG.setSeed(int(as_generator(random_state).integers(1, 2**31 - 1)))
+        _seeded = True
 
 
 def _first_solution(si: ob.SpaceInformation) -> ob.OptimizationObjective:

@@ -1,5 +1,5 @@
 """``python -m topomap`` runs the command line."""
 
-from topomap.cli import main
+from topomap.cli import run
 
-raise SystemExit(main())
+run()

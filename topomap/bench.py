@@ -4,17 +4,25 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from maps.errors import MapFileNotFoundError
 from maps.floorplan import generate_floor_plan
+from maps.grid import OccupancyGrid
 from maps.laser_sim import LaserModel, RayCaster, simulate_scans
 from maps.scan import Keyframe, select_keyframes
 from maps.wander import wander
+from planners.benchmark import Planner, far_queries, run_queries, summarise, write_report
+from planners.flat import FlatPlanner
+from planners.grid_astar import GridAStar
+from planners.visibility import VisibilityGraph
 from segmentation.naive import naive_segment
 from segmentation.spectral import SpectralSegmenter
+from topomap.topomap import TopoMap
 
 
 def bench_sim(
@@ -111,3 +119,78 @@ def bench_segment(
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps(records, indent=2))
     return records
+
+
+#: Generated buildings of the planning benchmark: result name -> generator size.
+BUILDINGS = {"generated-flat": "flat", "generated-office": "office", "generated-campus": "campus"}
+
+
+def plan_maps(
+    sizes: tuple[str, ...] = ("flat", "office", "campus"),
+    maps_dir: str | Path | None = None,
+    seed: int = 0,
+) -> Iterator[tuple[str, OccupancyGrid]]:
+    """The benchmark's maps: generated buildings of ``sizes`` (empty, seed ``seed``), then
+    every map YAML in ``maps_dir``."""
+    for name, size in BUILDINGS.items():
+        if size in sizes:
+            yield name, generate_floor_plan(size, random_state=seed).grid
+    if maps_dir is not None:
+        folder = Path(maps_dir)
+        if not folder.is_dir():
+            raise MapFileNotFoundError(folder, "maps folder")
+        yamls = sorted(folder.glob("*.yaml"))
+        if not yamls:
+            raise MapFileNotFoundError(folder / "*.yaml", "map YAML")
+        for yaml in yamls:
+            yield yaml.stem, OccupancyGrid.load(yaml)
+
+
+def bench_plan(
+    out: str | Path,
+    *,
+    sizes: tuple[str, ...] = ("flat", "office", "campus"),
+    maps_dir: str | Path | None = None,
+    queries: int = 30,
+    robot_radius: float = 0.2,
+    time_limit: float = 20.0,
+    seed: int = 0,
+    progress: Callable[[Any], Any] = iter,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Hierarchical planning against flat OMPL RRTConnect, flat PRM (roadmap kept across
+    queries) and grid A*, on the same far-apart queries of every map of :func:`plan_maps`.
+
+    Preprocessing is timed apart per map: segmentation, submaps, door-to-door legs, PRM's
+    roadmap (grown for one second per 1000 m^2 of free space, 2 to 30 s) and the exact
+    reference (visibility graph). Writes the files of
+    :func:`planners.benchmark.write_report` to ``out``; returns the records and the summary.
+    """
+    records: list[dict[str, Any]] = []
+    preprocessing: dict[str, dict[str, float]] = {}
+    for name, grid in plan_maps(sizes, maps_dir, seed):
+        clock = time.perf_counter()
+        topo = TopoMap.from_grid(grid, random_state=seed)
+        pre = {"segmentation": time.perf_counter() - clock}
+        hierarchical = topo.planner(robot_radius, random_state=seed)
+        space = hierarchical.space
+        pre["submaps"] = hierarchical.build_seconds
+        pre["legs"] = hierarchical.prepare()
+        rrt = FlatPlanner(space, "RRTConnect", time_limit=time_limit, random_state=seed)
+        prm = FlatPlanner(space, "PRM", time_limit=time_limit, random_state=seed)
+        free_area = float(space.free.sum()) * grid.resolution**2
+        pre["prm_roadmap"] = min(30.0, max(2.0, free_area / 1000))
+        prm.grow_roadmap(pre["prm_roadmap"])
+        clock = time.perf_counter()
+        astar = GridAStar(space)
+        pre["grid_astar"] = time.perf_counter() - clock
+        reference = VisibilityGraph(space)
+        pre["exact_reference"] = reference.build_seconds
+        preprocessing[name] = {k: round(v, 3) for k, v in pre.items()}
+        preprocessing[name]["regions"] = topo.graph.number_of_nodes()
+        preprocessing[name]["submaps_count"] = len(hierarchical.region_of)
+        pairs = far_queries(space, queries, random_state=seed)
+        planners: list[Planner] = [hierarchical, rrt, prm, astar]
+        records += run_queries(name, space, planners, reference, pairs, progress=progress)
+    summary = summarise(records)
+    write_report(out, records, summary, preprocessing)
+    return records, summary

@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 from maps.errors import MapsError
+from planners.errors import PlanningError
 
 
 def _table(rows: list[dict[str, object]], columns: list[str]) -> str:
@@ -191,6 +193,72 @@ def cmd_bench_segment(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench_plan(args: argparse.Namespace) -> int:
+    from planners.benchmark import markdown_table
+    from topomap.bench import bench_plan
+
+    _, summary = bench_plan(
+        args.out,
+        sizes=tuple(args.sizes),
+        maps_dir=args.maps,
+        queries=args.queries,
+        robot_radius=args.robot_radius,
+        time_limit=args.time_limit,
+        progress=_progress,
+    )
+    print(markdown_table(summary))
+    print(f"wrote {args.out}/results.json, results.md, summary.json, preprocessing.json, times.png")
+    return 0
+
+
+def _point(text: str, what: str) -> tuple[float, float]:
+    """``"X,Y"`` as two floats, or a ValueError naming the option."""
+    parts = text.split(",")
+    try:
+        x, y = (float(p) for p in parts)
+    except ValueError:
+        raise ValueError(f"{what} must be X,Y in metres, got {text!r}") from None
+    return x, y
+
+
+def _goal(text: str) -> tuple[float, float] | int | str:
+    """``--goal``: ``X,Y`` is a point, a whole number a region id, anything else a name."""
+    if "," in text:
+        return _point(text, "--goal")
+    return int(text) if text.strip().isdigit() else text
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    from maps.grid import OccupancyGrid
+    from planners.flat import FlatPlanner
+    from planners.hierarchical import HierarchicalPlanner
+    from planners.workspace import Workspace
+    from segmentation.export import read_graphml, read_label_image
+    from topomap.drawing import draw_paths
+    from topomap.topomap import TopoMap
+
+    grid = OccupancyGrid.load(args.map)
+    start = _point(args.start, "--start")
+    goal = _goal(args.goal)
+    if args.regions is not None:
+        folder = Path(args.regions)
+        labels = read_label_image(folder / "regions.png")
+        graph = read_graphml(folder / "graph.graphml")
+        planner = HierarchicalPlanner(Workspace(grid, args.robot_radius), labels, graph)
+    else:
+        planner = TopoMap.from_grid(grid).planner(args.robot_radius)
+    path = planner.plan(start, goal)
+    result = path.to_dict()
+    result["region_names"] = [planner.graph.nodes[r].get("name", str(r)) for r in path.regions]
+    if args.draw is not None:
+        paths = {"hierarchical": path}
+        if args.compare:
+            paths["flat RRTConnect"] = FlatPlanner(planner.space).plan(start, path.waypoints[-1])
+        draw_paths(args.draw, grid, planner.labels, paths, title=Path(args.map).name)
+    print(json.dumps(result))
+    return 0
+
+
 def _progress(items: Iterator[Any]) -> Iterator[Any]:
     """A tqdm progress bar on stderr when tqdm is installed."""
     try:
@@ -275,7 +343,38 @@ def build_parser() -> argparse.ArgumentParser:
     seg_bench.add_argument("--naive-up-to", type=int, default=2_000)
     seg_bench.add_argument("--building", default="campus", choices=["flat", "office", "campus"])
     seg_bench.set_defaults(func=cmd_bench_segment)
+    plan_bench = bench_sub.add_parser("plan", help="hierarchical against flat planning")
+    plan_bench.add_argument("--out", default="out/bench-plan")
+    plan_bench.add_argument("--maps", help="also every map YAML in this folder")
+    plan_bench.add_argument(
+        "--sizes", nargs="*", default=["flat", "office", "campus"], help="generated buildings"
+    )
+    plan_bench.add_argument("--queries", type=int, default=30, help="per map")
+    plan_bench.add_argument("--robot-radius", type=float, default=0.2, help="metres")
+    plan_bench.add_argument("--time-limit", type=float, default=20.0, help="flat planners, s")
+    plan_bench.set_defaults(func=cmd_bench_plan)
+
+    plan = sub.add_parser("plan", help="plan a path on a map, print it as JSON")
+    plan.add_argument("map", help="map_server YAML")
+    plan.add_argument("--start", required=True, help="X,Y in metres")
+    plan.add_argument("--goal", required=True, help="X,Y in metres, a region id or a name")
+    plan.add_argument("--regions", help="folder written by `topomap segment` (else segment now)")
+    plan.add_argument("--robot-radius", type=float, default=0.2, help="metres")
+    plan.add_argument("--draw", help="write a PNG of the path")
+    plan.add_argument(
+        "--compare", action="store_true", help="also draw a flat RRTConnect path (with --draw)"
+    )
+    plan.set_defaults(func=cmd_plan)
     return parser
+
+
+def run() -> None:
+    """The console script: :func:`main`, then exit without the interpreter's teardown, where
+    OMPL's bindings would report leaked objects."""
+    status = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -287,6 +386,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     try:
         return int(args.func(args))
-    except (MapsError, FileNotFoundError, FileExistsError, ValueError) as err:
+    except (MapsError, PlanningError, FileNotFoundError, FileExistsError, ValueError) as err:
         print(f"topomap: error: {err}", file=sys.stderr)
         return 2

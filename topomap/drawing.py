@@ -120,3 +120,34 @@ def draw_regions(
     fig.savefig(path, dpi=150, bbox_inches="tight")
     plt.close(fig)
     return path
+
+
+def draw_paths(
+    path: str | Path,
+    grid: OccupancyGrid,
+    labels: NDArray[np.integer],
+    paths: dict[str, Any],
+    title: str = "",
+) -> Path:
+    """Write a PNG of planned paths (``label -> Path``) over the regions, with their lengths
+    and query times in the legend."""
+    plt = _pyplot()
+    xmin, ymin, xmax, ymax = grid.bounds()
+    width = 12.0
+    fig, ax = plt.subplots(figsize=(width, max(3.0, width * (ymax - ymin) / (xmax - xmin))))
+    show_grid(ax, grid)
+    colours = region_colours(int(labels.max(initial=0)))
+    ax.imshow(colours[labels], extent=(xmin, xmax, ymin, ymax), interpolation="nearest", alpha=0.4)
+    for k, (label, planned) in enumerate(paths.items()):
+        points = planned.waypoints
+        text = f"{label}: {planned.length:.1f} m, {1000 * planned.total_seconds:.1f} ms"
+        ax.plot(points[:, 0], points[:, 1], "-", color=f"C{k}", lw=2, label=text)
+    first = next(iter(paths.values())).waypoints
+    ax.plot(*first[0], "o", color="green", ms=8)
+    ax.plot(*first[-1], "*", color="red", ms=12)
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title(title)
+    path = Path(path)
+    fig.savefig(path, dpi=150, bbox_inches="tight")
+    plt.close(fig)
+    return path

@@ -11,12 +11,15 @@ from typing import Any
 
 import networkx as nx
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
+from planners.hierarchical import HierarchicalPlanner
+from planners.path import Path as PlannedPath
+from planners.workspace import Workspace
 from segmentation.export import write_geojson, write_graphml, write_label_image, write_node_link
 from segmentation.graph import region_graph
 from segmentation.refine import basins, count_basins, merge_open_boundaries, snap_to_basins
@@ -59,6 +62,9 @@ class TopoMap:
     regions: Regions
     graph: nx.Graph
     seconds: dict[str, float] = field(default_factory=dict)
+    _planners: dict[tuple, HierarchicalPlanner] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
     @classmethod
     def from_grid(
@@ -140,6 +146,25 @@ class TopoMap:
     def region_at(self, x: float, y: float) -> int:
         """The region id at map point ``(x, y)``, 0 if none."""
         return self.regions.at(x, y)
+
+    def planner(self, robot_radius: float = 0.2, **options: Any) -> HierarchicalPlanner:
+        """The hierarchical planner on this map for a disc robot of ``robot_radius`` metres
+        (made once per radius and kept, with its leg cache). ``options`` go to
+        :class:`~planners.hierarchical.HierarchicalPlanner`."""
+        key = (robot_radius, tuple(sorted(options.items())))
+        if key not in self._planners:
+            space = Workspace(self.grid, robot_radius)
+            self._planners[key] = HierarchicalPlanner(
+                space, self.regions.labels, self.graph, **options
+            )
+        return self._planners[key]
+
+    def plan(
+        self, start: ArrayLike, goal: ArrayLike | int | str, *, robot_radius: float = 0.2
+    ) -> PlannedPath:
+        """Plan from ``start`` to ``goal`` (a point, a region id or a region name) with
+        :meth:`planner`."""
+        return self.planner(robot_radius).plan(start, goal)
 
     def keyframe_regions(self) -> NDArray[np.int64]:
         """Region of each keyframe's position (0 if it is not on a free cell)."""

@@ -1,0 +1,230 @@
+"""The planning benchmark: planners side by side on the same far-apart queries.
+
+Each query is run by every planner in turn (so machine noise hits them alike) and checked
+independently: the path must join start and goal, be collision-free when sampled every tenth
+of a cell against the inflated map, and its length is compared with the exact shortest path.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from maps.seeding import RandomState, as_generator
+from planners.errors import PlanningError
+from planners.path import Path as PlannedPath
+from planners.visibility import VisibilityGraph
+from planners.workspace import Point, Workspace
+
+#: Benchmark names of the planners, in table order.
+PLANNER_NAMES = ("hierarchical", "flat_rrtconnect", "flat_prm", "grid_astar")
+
+
+class Planner(Protocol):
+    """Anything with a ``name`` and ``plan(start, goal) -> Path``."""
+
+    name: str
+
+    def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath: ...
+
+
+def far_queries(
+    space: Workspace, count: int, *, random_state: RandomState = 0, min_fraction: float = 1 / 3
+) -> list[tuple[Point, Point]]:
+    """``count`` start/goal pairs of free points in the same piece of free space, at least
+    ``min_fraction`` of the map's diagonal apart.
+
+    Raises
+    ------
+    ValueError
+        When 1000 tries per query find none (a map with no two far-apart free points).
+    """
+    rng = as_generator(random_state)
+    rows, cols = np.nonzero(space.free)
+    if len(rows) == 0:
+        raise ValueError("the map has no free cell for the robot")
+    xs, ys = space.grid.cell_to_world(rows, cols)
+    xmin, ymin, xmax, ymax = space.grid.bounds()
+    least = min_fraction * math.hypot(xmax - xmin, ymax - ymin)
+    queries: list[tuple[Point, Point]] = []
+    for _ in range(1000 * count):
+        if len(queries) == count:
+            return queries
+        i, j = rng.integers(len(rows), size=2)
+        if math.hypot(xs[i] - xs[j], ys[i] - ys[j]) < least:
+            continue
+        if space.components[rows[i], cols[i]] != space.components[rows[j], cols[j]]:
+            continue
+        queries.append(((float(xs[i]), float(ys[i])), (float(xs[j]), float(ys[j]))))
+    raise ValueError(f"found only {len(queries)} of {count} queries {least:.1f} m apart")
+
+
+def run_queries(
+    map_name: str,
+    space: Workspace,
+    planners: Sequence[Planner],
+    reference: VisibilityGraph,
+    queries: Sequence[tuple[Point, Point]],
+    *,
+    progress: Callable[[Any], Any] = iter,
+) -> list[dict[str, Any]]:
+    """Run every planner on every query; one record per planner and query.
+
+    Records hold ``map``, ``planner``, ``query``, ``success``, ``seconds`` (wall time of the
+    ``plan`` call), ``length_m``, ``optimal_m`` (exact shortest path), ``collisions``
+    (samples off the free space) and ``error`` (why it failed, or None).
+    """
+    records = []
+    for index, (start, goal) in progress(list(enumerate(queries))):
+        optimal = reference.plan(start, goal).length
+        for planner in planners:
+            clock = time.perf_counter()
+            path: PlannedPath | None = None
+            error: str | None = None
+            try:
+                path = planner.plan(start, goal)
+            except PlanningError as err:
+                error = str(err)
+            seconds = time.perf_counter() - clock
+            records.append(_record(map_name, planner.name, index, seconds, optimal, error))
+            if path is not None:
+                joins = np.allclose(path.waypoints[[0, -1]], [start, goal], atol=1e-9)
+                records[-1].update(
+                    success=bool(joins),
+                    length_m=round(path.length, 4),
+                    collisions=space.collisions(path.waypoints),
+                    error=None if joins else "the path does not join start and goal",
+                )
+    return records
+
+
+def _record(
+    map_name: str, planner: str, query: int, seconds: float, optimal: float, error: str | None
+) -> dict[str, Any]:
+    return {
+        "map": map_name,
+        "planner": planner,
+        "query": query,
+        "success": False,
+        "seconds": round(seconds, 6),
+        "length_m": None,
+        "optimal_m": round(optimal, 4),
+        "collisions": None,
+        "error": error,
+    }
+
+
+def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per map and planner: success rate, median and 90th-percentile query time, path length
+    over the optimum (median, max), collisions, and the hierarchical planner's speed-up
+    (this planner's median time over the hierarchical one's)."""
+    rows = []
+    maps = list(dict.fromkeys(r["map"] for r in records))
+    for name in maps:
+        here = [r for r in records if r["map"] == name]
+        medians = {}
+        for planner in dict.fromkeys(r["planner"] for r in here):
+            mine = [r for r in here if r["planner"] == planner]
+            done = [r for r in mine if r["success"]]
+            times = np.array([r["seconds"] for r in mine])
+            ratios = np.array([r["length_m"] / r["optimal_m"] for r in done if r["optimal_m"]])
+            medians[planner] = float(np.median(times))
+            rows.append(
+                {
+                    "map": name,
+                    "planner": planner,
+                    "queries": len(mine),
+                    "success": round(len(done) / len(mine), 3),
+                    "median_s": round(float(np.median(times)), 4),
+                    "p90_s": round(float(np.percentile(times, 90)), 4),
+                    "length_median": round(float(np.median(ratios)), 4) if len(ratios) else None,
+                    "length_max": round(float(ratios.max()), 4) if len(ratios) else None,
+                    "collisions": int(sum(r["collisions"] or 0 for r in done)),
+                }
+            )
+        base = medians.get("hierarchical")
+        for row in rows[-len(medians) :]:
+            row["speedup"] = round(medians[row["planner"]] / base, 1) if base else None
+    return rows
+
+
+def write_report(
+    out: str | Path,
+    records: Sequence[dict[str, Any]],
+    summary: Sequence[dict[str, Any]],
+    preprocessing: dict[str, dict[str, float]],
+) -> list[Path]:
+    """Write ``results.json`` (the records), ``preprocessing.json``, ``summary.json``,
+    ``results.md`` (the table) and ``times.png`` (query times per planner and map)."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = [out / "results.json", out / "preprocessing.json", out / "summary.json"]
+    written[0].write_text(json.dumps(list(records), indent=1))
+    written[1].write_text(json.dumps(preprocessing, indent=1))
+    written[2].write_text(json.dumps(list(summary), indent=1))
+    written.append(out / "results.md")
+    written[-1].write_text(markdown_table(summary) + "\n")
+    written.append(_plot(out / "times.png", records))
+    return written
+
+
+#: Columns of the summary table.
+COLUMNS = [
+    "map",
+    "planner",
+    "success",
+    "median_s",
+    "p90_s",
+    "speedup",
+    "length_median",
+    "length_max",
+    "collisions",
+]
+
+
+def markdown_table(summary: Sequence[dict[str, Any]]) -> str:
+    """The summary as a markdown table (lengths are ratios to the exact shortest path;
+    ``speedup`` is the planner's median time over the hierarchical planner's)."""
+    lines = ["| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    for row in summary:
+        cells = ["-" if row.get(c) is None else str(row[c]) for c in COLUMNS]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _plot(path: Path, records: Sequence[dict[str, Any]]) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    maps = list(dict.fromkeys(r["map"] for r in records))
+    planners = list(dict.fromkeys(r["planner"] for r in records))
+    fig, ax = plt.subplots(figsize=(max(6, 1.6 * len(maps) * len(planners) / 2), 4.5))
+    width = 0.8 / len(planners)
+    for k, planner in enumerate(planners):
+        data = [
+            [r["seconds"] for r in records if r["map"] == m and r["planner"] == planner]
+            for m in maps
+        ]
+        spots = np.arange(len(maps)) + (k - (len(planners) - 1) / 2) * width
+        box = ax.boxplot(data, positions=spots, widths=width * 0.9, patch_artist=True)
+        for patch in box["boxes"]:
+            patch.set_facecolor(f"C{k}")
+        ax.plot([], [], color=f"C{k}", linewidth=6, label=planner)
+    ax.set_yscale("log")
+    ax.set_xticks(np.arange(len(maps)), maps, rotation=30, ha="right")
+    ax.set_ylabel("query time (s)")
+    ax.legend(fontsize=8)
+    ax.set_title("planning query times")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
