@@ -37,7 +37,7 @@ class GridAStar:
         # a one-cell blocked border: neighbours never wrap around rows
         padded = np.zeros((h + 2, w + 2), bool)
         padded[1:-1, 1:-1] = space.free
-        self._free = padded.ravel().tolist()
+        self._free = padded.tobytes()  # bytes: fast to index, not tracked by the GC
         self._padded_width = w + 2
 
     def plan(self, start: ArrayLike, goal: ArrayLike) -> Path:

@@ -80,7 +80,7 @@ def slide_through_portals(
     waypoints: ArrayLike,
     portals: Mapping[int, tuple[PointLike, PointLike]],
     *,
-    passes: int = 50,
+    passes: int = 20,
 ) -> NDArray[np.float64]:
     """Shorten a valid polyline by moving the points where it crosses portals (door lines)
     along them, keeping every segment valid.
@@ -89,7 +89,7 @@ def slide_through_portals(
     is shortest on its portal segment (the straight line between the neighbours, or the line
     to the neighbour mirrored in the portal, clamped to the segment), backing off by halves
     when that move would make a segment invalid. Passes stop when no point moves by more
-    than a thousandth of a cell.
+    than a hundredth of a cell.
 
     Parameters
     ----------
@@ -101,7 +101,7 @@ def slide_through_portals(
         Waypoint index -> ``(end, end)`` of the segment that point may slide on.
     """
     p = np.asarray(waypoints, float).reshape(-1, 2).copy()
-    tolerance = space.grid.resolution * 1e-3
+    tolerance = space.grid.resolution * 1e-2
     for _ in range(passes):
         largest = 0.0
         for i, (e1, e2) in portals.items():
@@ -110,7 +110,9 @@ def slide_through_portals(
             best = _best_on_segment(
                 p[i - 1], p[i + 1], np.asarray(e1, float), np.asarray(e2, float)
             )
-            for _halving in range(8):
+            if np.hypot(*(best - p[i])) < tolerance:
+                continue
+            for _halving in range(3):
                 if space.segment_free(p[i - 1], best) and space.segment_free(best, p[i + 1]):
                     largest = max(largest, float(np.hypot(*(best - p[i]))))
                     p[i] = best

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
-from maps.grid import OccupancyGrid
+from maps.grid import OCCUPIED_FROM, UNKNOWN, OccupancyGrid
 from planners.errors import InvalidQueryError
 
 Point = tuple[float, float]
@@ -246,16 +246,17 @@ class Workspace:
                 f"{what} ({x:g}, {y:g}) lies outside the map "
                 f"[{xmin:g}, {xmax:g}] x [{ymin:g}, {ymax:g}]"
             )
-        if self.grid.unknown[row, col]:
+        if self.free[row, col]:
+            return x, y
+        occupancy = int(self.grid.cells[row, col])
+        if occupancy == UNKNOWN:
             raise InvalidQueryError(f"{what} ({x:g}, {y:g}) lies in an unknown cell")
-        if self.grid.occupied[row, col]:
+        if occupancy >= OCCUPIED_FROM:
             raise InvalidQueryError(f"{what} ({x:g}, {y:g}) lies in a wall")
-        if not self.free[row, col]:
-            raise InvalidQueryError(
-                f"{what} ({x:g}, {y:g}) lies within the robot radius "
-                f"({self.robot_radius:g} m) of a wall or unknown space"
-            )
-        return x, y
+        raise InvalidQueryError(
+            f"{what} ({x:g}, {y:g}) lies within the robot radius "
+            f"({self.robot_radius:g} m) of a wall or unknown space"
+        )
 
 
 def sample_polyline(waypoints: ArrayLike, step: float) -> NDArray[np.float64]:
