@@ -20,12 +20,16 @@ from maps.seeding import RandomState
 from planners.hierarchical import HierarchicalPlanner
 from planners.path import Path as PlannedPath
 from planners.workspace import Workspace
+from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
 from segmentation.export import write_geojson, write_graphml, write_label_image, write_node_link
 from segmentation.graph import region_graph
 from segmentation.refine import basins, count_basins, merge_open_boundaries, snap_to_basins
 from segmentation.regions import Regions, dense_labels
 from segmentation.spectral import SpectralSegmenter
 from segmentation.virtual import virtual_keyframes
+
+#: Maps with more places (clearance basins) than this are segmented block by block.
+BLOCK_PLACES = 100
 
 
 @dataclass
@@ -42,7 +46,9 @@ class TopoMap:
     keyframes
         The keyframes that were clustered (virtual ones for a map-only input).
     segmenter
-        The fitted :class:`~segmentation.spectral.SpectralSegmenter`.
+        The fitted :class:`~segmentation.spectral.SpectralSegmenter`, or for maps of more
+        than :data:`BLOCK_PLACES` places the
+        :class:`~segmentation.blocks.BlockSpectralSegmenter` that ran one per block.
     spectral
         The spectral partition alone, made dense (every free cell gets the cluster of its
         geodesically nearest keyframe).
@@ -57,7 +63,7 @@ class TopoMap:
 
     grid: OccupancyGrid
     keyframes: list[Keyframe]
-    segmenter: SpectralSegmenter
+    segmenter: SpectralSegmenter | BlockSpectralSegmenter
     spectral: Regions
     regions: Regions
     graph: nx.Graph
@@ -125,14 +131,20 @@ class TopoMap:
             clock = now
 
         basin = basins(grid) if refine or segmenter.k is None else None
+        fitted: SpectralSegmenter | BlockSpectralSegmenter = segmenter
         if segmenter.k is None:
             assert basin is not None
-            segmenter = replace(segmenter, k=min(len(keyframes), count_basins(grid, basin)))
-        segmenter.fit(keyframes)
+            places = count_basins(grid, basin)
+            if places > BLOCK_PLACES:
+                blocks, per_block = keyframe_blocks(grid, basin, keyframes, BLOCK_PLACES)
+                fitted = BlockSpectralSegmenter(segmenter, blocks, per_block)
+            else:
+                fitted = replace(segmenter, k=min(len(keyframes), places))
+        fitted.fit(keyframes)
         lap("spectral")
         poses = poses_array(keyframes)
         rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])
-        spectral = Regions(grid, dense_labels(grid, rows, cols, segmenter.labels_))
+        spectral = Regions(grid, dense_labels(grid, rows, cols, fitted.labels_))
         lap("regions")
         regions = spectral
         if refine:
@@ -141,7 +153,7 @@ class TopoMap:
             lap("refine")
         graph = region_graph(regions, _regions_of(regions, rows, cols))
         lap("graph")
-        return cls(grid, keyframes, segmenter, spectral, regions, graph, seconds)
+        return cls(grid, keyframes, fitted, spectral, regions, graph, seconds)
 
     def region_at(self, x: float, y: float) -> int:
         """The region id at map point ``(x, y)``, 0 if none."""

@@ -202,3 +202,92 @@ def test_segment_bad_input(tmp_path, capsys):
 def maps_grid_without_free_space(folder: Path) -> Path:
     grid = OccupancyGrid(np.full((20, 20), 100, np.int8), 0.05)
     return grid.save(folder / "walls.yaml")
+
+
+def _flat_map(folder: Path) -> Path:
+    assert main(["generate", "--size", "flat", "--seed", "3", "--out", str(folder)]) == 0
+    return folder / "map.yaml"
+
+
+def test_plan_prints_a_valid_path_and_draws_it(tmp_path, capsys):
+    from planners.workspace import Workspace
+
+    yaml = _flat_map(tmp_path / "flat")
+    space = Workspace(OccupancyGrid.load(yaml), 0.2)
+    from planners.benchmark import far_queries
+
+    ((start, goal),) = far_queries(space, 1, random_state=0)
+    capsys.readouterr()
+    picture = tmp_path / "path.png"
+    arguments = ["plan", str(yaml), "--start", "{},{}".format(*start)]
+    arguments += ["--goal", "{},{}".format(*goal), "--draw", str(picture), "--compare"]
+    assert main(arguments) == 0
+    result = json.loads(capsys.readouterr().out)
+    waypoints = np.array(result["waypoints"])
+    assert np.allclose(waypoints[[0, -1]], [start, goal], atol=1e-3)
+    assert space.collisions(waypoints) == 0
+    assert result["length_m"] >= np.hypot(goal[0] - start[0], goal[1] - start[1]) - 1e-3
+    assert result["regions"] and len(result["region_names"]) == len(result["regions"])
+    assert cv2.imread(str(picture)) is not None
+
+
+def test_plan_with_saved_regions_and_a_region_goal(tmp_path, capsys):
+    yaml = _flat_map(tmp_path / "flat")
+    assert main(["segment", str(yaml), "--out", str(tmp_path / "seg")]) == 0
+    capsys.readouterr()
+    grid = OccupancyGrid.load(yaml)
+    rows, cols = np.nonzero(grid.inflate(0.3).free)
+    x, y = grid.cell_to_world(rows[0], cols[0])
+    arguments = ["plan", str(yaml), "--start", f"{x},{y}", "--goal", "2"]
+    assert main([*arguments, "--regions", str(tmp_path / "seg")]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["regions"][-1] == 2
+
+
+def test_plan_rejects_a_start_in_a_wall(tmp_path, capsys):
+    yaml = _flat_map(tmp_path / "flat")
+    grid = OccupancyGrid.load(yaml)
+    rows, cols = np.nonzero(grid.occupied)
+    x, y = (float(v) for v in grid.cell_to_world(rows[0], cols[0]))
+    capsys.readouterr()
+    assert main(["plan", str(yaml), f"--start={x},{y}", "--goal", "3,3"]) == 2
+    assert f"start ({x:g}, {y:g}) lies in a wall" in capsys.readouterr().err
+    assert main(["plan", str(yaml), "--start=-0.05,-0.05", "--goal", "3,3"]) == 2
+    assert "start (-0.05, -0.05) lies in an unknown cell" in capsys.readouterr().err
+    assert main(["plan", str(yaml), "--start", "1;2", "--goal", "3,3"]) == 2
+    assert "--start must be X,Y" in capsys.readouterr().err
+
+
+def test_plan_on_a_real_floor_plan(data_dir, capsys):
+    from planners.benchmark import far_queries
+    from planners.workspace import Workspace
+
+    yaml = data_dir / "ipa" / "Freiburg52_scan.yaml"
+    space = Workspace(OccupancyGrid.load(yaml), 0.2)
+    ((start, goal),) = far_queries(space, 1, random_state=1)
+    arguments = ["plan", str(yaml), "--start", "{},{}".format(*start)]
+    assert main([*arguments, "--goal", "{},{}".format(*goal)]) == 0
+    waypoints = np.array(json.loads(capsys.readouterr().out)["waypoints"])
+    assert space.collisions(waypoints) == 0 and space.path_free(waypoints)
+
+
+def test_bench_plan_writes_one_record_per_planner_and_query(tmp_path):
+    out = tmp_path / "bench"
+    arguments = ["bench", "plan", "--sizes", "flat", "--queries", "3", "--out", str(out)]
+    assert main([*arguments, "--time-limit", "5"]) == 0
+    records = json.loads((out / "results.json").read_text())
+    assert len(records) == 12
+    assert {r["planner"] for r in records} == {
+        "hierarchical",
+        "flat_rrtconnect",
+        "flat_prm",
+        "grid_astar",
+    }
+    for record in records:
+        assert record["map"] == "generated-flat" and record["success"]
+        assert record["collisions"] == 0
+        assert record["length_m"] >= record["optimal_m"] - 1e-3
+    preprocessing = json.loads((out / "preprocessing.json").read_text())
+    assert preprocessing["generated-flat"]["segmentation"] > 0
+    assert "| generated-flat | hierarchical | 1.0 |" in (out / "results.md").read_text()
+    assert cv2.imread(str(out / "times.png")) is not None

@@ -1,0 +1,128 @@
+"""Spectral segmentation of large maps, one block of places at a time.
+
+One spectral problem with ``k`` clusters costs ``k`` eigenvectors of the whole keyframe graph
+and k-means in ``k`` dimensions: fine for a floor of tens of rooms, hopeless for a campus of a
+thousand. A large map is first divided along its clearance basins (the places found by
+:func:`segmentation.refine.basins`): the basins' centres are grouped into blocks of about
+``places`` basins by k-means, each keyframe goes to the block of the basin it stands in, and
+the spectral partition runs in each block with ``k`` = the block's basin count. Block
+boundaries follow basin boundaries, which lie at doors and narrow passages.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+from sklearn.cluster import KMeans
+
+from maps.grid import OccupancyGrid
+from maps.scan import Keyframe, poses_array
+from segmentation.spectral import SpectralSegmenter
+
+
+def keyframe_blocks(
+    grid: OccupancyGrid,
+    basin: NDArray[np.int32],
+    keyframes: Sequence[Keyframe],
+    places: int,
+    *,
+    min_area: float = 1.0,
+    random_state: int = 0,
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Block of each keyframe, and the number of places (basins of ``min_area`` m^2 or more)
+    in each block.
+
+    Keyframes on no basin take the block of the nearest keyframe that has one.
+    """
+    sizes = np.bincount(basin.ravel())
+    ids = np.flatnonzero(sizes * grid.resolution**2 >= min_area)
+    ids = ids[ids > 0]
+    rows, cols = np.nonzero(basin)
+    owner = basin[rows, cols]
+    centre = np.zeros((len(sizes), 2))
+    np.add.at(centre, owner, np.column_stack([rows, cols]).astype(float))
+    centre[ids] /= sizes[ids, None]
+    count = max(1, math.ceil(len(ids) / places))
+    block_of_basin = np.zeros(len(sizes), np.int64)
+    if count > 1:
+        model = KMeans(count, n_init=3, random_state=random_state)
+        block_of_basin[ids] = model.fit_predict(centre[ids], sample_weight=sizes[ids])
+        small = np.setdiff1d(np.arange(1, len(sizes)), ids)
+        if len(small):
+            nearest = cKDTree(centre[ids]).query(_centres(basin, small))[1]
+            block_of_basin[small] = block_of_basin[ids[nearest]]
+    poses = poses_array(keyframes)
+    kr, kc = grid.world_to_cell(poses[:, 0], poses[:, 1])
+    inside = grid.contains(kr, kc)
+    on = np.zeros(len(poses), np.int64)
+    on[inside] = basin[kr[inside], kc[inside]]
+    blocks = block_of_basin[on]
+    missing = on == 0
+    if missing.any() and (~missing).any():
+        nearest = cKDTree(poses[~missing, :2]).query(poses[missing, :2])[1]
+        blocks[missing] = blocks[~missing][nearest]
+    per_block = np.bincount(block_of_basin[ids], minlength=count)
+    return blocks, per_block
+
+
+def _centres(basin: NDArray[np.int32], which: NDArray[np.int64]) -> NDArray[np.float64]:
+    rows, cols = np.nonzero(np.isin(basin, which))
+    owner = basin[rows, cols]
+    order = np.searchsorted(which, owner)
+    total = np.zeros((len(which), 2))
+    np.add.at(total, order, np.column_stack([rows, cols]).astype(float))
+    return total / np.maximum(np.bincount(order, minlength=len(which)), 1)[:, None]
+
+
+@dataclass
+class BlockSpectralSegmenter:
+    """:class:`SpectralSegmenter` run block by block (see the module docstring).
+
+    Parameters
+    ----------
+    segmenter
+        The settings of each block's partition; its ``k`` is replaced by the block's count.
+    blocks
+        Block of each keyframe (from :func:`keyframe_blocks`).
+    places
+        Places per block (its ``k``).
+
+    Attributes
+    ----------
+    labels_, n_regions_
+        As :class:`SpectralSegmenter`'s; blocks never share a label.
+    segmenters_
+        The fitted partition of each block, in block order.
+    silhouette_by_k_
+        Empty: each block has its own curve in ``segmenters_``.
+    """
+
+    segmenter: SpectralSegmenter
+    blocks: NDArray[np.int64]
+    places: NDArray[np.int64]
+    labels_: NDArray[np.int64] = field(init=False, repr=False)
+    n_regions_: int = field(init=False, default=0)
+    segmenters_: list[SpectralSegmenter] = field(init=False, default_factory=list, repr=False)
+    silhouette_by_k_: dict[int, float] = field(init=False, default_factory=dict, repr=False)
+
+    def fit(self, keyframes: Sequence[Keyframe]) -> BlockSpectralSegmenter:
+        """Partition each block's keyframes."""
+        if len(self.blocks) != len(keyframes):
+            raise ValueError(f"{len(self.blocks)} block ids for {len(keyframes)} keyframes")
+        self.labels_ = np.zeros(len(keyframes), np.int64)
+        self.segmenters_ = []
+        offset = 0
+        for block in np.unique(self.blocks):
+            members = np.flatnonzero(self.blocks == block)
+            k = int(min(max(1, self.places[block]), len(members)))
+            part = replace(self.segmenter, k=k).fit([keyframes[int(i)] for i in members])
+            self.labels_[members] = part.labels_ + offset
+            offset += part.n_regions_
+            self.segmenters_.append(part)
+        self.n_regions_ = offset
+        return self

@@ -1,0 +1,80 @@
+"""The hierarchical planner: paths, doors, goals by region, bad queries, and a property test."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from maps.floorplan import generate_floor_plan
+from planners.benchmark import far_queries
+from planners.errors import InvalidQueryError, NoPathError
+from planners.hierarchical import HierarchicalPlanner
+from planners.visibility import VisibilityGraph
+from planners.workspace import Workspace
+from segmentation.graph import region_graph
+from segmentation.regions import Regions
+from topomap.topomap import TopoMap
+
+
+def _two_room_planner(grid) -> HierarchicalPlanner:
+    labels = np.zeros(grid.shape, np.int32)
+    labels[grid.free] = 1
+    labels[:, grid.shape[1] // 2 :][grid.free[:, grid.shape[1] // 2 :]] = 2
+    graph = region_graph(Regions(grid, labels))
+    graph.nodes[1]["name"] = "room 1"
+    graph.nodes[2]["name"] = "hall 1"
+    return HierarchicalPlanner(Workspace(grid, 0.2), labels, graph)
+
+
+def test_path_through_the_door_is_near_the_shortest(two_rooms):
+    planner = _two_room_planner(two_rooms(door=1.0))
+    exact = VisibilityGraph(planner.space).plan((1.0, 1.0), (7.5, 3.5))
+    path = planner.plan((1.0, 1.0), (7.5, 3.5))
+    assert path.regions == (1, 2)
+    assert planner.space.collisions(path.waypoints) == 0
+    assert exact.length <= path.length <= 1.01 * exact.length
+    assert set(path.seconds) == {"graph_search", "local_planning", "smoothing"}
+
+
+def test_closing_the_door_blocks_and_opening_restores(two_rooms):
+    planner = _two_room_planner(two_rooms())
+    planner.close_door(2, 1)
+    with pytest.raises(NoPathError, match="open doors"):
+        planner.plan((1.0, 1.0), (7.0, 1.0))
+    assert planner.plan((1.0, 1.0), (2.0, 3.0)).regions == (1,)
+    planner.open_door(1, 2)
+    assert planner.plan((1.0, 1.0), (7.0, 1.0)).regions == (1, 2)
+    with pytest.raises(InvalidQueryError, match="share no door"):
+        planner.close_door(1, 7)
+
+
+def test_goal_by_name_or_id_and_region_at(two_rooms):
+    planner = _two_room_planner(two_rooms())
+    by_name = planner.plan((1.0, 1.0), "Hall 1")
+    assert planner.region_at(*by_name.waypoints[-1]) == 2
+    assert np.allclose(planner.plan((1.0, 1.0), 2).waypoints[-1], by_name.waypoints[-1])
+    assert planner.region_at(1.0, 1.0) == 1 and planner.region_at(-5.0, 1.0) == 0
+    with pytest.raises(InvalidQueryError, match="no region named 'kitchen'.*hall 1, room 1"):
+        planner.plan((1.0, 1.0), "kitchen")
+    with pytest.raises(InvalidQueryError, match="no region 9"):
+        planner.plan((1.0, 1.0), 9)
+    with pytest.raises(InvalidQueryError, match="start .* outside the map"):
+        planner.plan((100.0, 1.0), "hall 1")
+
+
+@settings(max_examples=6)
+@given(seed=st.integers(0, 10_000))
+def test_paths_on_random_buildings_are_valid_and_near_optimal(seed):
+    """For seeded random buildings and far-apart queries, every path joins start to goal,
+    never leaves the free space, and is no shorter than the exact shortest path."""
+    plan = generate_floor_plan((16.0, 12.0), random_state=seed)
+    topo = TopoMap.from_grid(plan.grid, random_state=seed)
+    planner = topo.planner(0.2)
+    reference = VisibilityGraph(planner.space)
+    for start, goal in far_queries(planner.space, 3, random_state=seed):
+        path = planner.plan(start, goal)
+        assert np.allclose(path.waypoints[[0, -1]], [start, goal])
+        assert planner.space.path_free(path.waypoints)
+        assert planner.space.collisions(path.waypoints) == 0
+        exact = reference.plan(start, goal).length
+        assert exact - 1e-6 <= path.length <= 1.15 * exact

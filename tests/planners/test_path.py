@@ -1,0 +1,33 @@
+"""Shortening: shortcuts and sliding door crossings keep paths valid and never lengthen them."""
+
+import numpy as np
+import pytest
+
+from planners.path import Path, polyline_length, shortcut, slide_through_portals
+from planners.workspace import Workspace
+
+
+def test_slide_moves_the_crossing_to_the_straight_line(two_rooms):
+    space = Workspace(two_rooms(door=1.6), robot_radius=0.2)
+    door_x, mid_y = 4.15, 2.1
+    start, goal = (2.0, 1.9), (6.0, 2.3)
+    detour = np.array([start, (door_x, mid_y + 0.3), goal])
+    portal = ((door_x, mid_y - 0.5), (door_x, mid_y + 0.5))
+    slid = slide_through_portals(space, detour, {1: portal})
+    assert space.path_free(slid)
+    assert polyline_length(slid) == pytest.approx(np.hypot(4.0, 0.4), abs=1e-3)
+
+
+def test_shortcut_keeps_validity_and_drops_points(two_rooms):
+    space = Workspace(two_rooms(), robot_radius=0.2)
+    zigzag = np.array([(1.0, 1.0), (1.5, 2.0), (2.0, 1.0), (2.5, 2.0), (3.0, 1.0)])
+    kept = shortcut(space, zigzag)
+    assert list(kept) == [0, 4]
+    through_door = np.array([(1.0, 1.0), (4.15, 2.1), (7.0, 1.0)])
+    assert list(shortcut(space, through_door)) == [0, 1, 2]
+
+
+def test_path_reports_length_and_json():
+    path = Path(np.array([(0.0, 0.0), (3.0, 4.0)]), "test", (1,), {"search": 0.5})
+    assert path.length == 5.0 and path.total_seconds == 0.5
+    assert path.to_dict()["waypoints"] == [[0.0, 0.0], [3.0, 4.0]]
