@@ -24,10 +24,10 @@ def test_flat_planner_goes_through_the_door(two_rooms, name):
 
 def test_flat_planner_rejects_bad_names_and_queries(two_rooms):
     space = Workspace(two_rooms(), robot_radius=0.2)
-    with pytest.raises(ValueError, match="unknown OMPL planner 'RRTX'.*RRTConnect"):
+    with pytest.raises(ValueError, match=r"unknown OMPL planner 'RRTX'.*RRTConnect"):
         FlatPlanner(space, "RRTX")
     planner = FlatPlanner(space, time_limit=1.0)
-    with pytest.raises(InvalidQueryError, match="goal .* in a wall"):
+    with pytest.raises(InvalidQueryError, match=r"goal .* in a wall"):
         planner.plan((1.0, 1.0), (4.15, 0.5))
 
 

@@ -54,11 +54,11 @@ def test_goal_by_name_or_id_and_region_at(two_rooms):
     assert planner.region_at(*by_name.waypoints[-1]) == 2
     assert np.allclose(planner.plan((1.0, 1.0), 2).waypoints[-1], by_name.waypoints[-1])
     assert planner.region_at(1.0, 1.0) == 1 and planner.region_at(-5.0, 1.0) == 0
-    with pytest.raises(InvalidQueryError, match="no region named 'kitchen'.*hall 1, room 1"):
+    with pytest.raises(InvalidQueryError, match=r"no region named 'kitchen'.*hall 1, room 1"):
         planner.plan((1.0, 1.0), "kitchen")
     with pytest.raises(InvalidQueryError, match="no region 9"):
         planner.plan((1.0, 1.0), 9)
-    with pytest.raises(InvalidQueryError, match="start .* outside the map"):
+    with pytest.raises(InvalidQueryError, match=r"start .* outside the map"):
         planner.plan((100.0, 1.0), "hall 1")
 
 

@@ -61,9 +61,9 @@ def test_check_names_the_problem():
     cells[:5, :5] = UNKNOWN
     space = Workspace(OccupancyGrid(cells, 0.1), robot_radius=0.2)
     assert space.check((1.0, 1.0), "start") == (1.0, 1.0)
-    with pytest.raises(InvalidQueryError, match="start .* outside the map"):
+    with pytest.raises(InvalidQueryError, match=r"start .* outside the map"):
         space.check((9.0, 1.0), "start")
-    with pytest.raises(InvalidQueryError, match="goal .* in a wall"):
+    with pytest.raises(InvalidQueryError, match=r"goal .* in a wall"):
         space.check((2.05, 1.0), "goal")
     with pytest.raises(InvalidQueryError, match="unknown cell"):
         space.check((0.2, 3.8))
