@@ -8,8 +8,9 @@ search is repeated after planning the legs of the route it found, until every le
 route is planned (lazy shortest path). A leg is a straight motion when that is valid, else
 an OMPL plan inside the part's submap. Door-to-door legs are cached for later queries (or
 all planned up front by :meth:`HierarchicalPlanner.prepare`).
-The stitched route is finally shortened in the whole free space: each door crossing slides
-along its door line to where the path is shortest, then skippable points are dropped.
+The stitched route is finally shortened in the whole free space: skippable points are
+dropped, each door crossing slides along its door line to where the path is shortest and the
+other corners are pulled tight (:func:`planners.path.tighten`).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from scipy import ndimage
 
 from planners.errors import InvalidQueryError, NoPathError
 from planners.flat import FlatPlanner
-from planners.path import Path, polyline_length, shortcut, slide_through_portals
+from planners.path import Path, polyline_length, shortcut, tighten
 from planners.submaps import convex_parts
 from planners.workspace import Point, Workspace, sample_polyline
 from segmentation.regions import boundary_pairs
@@ -36,7 +37,7 @@ from segmentation.transitions import Transition, find_transitions
 
 log = logging.getLogger(__name__)
 
-Goal = ArrayLike | int | str
+Goal = ArrayLike | int
 #: Cells a submap reaches beyond its region, so legs can end on the door line.
 _SUBMAP_MARGIN = 2
 _START, _GOAL = -1, -2
@@ -73,8 +74,8 @@ class HierarchicalPlanner:
     labels
         Region id of every cell (0 = none), aligned with ``space.grid``.
     graph
-        The region adjacency graph (:func:`segmentation.graph.region_graph`); edges carry
-        ``doors``; nodes may carry a ``name``.
+        The region adjacency graph (:func:`segmentation.graph.region_graph`): its nodes are
+        the region ids, its edges the doors that can be closed.
     leg_planner
         OMPL planner for legs that are not straight.
     leg_time_limit
@@ -137,28 +138,6 @@ class HierarchicalPlanner:
             return 0
         return int(self.labels[row, col])
 
-    def region(self, goal: int | str) -> int:
-        """Region id of a region given by id or by name (case-insensitive).
-
-        Raises
-        ------
-        InvalidQueryError
-            No such region; the message lists the known names or ids.
-        """
-        if isinstance(goal, str):
-            names = {str(n).lower(): r for r, n in self.graph.nodes(data="name") if n is not None}
-            key = goal.strip().lower()
-            if key in names:
-                return names[key]
-            known = ", ".join(sorted(str(n) for _, n in self.graph.nodes(data="name") if n))
-            raise InvalidQueryError(
-                f"no region named {goal!r}; known names: {known or 'none (regions are unnamed)'}"
-            )
-        if goal not in self.graph:
-            ids = sorted(self.graph.nodes)
-            raise InvalidQueryError(f"no region {goal}; ids run {ids[0]}..{ids[-1]}")
-        return int(goal)
-
     def centre(self, region: int) -> Point:
         """The free point of ``region`` farthest from its walls (where a region goal leads)."""
         if region not in self._centres:
@@ -191,19 +170,21 @@ class HierarchicalPlanner:
 
     # ------------------------------------------------------------------ planning
     def plan(self, start: ArrayLike, goal: Goal) -> Path:
-        """Plan from ``start`` to ``goal``: a point, a region id or a region name.
+        """Plan from ``start`` to ``goal``: a point, or a region id (its most open point).
 
         Raises
         ------
         InvalidQueryError
-            A start or goal a robot cannot stand on, or an unknown region.
+            A start or goal a robot cannot stand on, or an unknown region id.
         NoPathError
             No route: disconnected free space, or every route needs a closed door.
         """
         seconds = {"graph_search": 0.0, "local_planning": 0.0, "smoothing": 0.0}
         s = self.space.check(start, "start")
-        if isinstance(goal, str | int | np.integer):
-            g = self.centre(self.region(int(goal) if not isinstance(goal, str) else goal))
+        if isinstance(goal, int | np.integer):
+            if goal not in self.graph:
+                raise InvalidQueryError(f"no region {goal}; ids: {sorted(self.graph.nodes)}")
+            g = self.centre(int(goal))
         else:
             g = self.space.check(goal, "goal")
         if self.space.component_at(s) != self.space.component_at(g):
@@ -227,7 +208,7 @@ class HierarchicalPlanner:
         waypoints, crossings = self._stitch(route, query_legs, ends)
         kept = shortcut(self.space, waypoints)
         portals = {i: self.doors[crossings[k]].portal for i, k in enumerate(kept) if k in crossings}
-        waypoints = slide_through_portals(self.space, waypoints[kept], portals)
+        waypoints = tighten(self.space, waypoints[kept], portals)
         waypoints = waypoints[shortcut(self.space, waypoints)]
         seconds["smoothing"] = time.perf_counter() - clock
         return Path(waypoints, self.name, self._regions_along(waypoints), seconds)

@@ -36,6 +36,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
     summary = run_demo(args.out, size=args.size, seed=args.seed)
     print(json.dumps(summary, indent=2))
+    plan = summary["plan"]
+    print(
+        f"planning, median of {plan['queries']} far-apart queries: hierarchical "
+        f"{plan['hierarchical']['median_ms']} ms, flat OMPL RRTConnect "
+        f"{plan['flat_rrtconnect']['median_ms']} ms ({plan['speedup']}x)"
+    )
     print(f"wrote {args.out}/summary.json and pictures")
     return 0
 
@@ -235,6 +241,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from planners.workspace import Workspace
     from segmentation.export import read_graphml, read_label_image
     from topomap.drawing import draw_paths
+    from topomap.labels import find_region
     from topomap.topomap import TopoMap
 
     grid = OccupancyGrid.load(args.map)
@@ -247,6 +254,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
         planner = HierarchicalPlanner(Workspace(grid, args.robot_radius), labels, graph)
     else:
         planner = TopoMap.from_grid(grid).planner(args.robot_radius)
+    if not isinstance(goal, tuple):
+        goal = find_region(planner.graph, goal)
     path = planner.plan(start, goal)
     result = path.to_dict()
     result["region_names"] = [planner.graph.nodes[r].get("name", str(r)) for r in path.regions]

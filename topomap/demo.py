@@ -1,8 +1,7 @@
 """The demo: the whole pipeline on a generated building, writing pictures and a summary.
 
 Each stage is a function of the run's :class:`DemoRun`; it adds its results to the run and
-the summary, and its time is recorded. Later stages (names, planning) append to
-:data:`STAGES`.
+the summary, and its time is recorded (:data:`STAGES`, in order).
 """
 
 from __future__ import annotations
@@ -25,8 +24,12 @@ from maps.laser_sim import LaserModel, simulate_scans
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array, select_keyframes
 from maps.wander import Route, wander
+from planners.benchmark import far_queries
+from planners.flat import FlatPlanner
+from planners.path import Path as PlannedPath
+from planners.visibility import VisibilityGraph
 from segmentation.metrics import score
-from topomap.drawing import draw_map, draw_regions
+from topomap.drawing import draw_map, draw_paths, draw_regions
 from topomap.topomap import TopoMap
 
 log = logging.getLogger(__name__)
@@ -45,6 +48,7 @@ class DemoRun:
     keyframes: list[Keyframe] = field(default_factory=list)
     grid: OccupancyGrid | None = None
     topo: TopoMap | None = None
+    plan_topo: TopoMap | None = None
     summary: dict[str, Any] = field(default_factory=dict)
 
 
@@ -149,11 +153,52 @@ def segment_log(run: DemoRun) -> None:
 def segment_plan(run: DemoRun) -> None:
     """Segment the true plan alone (virtual keyframes), as floor plans are segmented."""
     assert run.plan is not None
-    topo = TopoMap.from_grid(run.plan.grid, random_state=run.seed)
-    _segment(run, topo, "segment_plan", run.plan.labels)
+    run.plan_topo = TopoMap.from_grid(run.plan.grid, random_state=run.seed)
+    _segment(run, run.plan_topo, "segment_plan", run.plan.labels)
 
 
-STAGES: list[Callable[[DemoRun], None]] = [generate, drive, build_map, segment_log, segment_plan]
+def plan_paths(run: DemoRun, queries: int = 10) -> None:
+    """Plan far-apart queries on the segmented plan, hierarchically and with flat OMPL
+    RRTConnect; draw the first pair of paths, report both planners' times side by side."""
+    assert run.plan_topo is not None
+    hierarchical = run.plan_topo.planner(random_state=run.seed)
+    prepare = hierarchical.prepare()
+    flat = FlatPlanner(hierarchical.space, "RRTConnect", random_state=run.seed)
+    reference = VisibilityGraph(hierarchical.space)
+    results: dict[str, list[PlannedPath]] = {"hierarchical": [], "flat_rrtconnect": []}
+    optimal = []
+    for start, goal in far_queries(hierarchical.space, queries, random_state=run.seed):
+        results["hierarchical"].append(hierarchical.plan(start, goal))
+        results["flat_rrtconnect"].append(flat.plan(start, goal))
+        optimal.append(reference.plan(start, goal).length)
+    draw_paths(
+        run.out / "paths.png",
+        run.plan.grid if run.plan is not None else run.plan_topo.grid,
+        hierarchical.labels,
+        {name: paths[0] for name, paths in results.items()},
+        title="hierarchical against flat planning (first query)",
+    )
+    summary: dict[str, Any] = {"queries": queries, "preprocessing_s": round(prepare, 3)}
+    for name, paths in results.items():
+        ratios = [p.length / best for p, best in zip(paths, optimal, strict=True)]
+        summary[name] = {
+            "median_ms": round(1000 * float(np.median([p.total_seconds for p in paths])), 2),
+            "length_over_shortest_median": round(float(np.median(ratios)), 4),
+        }
+    summary["speedup"] = round(
+        summary["flat_rrtconnect"]["median_ms"] / summary["hierarchical"]["median_ms"], 1
+    )
+    run.summary["plan"] = summary
+
+
+STAGES: list[Callable[[DemoRun], None]] = [
+    generate,
+    drive,
+    build_map,
+    segment_log,
+    segment_plan,
+    plan_paths,
+]
 
 
 def run_demo(out: str | Path, *, size: str = "office", seed: int = 0) -> dict[str, Any]:

@@ -27,6 +27,14 @@ from segmentation.refine import basins, count_basins, merge_open_boundaries, sna
 from segmentation.regions import Regions, dense_labels
 from segmentation.spectral import SpectralSegmenter
 from segmentation.virtual import virtual_keyframes
+from topomap.labels import (
+    Classifier,
+    classify,
+    find_region,
+    name_regions,
+    region_features,
+    rename,
+)
 
 #: Maps with more places (clearance basins) than this are segmented block by block.
 BLOCK_PLACES = 100
@@ -153,11 +161,46 @@ class TopoMap:
             lap("refine")
         graph = region_graph(regions, _regions_of(regions, rows, cols))
         lap("graph")
-        return cls(grid, keyframes, fitted, spectral, regions, graph, seconds)
+        topo = cls(grid, keyframes, fitted, spectral, regions, graph, seconds)
+        topo.label()
+        lap("labels")
+        return topo
 
     def region_at(self, x: float, y: float) -> int:
         """The region id at map point ``(x, y)``, 0 if none."""
         return self.regions.at(x, y)
+
+    def label(self, classifier: Classifier | None = None) -> dict[int, str]:
+        """Label every region with a place type and give it a unique name ("corridor 1"),
+        stored as the graph nodes' ``label`` and ``name`` (and so in every export).
+
+        Parameters
+        ----------
+        classifier
+            A function of the :func:`~topomap.labels.region_features` table, or a fitted
+            estimator with ``predict``; :func:`~topomap.labels.rule_classifier` by default.
+
+        Returns
+        -------
+        dict
+            Region id -> label.
+        """
+        features = region_features(self.regions, self.graph)
+        found = classify(classifier, features)
+        labels = dict(zip(features["id"].astype(int).tolist(), found, strict=True))
+        names = name_regions(self.graph, labels)
+        for region in self.graph.nodes:
+            self.graph.nodes[region]["label"] = labels[region]
+            self.graph.nodes[region]["name"] = names[region]
+        return labels
+
+    def region(self, query: int | str) -> int:
+        """Region id of a region id or name ("hall 1", "aisle 2"); the error lists the names."""
+        return find_region(self.graph, query)
+
+    def rename(self, region: int | str, name: str) -> None:
+        """Rename a region (by id or name); a name already taken is refused, nothing changes."""
+        rename(self.graph, region, name)
 
     def planner(self, robot_radius: float = 0.2, **options: Any) -> HierarchicalPlanner:
         """The hierarchical planner on this map for a disc robot of ``robot_radius`` metres
@@ -176,7 +219,8 @@ class TopoMap:
     ) -> PlannedPath:
         """Plan from ``start`` to ``goal`` (a point, a region id or a region name) with
         :meth:`planner`."""
-        return self.planner(robot_radius).plan(start, goal)
+        target = self.region(goal) if isinstance(goal, int | str) else goal
+        return self.planner(robot_radius).plan(start, target)
 
     def keyframe_regions(self) -> NDArray[np.int64]:
         """Region of each keyframe's position (0 if it is not on a free cell)."""

@@ -26,8 +26,12 @@ def test_demo_writes_picture_map_and_summary(tmp_path):
         "build_map",
         "segment_log",
         "segment_plan",
+        "plan_paths",
     }
     assert summary["segment_plan"]["refined"]["mcc"] > 0.8
+    for planner in ("hierarchical", "flat_rrtconnect"):
+        assert 1.0 <= summary["plan"][planner]["length_over_shortest_median"] < 1.5
+    assert cv2.imread(str(tmp_path / "paths.png")) is not None
     picture = cv2.imread(str(tmp_path / "map.png"))
     assert picture is not None and picture.shape[0] > 200
     assert OccupancyGrid.load(tmp_path / "map.yaml").free.sum() > 1000

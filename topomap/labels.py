@@ -1,0 +1,276 @@
+"""Region labels (room, corridor, hall, doorway) and human names ("corridor 2", "hall 1").
+
+A classifier is anything that maps the region features of :func:`region_features` to place
+types: a plain function of the feature table, or a fitted scikit-learn estimator (its
+``predict`` gets the feature matrix in :data:`FEATURES` order). :func:`rule_classifier` is
+the default and needs no training; :class:`ForestClassifier` learns from labelled maps.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import cv2
+import networkx as nx
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+from skimage.measure import perimeter
+from skimage.morphology import remove_small_holes
+from sklearn.ensemble import RandomForestClassifier
+
+from segmentation.regions import Regions
+
+#: The place types, in table order.
+PLACE_TYPES = ("room", "corridor", "hall", "doorway")
+#: Other words for a place type, accepted in names and queries ("aisle 2" is "corridor 2").
+SYNONYMS = {"aisle": "corridor", "hallway": "corridor", "door": "doorway"}
+#: Region features, in the column order given to estimators.
+FEATURES = (
+    "area_m2",
+    "width_m",
+    "slenderness",
+    "compactness",
+    "elongation",
+    "doors",
+    "door_width_max_m",
+    "door_width_mean_m",
+    "perimeter_m",
+)
+#: Furniture holes up to this size (m^2) are filled before measuring shape.
+FURNITURE_HOLE_M2 = 4.0
+
+Classifier = Callable[[Mapping[str, NDArray[np.float64]]], Sequence[str]] | Any
+
+
+class LabelError(ValueError):
+    """A classifier's output that cannot be used, or a name that is unknown or taken."""
+
+
+def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.float64]]:
+    """Shape and connectivity features of every region, as columns (one value per region,
+    regions in ascending id order; ``"id"`` holds the ids).
+
+    ``width_m`` is twice the 95th percentile of the distance to the region's edge; shape
+    features are measured after filling furniture holes up to :data:`FURNITURE_HOLE_M2`:
+    ``slenderness`` = area / width^2, ``compactness`` = 4 pi area / perimeter^2,
+    ``elongation`` = long / short side of the minimum-area rectangle. ``doors`` is the
+    region's degree in the graph, door widths those of its graph edges.
+    """
+    res = regions.grid.resolution
+    ids = sorted(int(n) for n in graph.nodes)
+    boxes = ndimage.find_objects(regions.labels)
+    columns: dict[str, list[float]] = {name: [] for name in ("id", *FEATURES)}
+    for region in ids:
+        box = boxes[region - 1]
+        padded = np.pad(regions.labels[box] == region, 1)
+        filled = remove_small_holes(padded, max_size=int(FURNITURE_HOLE_M2 / res**2))
+        area = float(filled.sum()) * res**2
+        depth = ndimage.distance_transform_edt(filled)[filled] * res
+        width = 2 * float(np.percentile(depth, 95))
+        edge = float(perimeter(filled)) * res
+        rows, cols = np.nonzero(filled)
+        (_, _), (w, h), _ = cv2.minAreaRect(np.column_stack([cols, rows]).astype(np.float32))
+        widths = [float(d) for _, _, d in graph.edges(region, data="width")]
+        values = {
+            "id": region,
+            "area_m2": area,
+            "width_m": width,
+            "slenderness": area / width**2 if width else 0.0,
+            "compactness": 4 * math.pi * area / edge**2 if edge else 1.0,
+            "elongation": max(w, h) / max(min(w, h), 1.0),
+            "doors": float(graph.degree(region)),
+            "door_width_max_m": max(widths, default=0.0),
+            "door_width_mean_m": float(np.mean(widths)) if widths else 0.0,
+            "perimeter_m": edge,
+        }
+        for name, value in values.items():
+            columns[name].append(value)
+    return {name: np.asarray(values, float) for name, values in columns.items()}
+
+
+def feature_matrix(features: Mapping[str, NDArray[np.float64]]) -> NDArray[np.float64]:
+    """The feature columns as an ``(n_regions, len(FEATURES))`` matrix."""
+    return np.column_stack([features[name] for name in FEATURES])
+
+
+def rule_classifier(features: Mapping[str, NDArray[np.float64]]) -> list[str]:
+    """The default labels, from thresholds in metres.
+
+    - ``doorway``: a small region (under 3 m^2, at most 1.5 m wide) between two or more others;
+    - ``corridor``: at most 3.2 m wide and long for its width (slenderness 3 or more, or an
+      elongated minimum rectangle, 3.5 or more) or with four doors or more;
+    - ``hall``: 80 m^2 or more and at least 6 m wide;
+    - ``room``: everything else.
+    """
+    labels = []
+    for i in range(len(features["area_m2"])):
+        area, width = features["area_m2"][i], features["width_m"][i]
+        slender, elongation = features["slenderness"][i], features["elongation"][i]
+        doors = features["doors"][i]
+        if area < 3.0 and width <= 1.5 and doors >= 2:
+            labels.append("doorway")
+        elif width <= 3.2 and (slender >= 3.0 or elongation >= 3.5 or doors >= 4):
+            labels.append("corridor")
+        elif area >= 80.0 and width >= 6.0:
+            labels.append("hall")
+        else:
+            labels.append("room")
+    return labels
+
+
+def classify(
+    classifier: Classifier | None, features: Mapping[str, NDArray[np.float64]]
+) -> list[str]:
+    """Run a classifier (a function of the features, or an estimator with ``predict``) and
+    check its output: one known place type (or synonym) per region.
+
+    Raises
+    ------
+    LabelError
+        Naming the classifier, when it returns the wrong number of labels or an unknown one.
+    """
+    classifier = rule_classifier if classifier is None else classifier
+    name = getattr(classifier, "__name__", type(classifier).__name__)
+    if hasattr(classifier, "predict"):
+        found = classifier.predict(feature_matrix(features))
+    elif callable(classifier):
+        found = classifier(features)
+    else:
+        raise LabelError(f"classifier {name} is neither callable nor has predict()")
+    found = [str(label).strip().lower() for label in found]
+    count = len(features["id"])
+    if len(found) != count:
+        raise LabelError(f"classifier {name} returned {len(found)} labels for {count} regions")
+    labels = [SYNONYMS.get(label, label) for label in found]
+    unknown = sorted({label for label in labels if label not in PLACE_TYPES})
+    if unknown:
+        raise LabelError(
+            f"classifier {name} returned unknown labels {unknown}; known: {', '.join(PLACE_TYPES)}"
+        )
+    return labels
+
+
+def name_regions(graph: nx.Graph, labels: Mapping[int, str]) -> dict[int, str]:
+    """Unique names "<label> <n>", numbered per label in reading order (top to bottom, then
+    left to right, by each region's inside point)."""
+    names = {}
+    for place in PLACE_TYPES:
+        members = [r for r, label in labels.items() if label == place]
+        members.sort(key=lambda r: (-round(graph.nodes[r]["y"], 1), graph.nodes[r]["x"]))
+        names.update({r: f"{place} {n}" for n, r in enumerate(members, start=1)})
+    return names
+
+
+def normalise_name(text: str) -> str:
+    """A name as stored: lower case, single spaces, a synonym's first word replaced."""
+    words = re.sub(r"\s+", " ", text.strip().lower()).split(" ")
+    words[0] = SYNONYMS.get(words[0], words[0])
+    return " ".join(words)
+
+
+def find_region(graph: nx.Graph, query: int | str) -> int:
+    """The region id of ``query``: an id, or a name ("hall 1", "Aisle 2"; case-insensitive).
+
+    Raises
+    ------
+    LabelError
+        No such region; the message lists the known names.
+    """
+    if not isinstance(query, str) or query.strip().isdigit():
+        region = int(query)
+        if region in graph:
+            return region
+        raise LabelError(f"no region {region}; ids: {sorted(graph.nodes)}")
+    wanted = normalise_name(query)
+    for region, name in graph.nodes(data="name"):
+        if name is not None and normalise_name(str(name)) == wanted:
+            return int(region)
+    known = sorted(str(n) for _, n in graph.nodes(data="name") if n is not None)
+    raise LabelError(f"no region named {query!r}; known names: {', '.join(known) or 'none'}")
+
+
+def rename(graph: nx.Graph, old: int | str, new: str) -> None:
+    """Give a region (by id or name) a new name; a name already taken is refused and nothing
+    changes."""
+    region = find_region(graph, old)
+    wanted = normalise_name(new)
+    if not wanted:
+        raise LabelError("a region name cannot be empty")
+    for other, name in graph.nodes(data="name"):
+        if other != region and name is not None and normalise_name(str(name)) == wanted:
+            raise LabelError(f"the name {new!r} is taken by region {other}")
+    graph.nodes[region]["name"] = new.strip()
+
+
+class ForestClassifier:
+    """A class-balanced random forest on the region features, trained on labelled regions.
+
+    Saved as JSON (the training table and the settings), never pickled: :meth:`load` refits
+    the same forest from them (same data, seed and scikit-learn version give the same trees).
+
+    Parameters
+    ----------
+    n_estimators, random_state
+        Forest size and seed.
+    """
+
+    def __init__(self, n_estimators: int = 200, random_state: int = 0) -> None:
+        self.n_estimators, self.random_state = n_estimators, random_state
+        self._x = np.zeros((0, len(FEATURES)))
+        self._y: list[str] = []
+        self._forest: RandomForestClassifier | None = None
+
+    def fit(self, features: NDArray[np.float64], labels: Sequence[str]) -> ForestClassifier:
+        """Learn from a feature matrix (:func:`feature_matrix`) and one place type per row."""
+        features = np.asarray(features, float)
+        if features.ndim != 2 or features.shape[1] != len(FEATURES):
+            raise LabelError(f"expected a matrix of {len(FEATURES)} feature columns")
+        if len(labels) != len(features):
+            raise LabelError(f"{len(labels)} labels for {len(features)} rows")
+        self._x, self._y = features, [str(label) for label in labels]
+        self._forest = RandomForestClassifier(
+            self.n_estimators, class_weight="balanced", random_state=self.random_state
+        ).fit(self._x, self._y)
+        return self
+
+    def predict(self, features: NDArray[np.float64]) -> list[str]:
+        """Place type of each row."""
+        if self._forest is None:
+            raise LabelError("ForestClassifier is not fitted")
+        return [str(label) for label in self._forest.predict(np.asarray(features, float))]
+
+    def save(self, path: str | Path) -> Path:
+        """Write the training table and settings as JSON."""
+        path = Path(path)
+        path.write_text(
+            json.dumps(
+                {
+                    "format": "topomap-forest-1",
+                    "features": list(FEATURES),
+                    "n_estimators": self.n_estimators,
+                    "random_state": self.random_state,
+                    "x": self._x.tolist(),
+                    "y": self._y,
+                }
+            )
+        )
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> ForestClassifier:
+        """Read a file written by :meth:`save` and refit the forest."""
+        path = Path(path)
+        try:
+            data = json.loads(path.read_text())
+            model = cls(int(data["n_estimators"]), int(data["random_state"]))
+            if data.get("features") != list(FEATURES):
+                raise LabelError(f"{path}: features {data.get('features')} are not {FEATURES}")
+            return model.fit(np.asarray(data["x"], float), data["y"])
+        except (KeyError, TypeError, json.JSONDecodeError) as err:
+            raise LabelError(f"{path}: not a topomap forest file ({err})") from err
