@@ -175,6 +175,43 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_eval_labels(args: argparse.Namespace) -> int:
+    from topomap.evaluate_labels import evaluate_labels, generated_regions, ipa_places_regions
+    from topomap.labels import PLACE_TYPES
+
+    datasets = {"ipa_places": ipa_places_regions(args.data, progress=_progress)}
+    if args.generated:
+        datasets["generated"] = generated_regions()
+    results: dict[str, Any] = {}
+    for dataset, maps in datasets.items():
+        results[dataset] = evaluate_labels(maps)
+        rows = []
+        for method, scores in results[dataset].items():
+            for place, s in scores["per_class"].items():
+                rows.append({"method": method, "class": place, **s})
+            rows.append({"method": method, "class": "macro-F1", "f1": scores["macro_f1"]})
+        print(f"{dataset}: {sum(len(m['truth']) for m in maps)} regions on {len(maps)} maps")
+        columns = ["method", "class", "precision", "recall", "f1", "support"]
+        print(_table([{c: r.get(c, "") for c in columns} for r in rows], columns))
+        matrix = results[dataset]["rules"]["confusion"]
+        print("rules, confusion (rows true, columns predicted):")
+        print(
+            _table(
+                [
+                    {"true": t, **dict(zip(PLACE_TYPES, row, strict=True))}
+                    for t, row in zip(PLACE_TYPES, matrix, strict=True)
+                ],
+                ["true", *PLACE_TYPES],
+            )
+        )
+        print()
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.json").write_text(json.dumps(results, indent=2))
+    print(f"wrote {out / 'results.json'}")
+    return 0
+
+
 def cmd_bench_segment(args: argparse.Namespace) -> int:
     from topomap.bench import bench_segment
 
@@ -338,6 +375,14 @@ def build_parser() -> argparse.ArgumentParser:
     eval_seg.add_argument("--out", default="out/eval-segment")
     _add_segmenter_options(eval_seg)
     eval_seg.set_defaults(func=cmd_eval_segment)
+
+    eval_labels = eval_sub.add_parser("labels", help="region labels on place-typed plans")
+    eval_labels.add_argument("data", help="folder of NAME.png with NAME_places.png")
+    eval_labels.add_argument("--out", default="out/eval-labels")
+    eval_labels.add_argument(
+        "--generated", action="store_true", help="also on generated buildings' room types"
+    )
+    eval_labels.set_defaults(func=cmd_eval_labels)
 
     bench = sub.add_parser("bench", help="benchmarks: print a table, write results.json")
     bench_sub = bench.add_subparsers(dest="bench", required=True)

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 from skimage.measure import perimeter
-from skimage.morphology import remove_small_holes
+from skimage.morphology import disk
 from sklearn.ensemble import RandomForestClassifier
 
 from segmentation.regions import Regions
@@ -44,6 +44,8 @@ FEATURES = (
 )
 #: Furniture holes up to this size (m^2) are filled before measuring shape.
 FURNITURE_HOLE_M2 = 4.0
+#: Notches (furniture against a wall) narrower than twice this (m) are closed, too.
+FURNITURE_GAP_M = 0.5
 
 Classifier = Callable[[Mapping[str, NDArray[np.float64]]], Sequence[str]] | Any
 
@@ -57,7 +59,8 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
     regions in ascending id order; ``"id"`` holds the ids).
 
     ``width_m`` is twice the 95th percentile of the distance to the region's edge; shape
-    features are measured after filling furniture holes up to :data:`FURNITURE_HOLE_M2`:
+    features are measured after filling furniture holes up to :data:`FURNITURE_HOLE_M2` and
+    closing notches narrower than twice :data:`FURNITURE_GAP_M` (furniture along walls):
     ``slenderness`` = area / width^2, ``compactness`` = 4 pi area / perimeter^2,
     ``elongation`` = long / short side of the minimum-area rectangle. ``doors`` is the
     region's degree in the graph, door widths those of its graph edges.
@@ -68,8 +71,10 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
     columns: dict[str, list[float]] = {name: [] for name in ("id", *FEATURES)}
     for region in ids:
         box = boxes[region - 1]
-        padded = np.pad(regions.labels[box] == region, 1)
-        filled = remove_small_holes(padded, max_size=int(FURNITURE_HOLE_M2 / res**2))
+        gap = max(1, round(FURNITURE_GAP_M / res))
+        mask = np.pad(regions.labels[box] == region, gap + 1)
+        filled = _fill_small_holes(mask, int(FURNITURE_HOLE_M2 / res**2))
+        filled = ndimage.binary_closing(filled, disk(gap))
         area = float(filled.sum()) * res**2
         depth = ndimage.distance_transform_edt(filled)[filled] * res
         width = 2 * float(np.percentile(depth, 95))
@@ -94,6 +99,14 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
     return {name: np.asarray(values, float) for name, values in columns.items()}
 
 
+def _fill_small_holes(mask: NDArray[np.bool_], most: int) -> NDArray[np.bool_]:
+    """``mask`` with its enclosed holes of at most ``most`` cells filled."""
+    holes, _ = ndimage.label(ndimage.binary_fill_holes(mask) & ~mask)
+    sizes = np.bincount(holes.ravel())
+    small = (sizes <= most) & (np.arange(len(sizes)) > 0)
+    return mask | small[holes]
+
+
 def feature_matrix(features: Mapping[str, NDArray[np.float64]]) -> NDArray[np.float64]:
     """The feature columns as an ``(n_regions, len(FEATURES))`` matrix."""
     return np.column_stack([features[name] for name in FEATURES])
@@ -103,21 +116,23 @@ def rule_classifier(features: Mapping[str, NDArray[np.float64]]) -> list[str]:
     """The default labels, from thresholds in metres.
 
     - ``doorway``: a small region (under 3 m^2, at most 1.5 m wide) between two or more others;
-    - ``corridor``: at most 3.2 m wide and long for its width (slenderness 3 or more, or an
-      elongated minimum rectangle, 3.5 or more) or with four doors or more;
-    - ``hall``: 80 m^2 or more and at least 6 m wide;
+    - ``corridor``: at most 3.5 m wide and long for its width (slenderness 3.5 or more with
+      three doors or more, or slenderness 8 or more whatever its doors); or a large space
+      (150 m^2 or more) of slenderness 4 or more, a wide corridor;
+    - ``hall``: any other space of 150 m^2 or more at least 8 m wide;
     - ``room``: everything else.
     """
     labels = []
     for i in range(len(features["area_m2"])):
         area, width = features["area_m2"][i], features["width_m"][i]
-        slender, elongation = features["slenderness"][i], features["elongation"][i]
-        doors = features["doors"][i]
+        slender, doors = features["slenderness"][i], features["doors"][i]
         if area < 3.0 and width <= 1.5 and doors >= 2:
             labels.append("doorway")
-        elif width <= 3.2 and (slender >= 3.0 or elongation >= 3.5 or doors >= 4):
+        elif (width <= 3.5 and ((slender >= 3.5 and doors >= 3) or slender >= 8.0)) or (
+            area >= 150.0 and slender >= 4.0
+        ):
             labels.append("corridor")
-        elif area >= 80.0 and width >= 6.0:
+        elif area >= 150.0 and width >= 8.0:
             labels.append("hall")
         else:
             labels.append("room")

@@ -1,0 +1,151 @@
+"""Evaluation of region labelling against place types drawn by people (``ipa_places``) and
+against the generator's own room types.
+
+Each map is segmented; each region's true type is the majority type of its cells; regions are
+then predicted by the rules, and by a random forest trained on the *other* maps only (whole
+maps left out). Scores are per region.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
+
+from maps.errors import MapFileNotFoundError
+from maps.floorplan import generate_floor_plan
+from maps.grid import OccupancyGrid
+from topomap.labels import (
+    PLACE_TYPES,
+    ForestClassifier,
+    feature_matrix,
+    region_features,
+    rule_classifier,
+)
+from topomap.topomap import TopoMap
+
+#: Grey levels of ``*_places.png``: room, corridor, doorway.
+PLACE_GREYS = {77: "room", 115: "corridor", 179: "doorway"}
+#: Cell size of the ipa_places images, metres.
+PLACES_RESOLUTION = 0.05
+
+
+def place_maps(data_dir: str | Path) -> list[tuple[str, Path, Path]]:
+    """``(name, floor plan PNG, places PNG)`` for every ``NAME.png`` with ``NAME_places.png``."""
+    folder = Path(data_dir)
+    if not folder.is_dir():
+        raise MapFileNotFoundError(folder, "data folder")
+    found = []
+    for places in sorted(folder.glob("*_places.png")):
+        name = places.name.removesuffix("_places.png")
+        plan = folder / f"{name}.png"
+        if plan.exists():
+            found.append((name, plan, places))
+    if not found:
+        raise MapFileNotFoundError(folder / "*_places.png", "place-labelled map")
+    return found
+
+
+def read_places(path: Path) -> NDArray[np.int8]:
+    """Place type index (into :data:`PLACE_TYPES`) per pixel, -1 for walls and other greys."""
+    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if image is None:
+        raise MapFileNotFoundError(path, "places image")
+    types = np.full(image.shape, -1, np.int8)
+    for grey, place in PLACE_GREYS.items():
+        types[image == grey] = PLACE_TYPES.index(place)
+    return types
+
+
+def majority_types(labels: NDArray[np.integer], truth: NDArray[np.int8], ids: NDArray) -> list:
+    """The most common true type among each region's cells (None when it has none)."""
+    found = []
+    for region in ids:
+        cells = truth[(labels == region) & (truth >= 0)]
+        counts = np.bincount(cells, minlength=len(PLACE_TYPES))
+        found.append(PLACE_TYPES[int(counts.argmax())] if counts.sum() else None)
+    return found
+
+
+def labelled_regions(topo: TopoMap, truth: NDArray[np.int8], map_name: str) -> dict[str, Any]:
+    """Features and true type of every region of ``topo`` with a true type."""
+    features = region_features(topo.regions, topo.graph)
+    types = majority_types(topo.regions.labels, truth, features["id"].astype(int))
+    keep = np.array([t is not None for t in types])
+    return {
+        "map": map_name,
+        "features": {k: v[keep] for k, v in features.items()},
+        "truth": [t for t in types if t is not None],
+    }
+
+
+def ipa_places_regions(
+    data_dir: str | Path, progress: Callable[[Any], Any] = iter
+) -> list[dict[str, Any]]:
+    """:func:`labelled_regions` of every map of ``ipa_places``."""
+    found = []
+    for name, plan, places in progress(place_maps(data_dir)):
+        grid = OccupancyGrid.from_image(plan, PLACES_RESOLUTION)
+        found.append(labelled_regions(TopoMap.from_grid(grid), read_places(places), name))
+    return found
+
+
+def generated_regions(
+    sizes: tuple[str, ...] = ("flat", "office"), seeds: tuple[int, ...] = (0, 1, 2)
+) -> list[dict[str, Any]]:
+    """:func:`labelled_regions` of generated buildings, the truth being the generator's
+    room types."""
+    found = []
+    for size in sizes:
+        for seed in seeds:
+            plan = generate_floor_plan(size, random_state=seed)
+            truth = np.full(plan.labels.shape, -1, np.int8)
+            for index, place in enumerate(plan.types, start=1):
+                truth[plan.labels == index] = PLACE_TYPES.index(place)
+            topo = TopoMap.from_grid(plan.grid, random_state=seed)
+            found.append(labelled_regions(topo, truth, f"generated-{size}-{seed}"))
+    return found
+
+
+def score_labels(truth: list[str], predicted: list[str]) -> dict[str, Any]:
+    """Per-class precision, recall, F1 and support, macro-F1 over the true classes, and the
+    confusion matrix (rows true, columns predicted, in :data:`PLACE_TYPES` order)."""
+    classes = [c for c in PLACE_TYPES if c in truth]
+    p, r, f, s = precision_recall_fscore_support(truth, predicted, labels=classes, zero_division=0)
+    return {
+        "per_class": {
+            c: {
+                "precision": round(float(p[i]), 3),
+                "recall": round(float(r[i]), 3),
+                "f1": round(float(f[i]), 3),
+                "support": int(s[i]),
+            }
+            for i, c in enumerate(classes)
+        },
+        "macro_f1": round(float(np.mean(f)), 3),
+        "confusion": confusion_matrix(truth, predicted, labels=list(PLACE_TYPES)).tolist(),
+    }
+
+
+def evaluate_labels(maps: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Scores of the rules, of a forest with each map left out of its own training, and of
+    the "always room" baseline, over all regions of ``maps``."""
+    truth = [t for m in maps for t in m["truth"]]
+    rules = [label for m in maps for label in rule_classifier(m["features"])]
+    forest: list[str] = []
+    for held in range(len(maps)):
+        train = [m for i, m in enumerate(maps) if i != held]
+        x = np.vstack([feature_matrix(m["features"]) for m in train])
+        y = [t for m in train for t in m["truth"]]
+        model = ForestClassifier().fit(x, y)
+        forest += model.predict(feature_matrix(maps[held]["features"]))
+    return {
+        "rules": score_labels(truth, rules),
+        "forest (maps left out)": score_labels(truth, forest),
+        "always room": score_labels(truth, ["room"] * len(truth)),
+    }
