@@ -36,6 +36,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
     summary = run_demo(args.out, size=args.size, seed=args.seed)
     print(json.dumps(summary, indent=2))
+    names = summary["segment_plan"]["names"].values()
+    print(
+        f"regions of the plan: {summary['segment_plan']['labels']}; not rooms: "
+        + ", ".join(n for n in names if not n.startswith("room "))
+    )
     plan = summary["plan"]
     print(
         f"planning, median of {plan['queries']} far-apart queries: hierarchical "
@@ -138,6 +143,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
         "spectral_clusters": topo.segmenter.n_regions_,
         "keyframes": len(topo.keyframes),
         "doors": sum(len(d) for _, _, d in topo.graph.edges(data="doors")),
+        "names": {int(r): name for r, name in sorted(topo.graph.nodes(data="name"))},
         "silhouette_by_k": {
             str(k): round(v, 4) for k, v in topo.segmenter.silhouette_by_k_.items()
         },

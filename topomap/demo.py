@@ -133,6 +133,8 @@ def _segment(run: DemoRun, topo: TopoMap, name: str, truth: NDArray[np.int32]) -
         "keyframes": len(topo.keyframes),
         "regions": topo.graph.number_of_nodes(),
         "doors": sum(len(d) for _, _, d in topo.graph.edges(data="doors")),
+        "labels": dict(Counter(label for _, label in topo.graph.nodes(data="label"))),
+        "names": {int(r): name for r, name in sorted(topo.graph.nodes(data="name"))},
         "spectral": _rounded(score(topo.spectral.labels, truth).as_dict()),
         "refined": _rounded(score(topo.regions.labels, truth).as_dict()),
         "seconds": {k: round(v, 3) for k, v in topo.seconds.items()},
