@@ -38,6 +38,8 @@ from segmentation.transitions import Transition, find_transitions
 log = logging.getLogger(__name__)
 
 Goal = ArrayLike | int
+#: Longest stretch of an opening one door stands for, metres.
+DOOR_SPACING = 1.0
 #: Cells a submap reaches beyond its region, so legs can end on the door line.
 _SUBMAP_MARGIN = 2
 _START, _GOAL = -1, -2
@@ -378,8 +380,10 @@ def _fill_unlabelled(labels: NDArray[np.integer], free: NDArray[np.bool_]) -> ND
 def _find_doors(
     space: Workspace, labels: NDArray[np.int32], openings: list[Transition]
 ) -> list[Door]:
-    """One door per opening: the boundary point nearest the opening's centre where the robot
-    fits (an opening too narrow for the robot gets none)."""
+    """Doors of every opening where the robot fits (an opening too narrow gets none): one per
+    stretch of at most :data:`DOOR_SPACING` metres of the opening's usable boundary, so the
+    search sees where along a wide opening a path crosses. Each door's point is the boundary
+    point nearest the middle of its stretch, its portal the stretch."""
     ra, ca, rb, cb = boundary_pairs(labels)
     usable = space.free[ra, ca] & space.free[rb, cb]
     ra, ca, rb, cb = ra[usable], ca[usable], rb[usable], cb[usable]
@@ -391,12 +395,16 @@ def _find_doors(
     for opening in openings:
         here = middles[(pair_a == opening.a) & (pair_b == opening.b)]
         gap = np.hypot(*(here - np.asarray(opening.centre)).T)
-        inside = gap <= opening.width / 2 + space.grid.resolution
-        if not inside.any():
+        points = here[gap <= opening.width / 2 + space.grid.resolution]
+        if not len(points):
             continue
-        points = here[inside]
-        along = (points - points.mean(axis=0)) @ (np.subtract(opening.end, opening.start))
-        ends = points[np.argmin(along)], points[np.argmax(along)]
-        middle = points[np.argmin(gap[inside])]
-        doors.append(Door(opening.a, opening.b, _point(middle), (_point(ends[0]), _point(ends[1]))))
+        axis = np.subtract(opening.end, opening.start)
+        along = (points - points.mean(axis=0)) @ (axis / max(float(np.hypot(*axis)), 1e-12))
+        order = np.argsort(along, kind="stable")
+        stretches = max(1, math.ceil((along.max() - along.min()) / DOOR_SPACING))
+        for piece in np.array_split(order, stretches):
+            stretch = points[piece]
+            middle = stretch[np.argmin(np.abs(along[piece] - along[piece].mean()))]
+            ends = (_point(stretch[0]), _point(stretch[-1]))
+            doors.append(Door(opening.a, opening.b, _point(middle), ends))
     return doors

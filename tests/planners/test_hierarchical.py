@@ -59,7 +59,7 @@ def test_goal_by_region_id_and_region_at(two_rooms):
         planner.plan((100.0, 1.0), 2)
 
 
-@settings(max_examples=6)
+@settings(max_examples=25)
 @given(seed=st.integers(0, 10_000))
 def test_paths_on_random_buildings_are_valid_and_near_optimal(seed):
     """For seeded random buildings and far-apart queries, every path joins start to goal,
