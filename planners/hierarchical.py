@@ -40,8 +40,8 @@ log = logging.getLogger(__name__)
 Goal = ArrayLike | int
 #: Longest stretch of an opening one door stands for, metres.
 DOOR_SPACING = 1.0
-#: Cells a submap reaches beyond its region, so legs can end on the door line.
-_SUBMAP_MARGIN = 2
+#: Metres a submap reaches beyond its part, so legs can pass the doorways they end in.
+SUBMAP_MARGIN = 0.5
 _START, _GOAL = -1, -2
 
 
@@ -299,10 +299,10 @@ class HierarchicalPlanner:
             )
         try:
             planned = self._leg_planners[region].plan(p, q)
-        except NoPathError:
+        except (NoPathError, InvalidQueryError):
             log.debug("no leg found in region %d from %s to %s", region, p, q)
             return None
-        waypoints = planned.waypoints[shortcut(sub, planned.waypoints)]
+        waypoints = tighten(sub, planned.waypoints[shortcut(sub, planned.waypoints)])
         return _Leg(waypoints, polyline_length(waypoints))
 
     def _part_at(self, point: Point) -> int:
@@ -320,7 +320,7 @@ class HierarchicalPlanner:
         """Workspace of the cells labelled ``index`` and a margin around them."""
         box = boxes[index - 1]
         h, w = labels.shape
-        m = _SUBMAP_MARGIN
+        m = max(1, round(SUBMAP_MARGIN / self.space.grid.resolution))
         rows = slice(max(box[0].start - m, 0), min(box[0].stop + m, h))
         cols = slice(max(box[1].start - m, 0), min(box[1].stop + m, w))
         inside = ndimage.binary_dilation(labels[rows, cols] == index, iterations=m)
