@@ -37,6 +37,31 @@ def show_grid(ax: Axes, grid: OccupancyGrid) -> None:
     ax.set_aspect("equal")
 
 
+def _map_figure(
+    grid: OccupancyGrid, labels: NDArray[np.integer] | None = None, alpha: float = 0.8
+) -> Any:
+    """``(figure, axes)``: the map 12 inches wide, with the regions in colour if given."""
+    plt = _pyplot()
+    xmin, ymin, xmax, ymax = grid.bounds()
+    width = 12.0
+    fig, ax = plt.subplots(figsize=(width, max(3.0, width * (ymax - ymin) / (xmax - xmin))))
+    show_grid(ax, grid)
+    if labels is not None:
+        colours = region_colours(int(labels.max(initial=0)))
+        extent = (xmin, xmax, ymin, ymax)
+        ax.imshow(colours[labels], extent=extent, interpolation="nearest", alpha=alpha)
+    return fig, ax
+
+
+def _save(fig: Any, ax: Axes, path: str | Path, title: str) -> Path:
+    """Title the axes, write the figure as a PNG, close it."""
+    ax.set_title(title)
+    path = Path(path)
+    fig.savefig(path, dpi=150, bbox_inches="tight")
+    _pyplot().close(fig)
+    return path
+
+
 def draw_map(
     path: str | Path,
     grid: OccupancyGrid,
@@ -46,11 +71,7 @@ def draw_map(
     title: str = "",
 ) -> Path:
     """Write a PNG of ``grid`` with an optional route ``(n, 2+)`` and keyframe poses ``(k, 3)``."""
-    plt = _pyplot()
-    xmin, ymin, xmax, ymax = grid.bounds()
-    width = 12.0
-    fig, ax = plt.subplots(figsize=(width, max(3.0, width * (ymax - ymin) / (xmax - xmin))))
-    show_grid(ax, grid)
+    fig, ax = _map_figure(grid)
     if route is not None:
         ax.plot(route[:, 0], route[:, 1], color="tab:blue", lw=0.6, alpha=0.7, label="route")
     if keyframes is not None:
@@ -66,11 +87,7 @@ def draw_map(
         )
     if route is not None or keyframes is not None:
         ax.legend(loc="upper right", fontsize=8)
-    ax.set_title(title)
-    path = Path(path)
-    fig.savefig(path, dpi=150, bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return _save(fig, ax, path, title)
 
 
 def region_colours(count: int, seed: int = 7) -> NDArray[np.float64]:
@@ -90,13 +107,7 @@ def draw_regions(
     Nodes are drawn at each region's inside point with its id (and name, if it has one);
     edges run from node to node through the centres of their widest door, drawn as a segment.
     """
-    plt = _pyplot()
-    xmin, ymin, xmax, ymax = grid.bounds()
-    width = 12.0
-    fig, ax = plt.subplots(figsize=(width, max(3.0, width * (ymax - ymin) / (xmax - xmin))))
-    show_grid(ax, grid)
-    colours = region_colours(int(labels.max(initial=0)))
-    ax.imshow(colours[labels], extent=(xmin, xmax, ymin, ymax), interpolation="nearest", alpha=0.8)
+    fig, ax = _map_figure(grid, labels, alpha=0.8)
     for a, b, data in graph.edges(data=True):
         door = data["doors"][0]
         ends = np.array([door.start, door.end])
@@ -115,11 +126,7 @@ def draw_regions(
             xytext=(0, 2),
             textcoords="offset points",
         )
-    ax.set_title(title)
-    path = Path(path)
-    fig.savefig(path, dpi=150, bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return _save(fig, ax, path, title)
 
 
 def draw_paths(
@@ -131,13 +138,7 @@ def draw_paths(
 ) -> Path:
     """Write a PNG of planned paths (``label -> Path``) over the regions, with their lengths
     and query times in the legend."""
-    plt = _pyplot()
-    xmin, ymin, xmax, ymax = grid.bounds()
-    width = 12.0
-    fig, ax = plt.subplots(figsize=(width, max(3.0, width * (ymax - ymin) / (xmax - xmin))))
-    show_grid(ax, grid)
-    colours = region_colours(int(labels.max(initial=0)))
-    ax.imshow(colours[labels], extent=(xmin, xmax, ymin, ymax), interpolation="nearest", alpha=0.4)
+    fig, ax = _map_figure(grid, labels, alpha=0.4)
     for k, (label, planned) in enumerate(paths.items()):
         points = planned.waypoints
         text = f"{label}: {planned.length:.1f} m, {1000 * planned.total_seconds:.1f} ms"
@@ -146,8 +147,4 @@ def draw_paths(
     ax.plot(*first[0], "o", color="green", ms=8)
     ax.plot(*first[-1], "*", color="red", ms=12)
     ax.legend(loc="upper right", fontsize=8)
-    ax.set_title(title)
-    path = Path(path)
-    fig.savefig(path, dpi=150, bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return _save(fig, ax, path, title)
