@@ -296,3 +296,15 @@ def test_bench_plan_writes_one_record_per_planner_and_query(tmp_path):
     assert preprocessing["generated-flat"]["segmentation"] > 0
     assert "| generated-flat | hierarchical | 1.0 |" in (out / "results.md").read_text()
     assert cv2.imread(str(out / "times.png")) is not None
+
+
+def test_eval_labels_on_the_place_labelled_plans(tmp_path, data_dir):
+    out = tmp_path / "labels"
+    assert main(["eval", "labels", str(data_dir / "ipa_places"), "--out", str(out)]) == 0
+    results = json.loads((out / "results.json").read_text())["ipa_places"]
+    rules, baseline = results["rules"], results["always room"]
+    regions = sum(s["support"] for s in rules["per_class"].values())
+    assert regions > 30 and np.sum(rules["confusion"]) == regions
+    assert rules["per_class"]["corridor"]["support"] > 0
+    assert rules["macro_f1"] > baseline["macro_f1"] + 0.2
+    assert set(results) == {"rules", "forest (maps left out)", "always room"}

@@ -1,0 +1,27 @@
+"""Block-wise spectral partition of maps with many places."""
+
+import numpy as np
+import pytest
+
+from maps.floorplan import generate_floor_plan
+from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
+from segmentation.refine import basins, count_basins
+from segmentation.spectral import SpectralSegmenter
+from segmentation.virtual import virtual_keyframes
+
+
+def test_blocks_partition_keyframes_and_never_share_a_region():
+    plan = generate_floor_plan("flat", random_state=2)
+    basin = basins(plan.grid)
+    keyframes = virtual_keyframes(plan.grid, 0.8, random_state=0)
+    blocks, places = keyframe_blocks(plan.grid, basin, keyframes, places=3)
+    assert len(blocks) == len(keyframes)
+    assert len(places) == len(np.unique(blocks)) >= 2
+    assert places.sum() == count_basins(plan.grid, basin)
+    model = BlockSpectralSegmenter(SpectralSegmenter(random_state=0), blocks, places)
+    labels = model.fit(keyframes).labels_
+    assert model.n_regions_ == labels.max() + 1 == sum(s.n_regions_ for s in model.segmenters_)
+    for region in np.unique(labels):
+        assert len(np.unique(blocks[labels == region])) == 1
+    with pytest.raises(ValueError, match="block ids for"):
+        model.fit(keyframes[:-1])
