@@ -67,19 +67,16 @@ class GridAStar:
 
     def _search(self, source: int, target: int, goal_row: int, goal_col: int) -> list[int]:
         free, pw = self._free, self._padded_width
-        steps = [
-            (off, cost, orth)
-            for off, cost, orth in (
-                (1, 1.0, ()),
-                (-1, 1.0, ()),
-                (pw, 1.0, ()),
-                (-pw, 1.0, ()),
-                (pw + 1, _SQRT2, (pw, 1)),
-                (pw - 1, _SQRT2, (pw, -1)),
-                (-pw + 1, _SQRT2, (-pw, 1)),
-                (-pw - 1, _SQRT2, (-pw, -1)),
-            )
-        ]
+        steps = (  # (offset, cost, the two cells a diagonal step squeezes between)
+            (1, 1.0, ()),
+            (-1, 1.0, ()),
+            (pw, 1.0, ()),
+            (-pw, 1.0, ()),
+            (pw + 1, _SQRT2, (pw, 1)),
+            (pw - 1, _SQRT2, (pw, -1)),
+            (-pw + 1, _SQRT2, (-pw, 1)),
+            (-pw - 1, _SQRT2, (-pw, -1)),
+        )
         best = {source: 0.0}
         parent = {source: source}
         frontier = [(0.0, 0.0, source)]

@@ -221,19 +221,19 @@ class HierarchicalPlanner:
     def _neighbours(
         self, node: int, ends: dict[int, tuple[Point, int]]
     ) -> Iterator[tuple[int, int]]:
-        """``(region, next node)`` for every leg leaving ``node``."""
-        regions = (ends[node][1],) if node < 0 else (self.doors[node].a, self.doors[node].b)
-        for region in regions:
-            if region == ends[_GOAL][1]:
-                yield region, _GOAL
-            for door in self._doors_of.get(region, ()):
+        """``(part, next node)`` for every leg leaving ``node``."""
+        parts = (ends[node][1],) if node < 0 else (self.doors[node].a, self.doors[node].b)
+        for part in parts:
+            if part == ends[_GOAL][1]:
+                yield part, _GOAL
+            for door in self._doors_of.get(part, ()):
                 if door != node and self._open(door):
-                    yield region, door
+                    yield part, door
 
     def _search(
         self, ends: dict[int, tuple[Point, int]], query_legs: dict
     ) -> list[tuple[int, int, int]] | None:
-        """A* from start to goal over door nodes; returns legs ``(region, from, to)``."""
+        """A* from start to goal over door nodes; returns legs ``(part, from, to)``."""
         goal = np.asarray(ends[_GOAL][0])
         best = {_START: 0.0}
         parent: dict[int, tuple[int, int]] = {}
@@ -244,18 +244,18 @@ class HierarchicalPlanner:
             if node == _GOAL:
                 route = []
                 while node != _START:
-                    region, previous = parent[node]
-                    route.append((region, previous, node))
+                    part, previous = parent[node]
+                    route.append((part, previous, node))
                     node = previous
                 return route[::-1]
             if node in done:
                 continue
             done.add(node)
             here = self._point(node, ends)
-            for region, nxt in self._neighbours(node, ends):
+            for part, nxt in self._neighbours(node, ends):
                 if nxt in done:
                     continue
-                leg = self._leg((region, node, nxt), query_legs)
+                leg = self._leg((part, node, nxt), query_legs)
                 if leg is None:
                     continue
                 there = self._point(nxt, ends)
@@ -263,34 +263,34 @@ class HierarchicalPlanner:
                 new = cost + step
                 if new < best.get(nxt, math.inf):
                     best[nxt] = new
-                    parent[nxt] = (region, node)
+                    parent[nxt] = (part, node)
                     heapq.heappush(frontier, (new + math.dist(there, goal), new, nxt))
         return None
 
     def _leg(self, step: tuple[int, int, int], query_legs: dict) -> _Leg | None:
         """The planned leg (None if impossible), or ``_UNPLANNED``."""
-        region, a, b = step
+        part, a, b = step
         store = query_legs if min(a, b) < 0 else self._legs
-        return store.get((region, min(a, b), max(a, b)), _UNPLANNED)
+        return store.get((part, min(a, b), max(a, b)), _UNPLANNED)
 
     def _plan_leg(self, step: tuple[int, int, int], query_legs: dict, ends: dict) -> None:
-        region, a, b = step
+        part, a, b = step
         lo, hi = min(a, b), max(a, b)
         store = query_legs if lo < 0 else self._legs
         p, q = np.asarray(self._point(lo, ends)), np.asarray(self._point(hi, ends))
-        sub, pieces = self._submap(region)
+        sub, pieces = self._submap(part)
         leg: _Leg | None
         if sub.segment_free(p, q):
             leg = _Leg(np.array([p, q]), math.dist(p, q))
         elif not _same_piece(sub, pieces, p, q):
             leg = None
         else:
-            leg = self._ompl_leg(region, sub, p, q)
-        store[(region, lo, hi)] = leg
+            leg = self._ompl_leg(part, sub, p, q)
+        store[(part, lo, hi)] = leg
 
-    def _ompl_leg(self, region: int, sub: Workspace, p: NDArray, q: NDArray) -> _Leg | None:
-        if region not in self._leg_planners:
-            self._leg_planners[region] = FlatPlanner(
+    def _ompl_leg(self, part: int, sub: Workspace, p: NDArray, q: NDArray) -> _Leg | None:
+        if part not in self._leg_planners:
+            self._leg_planners[part] = FlatPlanner(
                 sub,
                 self.leg_planner,
                 time_limit=self.leg_time_limit,
@@ -298,9 +298,9 @@ class HierarchicalPlanner:
                 random_state=self.random_state,
             )
         try:
-            planned = self._leg_planners[region].plan(p, q)
+            planned = self._leg_planners[part].plan(p, q)
         except (NoPathError, InvalidQueryError):
-            log.debug("no leg found in region %d from %s to %s", region, p, q)
+            log.debug("no leg found in part %d from %s to %s", part, p, q)
             return None
         waypoints = tighten(sub, planned.waypoints[shortcut(sub, planned.waypoints)])
         return _Leg(waypoints, polyline_length(waypoints))
