@@ -1,5 +1,5 @@
 """``python -m topomap`` runs the command line."""
 
-from topomap.cli import run
+from topomap.cli.main import run
 
 run()

@@ -6,7 +6,7 @@ import pytest
 import maps
 from maps.scan import select_keyframes
 from segmentation.metrics import score
-from topomap.evaluate import evaluate, floor_plans
+from topomap.cli.evaluate import evaluate, floor_plans
 from topomap.topomap import TopoMap
 
 

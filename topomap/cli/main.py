@@ -32,7 +32,7 @@ def _read_keyframes(source: Path, args: argparse.Namespace) -> list:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from topomap.demo import run_demo
+    from topomap.cli.demo import run_demo
 
     summary = run_demo(args.out, size=args.size, seed=args.seed)
     print(json.dumps(summary, indent=2))
@@ -54,7 +54,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def cmd_map(args: argparse.Namespace) -> int:
     from maps.mapping import grid_from_keyframes
     from maps.scan import poses_array, select_keyframes
-    from topomap.drawing import draw_map
+    from topomap.cli.drawing import draw_map
 
     frames = _read_keyframes(Path(args.log), args)
     keyframes = select_keyframes(frames, distance=args.distance)
@@ -90,7 +90,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_sim(args: argparse.Namespace) -> int:
-    from topomap.bench import bench_sim
+    from topomap.cli.bench import bench_sim
 
     records = bench_sim(args.out, scans=tuple(args.scans), beams=tuple(args.beams))
     print(_table(records, ["scans", "beams", "seconds", "scans_per_s", "rays_per_s"]))
@@ -108,7 +108,7 @@ def _segmenter_options(args: argparse.Namespace) -> dict[str, Any]:
 def cmd_segment(args: argparse.Namespace) -> int:
     from maps.grid import OccupancyGrid
     from maps.scan import select_keyframes
-    from topomap.drawing import draw_regions
+    from topomap.cli.drawing import draw_regions
     from topomap.topomap import TopoMap
 
     out = Path(args.out)
@@ -159,7 +159,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
 
 
 def cmd_eval_segment(args: argparse.Namespace) -> int:
-    from topomap.evaluate import evaluate_all, means, read_anchors
+    from topomap.cli.evaluate import evaluate_all, means, read_anchors
 
     records = evaluate_all(
         args.data, progress=_progress, spacing=args.spacing, **_segmenter_options(args)
@@ -182,7 +182,7 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
 
 
 def cmd_eval_labels(args: argparse.Namespace) -> int:
-    from topomap.evaluate_labels import evaluate_labels, generated_regions, ipa_places_regions
+    from topomap.cli.evaluate_labels import evaluate_labels, generated_regions, ipa_places_regions
     from topomap.labels import PLACE_TYPES
 
     datasets = {"ipa_places": ipa_places_regions(args.data, progress=_progress)}
@@ -219,7 +219,7 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_segment(args: argparse.Namespace) -> int:
-    from topomap.bench import bench_segment
+    from topomap.cli.bench import bench_segment
 
     records = bench_segment(
         args.out, sizes=tuple(args.sizes), naive_up_to=args.naive_up_to, building=args.building
@@ -244,7 +244,7 @@ def cmd_bench_segment(args: argparse.Namespace) -> int:
 
 def cmd_bench_plan(args: argparse.Namespace) -> int:
     from planners.benchmark import markdown_table
-    from topomap.bench import bench_plan
+    from topomap.cli.bench import bench_plan
 
     _, summary = bench_plan(
         args.out,
@@ -283,7 +283,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from planners.hierarchical import HierarchicalPlanner
     from planners.workspace import Workspace
     from segmentation.export import read_graphml, read_label_image
-    from topomap.drawing import draw_paths
+    from topomap.cli.drawing import draw_paths
     from topomap.labels import find_region
     from topomap.topomap import TopoMap
 

@@ -29,7 +29,7 @@ from planners.flat import FlatPlanner
 from planners.path import Path as PlannedPath
 from planners.visibility import VisibilityGraph
 from segmentation.metrics import score
-from topomap.drawing import draw_map, draw_paths, draw_regions
+from topomap.cli.drawing import draw_map, draw_paths, draw_regions
 from topomap.topomap import TopoMap
 
 log = logging.getLogger(__name__)
