@@ -134,9 +134,11 @@ class RayCaster:
             result[active[hit]] = t[active[hit]]
             keep = ~hit
             active, u, v, col, row = active[keep], u[keep], v[keep], col[keep], row[keep]
-            # distance to the next cell boundary along the ray, and the safe sphere-tracing step
-            next_u = np.where(du_s[active] > 0, col + 1 - u, col - u) / du_s[active]
-            next_v = np.where(dv_s[active] > 0, row + 1 - v, row - v) / dv_s[active]
+            # distance to the next cell boundary along the ray (strictly ahead: a ray on a
+            # boundary going backwards must not see the boundary it stands on, or it creeps
+            # by the 1e-6 nudge), and the safe sphere-tracing step
+            next_u = np.where(du_s[active] > 0, col + 1 - u, np.ceil(u) - 1 - u) / du_s[active]
+            next_v = np.where(dv_s[active] > 0, row + 1 - v, np.ceil(v) - 1 - v) / dv_s[active]
             boundary = np.minimum(next_u, next_v) + 1e-6
             safe = self.clearance[row, col] - math.sqrt(2)
             t[active] += np.maximum(boundary, safe)

@@ -38,6 +38,21 @@ def test_ranges_in_a_square_room_are_analytic(x, y, yaw):
     np.testing.assert_allclose(frame.scan.ranges, expected, atol=1e-5)
 
 
+@pytest.mark.parametrize("yaw", [math.pi, 0.0, math.pi / 2, -math.pi / 2])
+def test_ray_along_a_cell_boundary_in_a_corridor(yaw):
+    # a pose on a cell corner in a 0.2 m wide, 99.9 m long corridor; beams along grid lines.
+    # The one at yaw = pi has a direction of (-1, -1.2e-16): it must step cell by cell, not
+    # creep along the boundary it starts on (the caster once took 40 s for that one ray)
+    free = np.zeros((2000, 2000), bool)
+    free[998:1002, 1:-1] = True  # x in [0.05, 99.95] m, y in [49.9, 50.1] m
+    grid = OccupancyGrid.from_masks(free, 0.05)
+    model = LaserModel(fov=math.pi, beams=3, max_range=60.0)  # beams at -90, 0, 90 degrees
+    (frame,) = simulate_scans(grid, [(50.0, 50.0, yaw)], model)
+    along_x = abs(math.cos(yaw)) > 0.5
+    expected = [0.1, 49.95, 0.1] if along_x else [49.95, 0.1, 49.95]
+    np.testing.assert_allclose(frame.scan.ranges, expected, atol=1e-6)
+
+
 def test_max_range_noise_dropout_and_seed():
     grid = square_room()
     far = simulate_scans(grid, [(5.0, 5.0, 0.0)], LaserModel(max_range=2.0))[0]
