@@ -68,3 +68,23 @@ class InvalidMapError(MapsError, ValueError):
 
 class InvalidScanError(MapsError, ValueError):
     """A laser scan or pose with values that make no sense (NaN pose, negative angle step...)."""
+
+
+class TransformError(LogFormatError):
+    """A transform that a bag's tf tree cannot give: frames not linked, or a link that does
+    not cover a stamp. ``source``, ``target`` and ``stamp`` (seconds) say which, when known."""
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        path: str | Path | None = None,
+        source: str | None = None,
+        target: str | None = None,
+        stamp: float | None = None,
+    ) -> None:
+        super().__init__(message, path=path, field=None if path is None else "/tf")
+        self.detail = message
+        self.source = source
+        self.target = target
+        self.stamp = stamp

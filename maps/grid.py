@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
 from maps.errors import InvalidMapError
+from maps.tf import quaternion_from_yaw, yaw_from_quaternion
 
 if TYPE_CHECKING:
     from typing import Self
@@ -114,6 +117,90 @@ class OccupancyGrid:
         from maps.map_server import save_map
 
         return save_map(self, path, overwrite=overwrite)
+
+    @classmethod
+    def from_msg_fields(cls, message: Any) -> OccupancyGrid:
+        """A grid from the fields of a nav_msgs/OccupancyGrid message.
+
+        ``message`` is a plain dict (as :meth:`to_msg_fields` writes it) or any object with the
+        message's attributes (a ROS 2 message, a deserialised rosbags message). The message's
+        row 0 is the *bottom* of the map; the grid's is the top. ``header`` is not read.
+
+        Raises
+        ------
+        InvalidMapError
+            If a field is missing or ``data`` does not hold ``width * height`` values in -1..100;
+            the message names the field.
+
+        Examples
+        --------
+        >>> grid = OccupancyGrid(np.array([[0, 100], [-1, 0]], np.int8), 0.5, (1.0, 2.0, 0.0))
+        >>> fields = grid.to_msg_fields(frame_id="map")
+        >>> fields["info"]["width"], fields["data"]  # bottom row first
+        (2, [-1, 0, 0, 100])
+        >>> OccupancyGrid.from_msg_fields(fields) == grid
+        True
+        """
+        try:
+            info = _field(message, "info")
+            width, height = int(_field(info, "width")), int(_field(info, "height"))
+            origin = _field(info, "origin")
+            position, rotation = _field(origin, "position"), _field(origin, "orientation")
+            quaternion = [float(_field(rotation, k)) for k in "xyzw"]
+            pose = (
+                float(_field(position, "x")),
+                float(_field(position, "y")),
+                yaw_from_quaternion(*quaternion),
+            )
+            resolution = float(_field(info, "resolution"))
+            data = np.asarray(_field(message, "data"))
+        except KeyError as err:
+            raise InvalidMapError(f"OccupancyGrid message has no field {err.args[0]!r}") from None
+        if data.ndim != 1 or data.size != width * height:
+            raise InvalidMapError(
+                f"OccupancyGrid field 'data' holds {data.size} values, expected "
+                f"info.width * info.height = {width} * {height}"
+            )
+        if data.size and (data.min() < UNKNOWN or data.max() > OCCUPIED):
+            raise InvalidMapError(
+                f"OccupancyGrid field 'data' must lie in -1..100, got "
+                f"{int(data.min())}..{int(data.max())}"
+            )
+        cells = data.astype(np.int8).reshape(height, width)[::-1]
+        return cls(cells, resolution, pose)
+
+    def to_msg_fields(self, *, frame_id: str = "map", stamp: float = 0.0) -> dict[str, Any]:
+        """The fields of a nav_msgs/OccupancyGrid message, as plain dicts, lists and numbers.
+
+        ``data`` runs row by row from the bottom of the map, as the message wants; stamps are
+        ``{"sec", "nanosec"}`` (ROS 2). A ROS 2 node fills its message from it, e.g.
+        ``msg.info.width = fields["info"]["width"]``; :meth:`from_msg_fields` reads it back.
+
+        Parameters
+        ----------
+        frame_id
+            The header's frame.
+        stamp
+            The header's and ``info.map_load_time``'s time, seconds.
+        """
+        sec = math.floor(stamp)
+        time = {"sec": int(sec), "nanosec": round((stamp - sec) * 1e9)}
+        x, y, yaw = self.origin
+        qx, qy, qz, qw = quaternion_from_yaw(yaw)
+        return {
+            "header": {"stamp": dict(time), "frame_id": frame_id},
+            "info": {
+                "map_load_time": dict(time),
+                "resolution": self.resolution,
+                "width": self.shape[1],
+                "height": self.shape[0],
+                "origin": {
+                    "position": {"x": x, "y": y, "z": 0.0},
+                    "orientation": {"x": qx, "y": qy, "z": qz, "w": qw},
+                },
+            },
+            "data": self.cells[::-1].ravel().tolist(),
+        }
 
     # ------------------------------------------------------------------ cell classes
     @property
@@ -220,3 +307,12 @@ class OccupancyGrid:
         cells = self.cells.copy()
         cells[blocked] = OCCUPIED
         return OccupancyGrid(cells, self.resolution, self.origin)
+
+
+def _field(message: Any, name: str) -> Any:
+    """Field ``name`` of a message given as a mapping or as an object; KeyError if absent."""
+    if isinstance(message, Mapping):
+        return message[name]
+    if not hasattr(message, name):
+        raise KeyError(name)
+    return getattr(message, name)

@@ -1,16 +1,27 @@
-"""Reader for laser scans and poses in ROS 1 and ROS 2 bags, through the ``rosbags`` package."""
+"""Readers for ROS 1 and ROS 2 bags, through the ``rosbags`` package: laser scans placed by the
+tf tree (REP-105) or by a pose topic, and nav_msgs/OccupancyGrid maps."""
 
 from __future__ import annotations
 
 import logging
-import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from maps.errors import InvalidScanError, LogFormatError, MapFileNotFoundError
+from maps.errors import (
+    InvalidMapError,
+    InvalidScanError,
+    LogFormatError,
+    MapFileNotFoundError,
+    TransformError,
+)
+from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, LaserScan
+from maps.tf import TOLERANCE, TransformTree, yaw_from_quaternion
 
 log = logging.getLogger(__name__)
 
@@ -20,6 +31,10 @@ POSE_TYPES = (
     "geometry_msgs/msg/PoseStamped",
     "geometry_msgs/msg/PoseWithCovarianceStamped",
 )
+TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
+MAP_TYPE = "nav_msgs/msg/OccupancyGrid"
+#: Fixed frames tried in turn when none is given (REP-105: map is drift-free, odom continuous).
+FIXED_FRAMES = ("map", "odom")
 
 
 def _pick_topic(
@@ -54,66 +69,243 @@ def _pose_of(message: Any) -> tuple[float, float, float]:
     if hasattr(pose, "pose"):  # Odometry and PoseWithCovarianceStamped wrap a covariance
         pose = pose.pose
     q = pose.orientation
-    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+    yaw = yaw_from_quaternion(float(q.x), float(q.y), float(q.z), float(q.w))
     return float(pose.position.x), float(pose.position.y), yaw
 
 
+@dataclass(frozen=True)
+class BagScans:
+    """Scans read from a bag and how they were placed.
+
+    Attributes
+    ----------
+    keyframes
+        The placed scans, poses of the laser in :attr:`fixed_frame`.
+    fixed_frame
+        The frame the poses are in (``"map"``, ``"odom"``...; the pose topic's frame when
+        placed by a pose topic).
+    chain
+        How: the frames from the fixed frame to the laser (``["map", "odom", "base_link",
+        "laser"]``), or ``[pose_topic]``.
+    scans
+        Scans on the topic; those not placed (no transform or pose at their stamp) were dropped.
+    """
+
+    keyframes: list[Keyframe]
+    fixed_frame: str
+    chain: list[str]
+    scans: int
+
+    def describe(self) -> str:
+        """One line: how many scans were placed, and by what.
+
+        Examples
+        --------
+        >>> BagScans([], "odom", ["odom", "base_link", "laser"], 0).describe()
+        '0 of 0 scans placed in odom by odom -> base_link -> laser'
+        """
+        return (
+            f"{len(self.keyframes)} of {self.scans} scans placed in {self.fixed_frame} by "
+            + " -> ".join(self.chain)
+        )
+
+
+@contextmanager
+def _open(path: Path) -> Iterator[Any]:
+    """An ``AnyReader`` on a ROS 1 ``.bag`` or a ROS 2 bag folder; read errors name the bag."""
+    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.typesys import Stores, get_typestore
+
+    if not path.exists():
+        raise MapFileNotFoundError(path, "ROS bag")
+    store = Stores.ROS1_NOETIC if path.suffix == ".bag" else Stores.LATEST
+    try:
+        with AnyReader([path], default_typestore=get_typestore(store)) as reader:
+            yield reader
+    except AnyReaderError as err:
+        raise LogFormatError(f"cannot read the bag ({err})", path=path) from err
+
+
 def read_rosbag(
-    path: str | Path, *, scan_topic: str | None = None, pose_topic: str | None = None
+    path: str | Path,
+    *,
+    scan_topic: str | None = None,
+    pose_topic: str | None = None,
+    fixed_frame: str | None = None,
+    tolerance: float = TOLERANCE,
 ) -> list[Keyframe]:
-    """Read laser scans and the poses they were taken at from a ROS 1 or ROS 2 bag.
+    """Laser scans and the poses they were taken at, from a ROS 1 or ROS 2 bag.
+
+    The keyframes of :func:`read_bag_scans` (which also says how the scans were placed).
+    """
+    return read_bag_scans(
+        path,
+        scan_topic=scan_topic,
+        pose_topic=pose_topic,
+        fixed_frame=fixed_frame,
+        tolerance=tolerance,
+    ).keyframes
+
+
+def read_bag_scans(
+    path: str | Path,
+    *,
+    scan_topic: str | None = None,
+    pose_topic: str | None = None,
+    fixed_frame: str | None = None,
+    tolerance: float = TOLERANCE,
+) -> BagScans:
+    """Read laser scans from a ROS 1 or ROS 2 bag and place them in a fixed frame.
+
+    Scans are placed by the bag's tf tree (``/tf`` and ``/tf_static``, REP-105): the laser's
+    pose in the fixed frame at each scan's header stamp, through ``map -> odom -> base_link ->
+    <the scan's frame_id>`` or whatever links the bag has, each timed link interpolated at the
+    stamp (held :data:`~maps.tf.TOLERANCE` seconds past its ends), static links (the laser's
+    mount) applied as they are. A laser mounted upside down has its scans mirrored.
+
+    A bag without tf, or a ``pose_topic`` named, places scans by a pose topic instead (an
+    Odometry, PoseStamped or PoseWithCovarianceStamped topic, taken as the laser's pose).
 
     Parameters
     ----------
     path
-        A ROS 1 ``.bag`` file or a ROS 2 bag directory.
-    scan_topic, pose_topic
-        Topics to read; when omitted, the bag's only sensor_msgs/LaserScan topic and its only
-        nav_msgs/Odometry, geometry_msgs/PoseStamped or PoseWithCovarianceStamped topic.
+        A ROS 1 ``.bag`` file or a ROS 2 bag folder (sqlite3 or MCAP).
+    scan_topic
+        The sensor_msgs/LaserScan topic; by default the bag's only one.
+    pose_topic
+        Place scans by this pose topic rather than by tf.
+    fixed_frame
+        The frame to place scans in. By default ``map`` when its chain places at least half
+        as many scans as ``odom``'s (the drift-free frame, once a SLAM node publishes it),
+        else ``odom``.
+    tolerance
+        Seconds a timed transform is held beyond its first and last message.
 
     Returns
     -------
-    list of Keyframe
-        Scans in bag order with poses interpolated at their header stamps (linear in x, y and
-        unwrapped yaw); ``scan_index`` counts all scans on the topic from 0. Scans stamped
-        outside the span of the poses are dropped (logged), since their pose is unknown.
-        Poses are taken as the laser's pose in the map frame.
+    BagScans
+        The keyframes (bag order; ``scan_index`` counts every scan on the topic from 0;
+        unplaced scans dropped and logged), the fixed frame and the chain used.
 
     Raises
     ------
     MapFileNotFoundError
         If the bag does not exist.
+    TransformError
+        If no scan can be placed by tf: the message names the missing link and its span.
     LogFormatError
         If the bag cannot be read, or the topics are missing or ambiguous.
-    """
-    from rosbags.highlevel import AnyReader, AnyReaderError
-    from rosbags.typesys import Stores, get_typestore
 
+    Examples
+    --------
+    >>> found = read_bag_scans("run.bag")  # doctest: +SKIP
+    >>> found.describe()  # doctest: +SKIP
+    '812 of 815 scans placed in map by map -> odom -> base_link -> laser'
+    """
     path = Path(path)
-    if not path.exists():
-        raise MapFileNotFoundError(path, "ROS bag")
-    store = Stores.ROS1_NOETIC if path.suffix == ".bag" else Stores.LATEST
-    scans: list[tuple[float, LaserScan]] = []
+    scans: list[tuple[float, str, LaserScan]] = []
     poses: list[tuple[float, tuple[float, float, float]]] = []
+    tree = TransformTree(tolerance)
+    with _open(path) as reader:
+        topics = {c.topic: c.msgtype for c in reader.connections}
+        scan_name = _pick_topic(topics, (SCAN_TYPE,), scan_topic, path)
+        tf_names = {name for name, kind in topics.items() if kind in TF_TYPES}
+        by_tf = pose_topic is None and bool(tf_names)
+        pose_name = None if by_tf else _pick_topic(topics, POSE_TYPES, pose_topic, path)
+        wanted = [c for c in reader.connections if c.topic in {scan_name, pose_name} | tf_names]
+        for connection, _, raw in reader.messages(connections=wanted):
+            message = reader.deserialize(raw, connection.msgtype)
+            if connection.topic == scan_name:
+                try:
+                    scan = _scan_of(message)
+                except InvalidScanError as err:
+                    field = f"{scan_name} message {len(scans)}"
+                    raise LogFormatError(str(err), path=path, field=field) from err
+                scans.append((_stamp(message), message.header.frame_id, scan))
+            elif connection.topic == pose_name:
+                poses.append((_stamp(message), _pose_of(message)))
+            else:
+                _add_transforms(tree, message, static=connection.topic.endswith("tf_static"))
+    if pose_name is not None:
+        if fixed_frame is not None:
+            raise LogFormatError(
+                f"--fixed-frame {fixed_frame!r} needs /tf, but scans are placed by {pose_name}",
+                path=path,
+                field="fixed_frame",
+            )
+        return _place_by_poses(path, scans, poses, pose_name)
     try:
-        with AnyReader([path], default_typestore=get_typestore(store)) as reader:
-            topics = {c.topic: c.msgtype for c in reader.connections}
-            scan_name = _pick_topic(topics, (SCAN_TYPE,), scan_topic, path)
-            pose_name = _pick_topic(topics, POSE_TYPES, pose_topic, path)
-            wanted = [c for c in reader.connections if c.topic in (scan_name, pose_name)]
-            for connection, _, raw in reader.messages(connections=wanted):
-                message = reader.deserialize(raw, connection.msgtype)
-                if connection.topic == scan_name:
-                    try:
-                        scan = _scan_of(message)
-                    except InvalidScanError as err:
-                        field = f"{scan_name} message {len(scans)}"
-                        raise LogFormatError(str(err), path=path, field=field) from err
-                    scans.append((_stamp(message), scan))
-                else:
-                    poses.append((_stamp(message), _pose_of(message)))
-    except AnyReaderError as err:
-        raise LogFormatError(f"cannot read the bag ({err})", path=path) from err
+        return _place_by_tf(tree, scans, fixed_frame)
+    except TransformError as err:
+        raise TransformError(
+            err.detail, path=path, source=err.source, target=err.target, stamp=err.stamp
+        ) from err
+
+
+def _add_transforms(tree: TransformTree, message: Any, *, static: bool) -> None:
+    for item in message.transforms:
+        t, r = item.transform.translation, item.transform.rotation
+        tree.add(
+            item.header.frame_id,
+            item.child_frame_id,
+            (float(t.x), float(t.y), float(t.z)),
+            (float(r.x), float(r.y), float(r.z), float(r.w)),
+            stamp=None if static else _stamp(item),
+        )
+
+
+def _place_by_tf(
+    tree: TransformTree, scans: list[tuple[float, str, LaserScan]], fixed_frame: str | None
+) -> BagScans:
+    """Scans placed through the tf tree in ``fixed_frame``, or the best of map and odom."""
+    stamps = np.array([stamp for stamp, _, _ in scans])
+    lasers = sorted({frame.lstrip("/") for _, frame, _ in scans})
+    if len(lasers) != 1 or not lasers[0]:
+        raise TransformError(f"scans must come from one named frame, got {lasers}")
+    laser = lasers[0]
+    if fixed_frame is None:
+        known = [f for f in FIXED_FRAMES if f in tree.frames] or [FIXED_FRAMES[-1]]
+        placed = {}
+        for frame in known:
+            try:
+                placed[frame] = int(
+                    np.isfinite(tree.lookup(frame, laser, stamps, partial=True)[0][:, 0]).sum()
+                )
+            except TransformError:
+                placed[frame] = 0
+        fixed_frame = known[0]
+        if len(known) > 1 and 2 * placed[known[0]] < placed[known[1]]:
+            fixed_frame = known[1]
+        if placed[fixed_frame] == 0:  # the error of the strict look-up names the missing link
+            tree.lookup(fixed_frame, laser, stamps)
+    poses, mirrored = tree.lookup(fixed_frame, laser, stamps, partial=True)
+    if not np.isfinite(poses[:, 0]).any():
+        tree.lookup(fixed_frame, laser, stamps)
+    frames = []
+    for index, ((stamp, _, scan), pose) in enumerate(zip(scans, poses, strict=True)):
+        if np.isfinite(pose[0]):
+            placed_scan = _mirrored(scan) if mirrored else scan
+            at = (float(pose[0]), float(pose[1]), float(pose[2]))
+            frames.append(Keyframe(at, placed_scan, scan_index=index, stamp=stamp))
+    found = BagScans(frames, fixed_frame, tree.chain(fixed_frame, laser), len(scans))
+    log.info("%s", found.describe())
+    return found
+
+
+def _mirrored(scan: LaserScan) -> LaserScan:
+    """The scan of a laser mounted upside down, seen from above: angles turn clockwise."""
+    return LaserScan(
+        scan.ranges, -scan.angle_min, -scan.angle_increment, scan.range_min, scan.range_max
+    )
+
+
+def _place_by_poses(
+    path: Path,
+    scans: list[tuple[float, str, LaserScan]],
+    poses: list[tuple[float, tuple[float, float, float]]],
+    pose_name: str,
+) -> BagScans:
+    """Scans at their pose topic's pose, interpolated at their stamps."""
     if not poses:
         raise LogFormatError("the pose topic has no messages", path=path, field="pose_topic")
     poses.sort(key=lambda item: item[0])
@@ -121,14 +313,62 @@ def read_rosbag(
     xyz = np.array([p for _, p in poses])
     xyz[:, 2] = np.unwrap(xyz[:, 2])
     frames = []
-    for index, (stamp, scan) in enumerate(scans):
+    for index, (stamp, _, scan) in enumerate(scans):
         if not times[0] <= stamp <= times[-1]:
             continue
         pose = tuple(float(np.interp(stamp, times, xyz[:, k])) for k in range(3))
         frames.append(Keyframe(pose, scan, scan_index=index, stamp=stamp))  # type: ignore[arg-type]
     if len(frames) < len(scans):
         log.info("%s: dropped %d scans stamped outside the poses", path, len(scans) - len(frames))
-    return frames
+    return BagScans(frames, "pose topic", [pose_name], len(scans))
+
+
+def read_rosbag_map(
+    path: str | Path, *, topic: str | None = None, stamp: float | None = None
+) -> OccupancyGrid:
+    """A nav_msgs/OccupancyGrid map recorded in a ROS 1 or ROS 2 bag.
+
+    Parameters
+    ----------
+    path
+        A ROS 1 ``.bag`` file or a ROS 2 bag folder.
+    topic
+        The map topic; by default the bag's only OccupancyGrid topic (``/map`` usually).
+    stamp
+        Take the last map recorded at or before this time (seconds, the bag's clock); by
+        default the last map in the bag (a SLAM node's most complete one).
+
+    Raises
+    ------
+    MapFileNotFoundError
+        If the bag does not exist.
+    LogFormatError
+        If the topic is missing or ambiguous, has no map (before ``stamp``), or its map is
+        malformed; the message names the bag, topic and message.
+
+    Examples
+    --------
+    >>> grid = read_rosbag_map("run.bag", topic="/map")  # doctest: +SKIP
+    """
+    path = Path(path)
+    with _open(path) as reader:
+        topics = {c.topic: c.msgtype for c in reader.connections}
+        name = _pick_topic(topics, (MAP_TYPE,), topic, path)
+        wanted = [c for c in reader.connections if c.topic == name]
+        chosen = None
+        count = first = 0
+        for connection, time_ns, raw in reader.messages(connections=wanted):
+            first = first or time_ns
+            if stamp is None or time_ns <= stamp * 1e9:
+                chosen, count = (connection, raw), count + 1
+        if chosen is None:
+            when = "" if stamp is None else f" at or before {stamp} s (first at {first / 1e9} s)"
+            raise LogFormatError(f"no map{when}", path=path, field=name)
+        message = reader.deserialize(chosen[1], chosen[0].msgtype)
+    try:
+        return OccupancyGrid.from_msg_fields(message)
+    except InvalidMapError as err:
+        raise LogFormatError(str(err), path=path, field=f"{name} message {count - 1}") from err
 
 
 def _scan_of(message: Any) -> LaserScan:
