@@ -7,7 +7,7 @@ from functools import cached_property
 
 import numpy as np
 import shapely
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 from shapely import affinity
 from shapely.geometry.base import BaseGeometry
@@ -60,13 +60,19 @@ def merge_small(labels: NDArray[np.int32], min_cells: int) -> NDArray[np.int32]:
 
 
 def consecutive(labels: NDArray[np.integer]) -> NDArray[np.int32]:
-    """Relabel to ``1..N`` in order of first appearance (row-major), keeping 0."""
-    values, first, inverse = np.unique(labels.ravel(), return_index=True, return_inverse=True)
-    order = np.argsort(first[values > 0] if values[0] == 0 else first, kind="stable")
-    rank = np.zeros(len(values), np.int32)
-    positive = np.flatnonzero(values > 0)
-    rank[positive[order]] = np.arange(1, len(positive) + 1)
-    return rank[inverse].reshape(labels.shape)
+    """Relabel to ``1..N`` keeping the order of the values, and 0 (negative values become 0).
+
+    Examples
+    --------
+    >>> consecutive(np.array([[0, 7, 7], [3, 0, 9]])).tolist()
+    [[0, 2, 2], [1, 0, 3]]
+    """
+    labels = np.maximum(labels, 0)
+    present = np.bincount(labels.ravel()) > 0
+    present[0] = False
+    rank = np.cumsum(present).astype(np.int32)
+    rank[0] = 0
+    return rank[labels]
 
 
 def dense_labels(
@@ -161,6 +167,14 @@ class Regions:
         if not self.grid.contains(row, col):
             return 0
         return int(self.labels[row, col])
+
+    def at_points(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.int64]:
+        """The region at each map point, 0 where there is none."""
+        rows, cols = self.grid.world_to_cell(x, y)
+        inside = self.grid.contains(rows, cols)
+        found = np.zeros(np.shape(rows), np.int64)
+        found[inside] = self.labels[rows[inside], cols[inside]]
+        return found
 
     @cached_property
     def polygons(self) -> dict[int, BaseGeometry]:

@@ -184,7 +184,9 @@ class SpectralSegmenter:
         self.eigenvalues_ = np.zeros(0)
         labels = np.zeros(n, np.int64)
         if len(main) >= 3:
-            labels[main] = self._cluster(self.affinity_[main][:, main], rng)
+            # small dense problems: BLAS threads cost more than they save (and oversubscribe)
+            with threadpool_limits(1):
+                labels[main] = self._cluster(self.affinity_[main][:, main], rng)
         labels = labels * count + component  # never one cluster across two components
         self.labels_ = np.unique(labels, return_inverse=True)[1].astype(np.int64)
         self.n_regions_ = int(self.labels_.max()) + 1
@@ -203,12 +205,10 @@ class SpectralSegmenter:
         ks = [k for k in range(guess - self.spread, guess + self.spread + 1) if 2 <= k < n]
         ks = [k for k in ks if k <= vectors.shape[1]] or [min(max(2, guess), vectors.shape[1])]
         best: tuple[float, NDArray[np.int64]] = (-math.inf, np.zeros(n, np.int64))
-        # Many small k-means problems: thread start-up would cost more than it saves.
-        with threadpool_limits(1):
-            for k in ks:
-                score, labels = best_clustering(vectors, k, self.n_init, rng)
-                self.silhouette_by_k_[k] = score
-                if score > best[0]:
-                    best = (score, labels)
+        for k in ks:
+            score, labels = best_clustering(vectors, k, self.n_init, rng)
+            self.silhouette_by_k_[k] = score
+            if score > best[0]:
+                best = (score, labels)
         log.debug("k' = %d, silhouette by k: %s", guess, self.silhouette_by_k_)
         return best[1]

@@ -19,13 +19,17 @@ VIRTUAL_LASER = LaserModel(fov=2 * math.pi, beams=180, max_range=15.0)
 
 
 def virtual_poses(
-    grid: OccupancyGrid, spacing: float = 0.6, min_clearance: float = 0.2
+    grid: OccupancyGrid,
+    spacing: float = 0.6,
+    min_clearance: float = 0.2,
+    places: NDArray[np.integer] | None = None,
 ) -> NDArray[np.float64]:
     """``(n, 3)`` poses on a square lattice of ``spacing`` metres over the free space.
 
     Only cells at least ``min_clearance`` metres from any non-free cell are used. Every
-    connected piece of that space that the lattice misses gets one pose, at its most open cell,
-    so no room is left without a keyframe.
+    place (a label of ``places``, e.g. the clearance basins) gets a pose at its most open cell;
+    without ``places``, every connected piece of the usable space the lattice misses does, so
+    no room is left without a keyframe.
 
     Raises
     ------
@@ -46,12 +50,17 @@ def virtual_poses(
     lattice = np.zeros_like(open_space)
     lattice[step // 2 :: step, step // 2 :: step] = True
     chosen = open_space & lattice
-    pieces, count = ndimage.label(open_space, structure=np.ones((3, 3)))
-    covered = np.zeros(count + 1, bool)
-    covered[pieces[chosen]] = True
-    for piece in np.flatnonzero(~covered[1:]) + 1:
-        best = ndimage.maximum_position(clearance, pieces, piece)
-        chosen[best] = True
+    if places is None:
+        pieces, count = ndimage.label(open_space, structure=np.ones((3, 3)))
+        covered = np.zeros(count + 1, bool)
+        covered[pieces[chosen]] = True
+        wanted = np.flatnonzero(~covered[1:]) + 1
+    else:
+        pieces = np.where(open_space, places, 0)
+        wanted = np.unique(pieces[pieces > 0])
+    if len(wanted):
+        best = np.array(ndimage.maximum_position(clearance, pieces, wanted)).reshape(-1, 2)
+        chosen[best[:, 0], best[:, 1]] = True
     rows, cols = np.nonzero(chosen)
     x, y = grid.cell_to_world(rows, cols)
     return np.column_stack([x, y, np.zeros(len(rows))])
@@ -63,8 +72,9 @@ def virtual_keyframes(
     *,
     model: LaserModel = VIRTUAL_LASER,
     min_clearance: float = 0.2,
+    places: NDArray[np.integer] | None = None,
     random_state: RandomState = None,
 ) -> list[Keyframe]:
     """Keyframes a robot with laser ``model`` would record at :func:`virtual_poses`."""
-    poses = virtual_poses(grid, spacing, min_clearance)
+    poses = virtual_poses(grid, spacing, min_clearance, places)
     return simulate_scans(grid, poses, model, random_state=random_state)

@@ -5,9 +5,9 @@ from __future__ import annotations
 import csv
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import networkx as nx
 import numpy as np
@@ -15,18 +15,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
-from maps.scan import Keyframe, poses_array
+from maps.scan import Keyframe
 from maps.seeding import RandomState
-from planners.hierarchical import HierarchicalPlanner
-from planners.path import Path as PlannedPath
-from planners.workspace import Workspace
-from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
+from segmentation.blocks import BlockSpectralSegmenter
+from segmentation.conditioning import ConditionedMap
+from segmentation.errors import ParameterError
 from segmentation.export import write_geojson, write_graphml, write_label_image, write_node_link
 from segmentation.graph import region_graph
-from segmentation.refine import basins, count_basins, merge_open_boundaries, snap_to_basins
-from segmentation.regions import Regions, dense_labels
+from segmentation.pipeline import MapSegmenter, Segmentation
+from segmentation.regions import Regions
 from segmentation.spectral import SpectralSegmenter
-from segmentation.virtual import virtual_keyframes
 from topomap.labels import (
     Classifier,
     classify,
@@ -36,8 +34,32 @@ from topomap.labels import (
     rename,
 )
 
-#: Maps with more places (clearance basins) than this are segmented block by block.
-BLOCK_PLACES = 100
+if TYPE_CHECKING:
+    from planners.hierarchical import HierarchicalPlanner
+    from planners.path import Path as PlannedPath
+
+_PIPELINE = {f.name for f in fields(MapSegmenter) if f.init and f.name != "spectral"}
+_SPECTRAL = {f.name for f in fields(SpectralSegmenter) if f.init}
+
+
+def pipeline_from_options(options: dict[str, Any]) -> MapSegmenter:
+    """A :class:`~segmentation.pipeline.MapSegmenter` from flat keyword options: those of the
+    pipeline (``robot_radius``, ``spacing``, ``refine`` ...) and of its
+    :class:`~segmentation.spectral.SpectralSegmenter` (``criterion``, ``k``, ``p`` ...).
+
+    Examples
+    --------
+    >>> pipeline_from_options({"robot_radius": 0.3, "k": 4}).spectral.k
+    4
+    """
+    unknown = set(options) - _PIPELINE - _SPECTRAL
+    if unknown:
+        raise ParameterError(
+            f"unknown segmentation option(s) {sorted(unknown)}; known: "
+            f"{sorted(_PIPELINE | _SPECTRAL)}"
+        )
+    spectral = SpectralSegmenter(**{k: v for k, v in options.items() if k in _SPECTRAL})
+    return MapSegmenter(spectral, **{k: v for k, v in options.items() if k in _PIPELINE})
 
 
 @dataclass
@@ -45,35 +67,24 @@ class TopoMap:
     """A map segmented into regions, with the region adjacency graph.
 
     Build one with :meth:`from_grid` (a map only: virtual keyframes are simulated) or
-    :meth:`from_keyframes` (a robot's keyframes).
+    :meth:`from_keyframes` (a robot's keyframes); both run a
+    :class:`~segmentation.pipeline.MapSegmenter`.
 
     Attributes
     ----------
     grid
         The occupancy map.
-    keyframes
-        The keyframes that were clustered (virtual ones for a map-only input).
-    segmenter
-        The fitted :class:`~segmentation.spectral.SpectralSegmenter`, or for maps of more
-        than :data:`BLOCK_PLACES` places the
-        :class:`~segmentation.blocks.BlockSpectralSegmenter` that ran one per block.
-    spectral
-        The spectral partition alone, made dense (every free cell gets the cluster of its
-        geodesically nearest keyframe).
-    regions
-        The regions after refinement (boundaries at doors, open cuts merged), or the spectral
-        partition when built with ``refine=False``.
+    segmentation
+        Everything the pipeline found: the conditioned map, places, keyframes, the fitted
+        spectral partition, the spectral and refined regions, seconds per stage.
     graph
         Region adjacency graph of :attr:`regions` (see :func:`segmentation.graph.region_graph`).
     seconds
-        Time per stage.
+        Time per stage, the graph and labels included.
     """
 
     grid: OccupancyGrid
-    keyframes: list[Keyframe]
-    segmenter: SpectralSegmenter | BlockSpectralSegmenter
-    spectral: Regions
-    regions: Regions
+    segmentation: Segmentation
     graph: nx.Graph
     seconds: dict[str, float] = field(default_factory=dict)
     _planners: dict[tuple, HierarchicalPlanner] = field(
@@ -85,20 +96,16 @@ class TopoMap:
         cls,
         grid: OccupancyGrid,
         *,
-        spacing: float = 0.8,
-        refine: bool = True,
         random_state: RandomState = 0,
-        **segmenter: Any,
+        pipeline: MapSegmenter | None = None,
+        **options: Any,
     ) -> TopoMap:
-        """Segment a map: virtual 360 degree keyframes every ``spacing`` metres, then the
-        spectral pipeline. ``segmenter`` options go to :class:`SpectralSegmenter`; without
-        ``k``, the guess ``k'`` is the number of clearance basins of the map
-        (:func:`~segmentation.refine.count_basins`)."""
-        spectral = SpectralSegmenter(random_state=random_state, **segmenter)
-        start = time.perf_counter()
-        keyframes = virtual_keyframes(grid, spacing, random_state=random_state)
-        seconds = {"keyframes": time.perf_counter() - start}
-        return cls._build(grid, keyframes, spectral, refine, seconds)
+        """Segment a map alone: virtual keyframes are simulated in it.
+
+        ``options`` are those of :func:`pipeline_from_options` (or give ``pipeline``).
+        """
+        pipeline = pipeline or pipeline_from_options(options)
+        return cls._build(grid, pipeline.segment(grid, random_state=random_state))
 
     @classmethod
     def from_keyframes(
@@ -107,64 +114,59 @@ class TopoMap:
         grid: OccupancyGrid | None = None,
         *,
         resolution: float = 0.05,
-        refine: bool = True,
         random_state: RandomState = 0,
-        **segmenter: Any,
+        pipeline: MapSegmenter | None = None,
+        **options: Any,
     ) -> TopoMap:
         """Segment a robot's keyframes; the map is built from them unless ``grid`` is given.
         Options as for :meth:`from_grid`."""
-        spectral = SpectralSegmenter(random_state=random_state, **segmenter)
-        seconds: dict[str, float] = {}
-        if grid is None:
-            start = time.perf_counter()
-            grid = grid_from_keyframes(keyframes, resolution)
-            seconds["map"] = time.perf_counter() - start
-        return cls._build(grid, list(keyframes), spectral, refine, seconds)
+        pipeline = pipeline or pipeline_from_options(options)
+        start = time.perf_counter()
+        built = grid is None
+        grid = grid_from_keyframes(keyframes, resolution) if grid is None else grid
+        mapped = time.perf_counter() - start
+        found = pipeline.segment(grid, keyframes, random_state=random_state)
+        topo = cls._build(grid, found)
+        if built:
+            topo.seconds = {"map": mapped, **topo.seconds}
+        return topo
 
     @classmethod
-    def _build(
-        cls,
-        grid: OccupancyGrid,
-        keyframes: list[Keyframe],
-        segmenter: SpectralSegmenter,
-        refine: bool,
-        seconds: dict[str, float],
-    ) -> TopoMap:
-        clock = time.perf_counter()
-
-        def lap(stage: str) -> None:
-            nonlocal clock
-            now = time.perf_counter()
-            seconds[stage] = now - clock
-            clock = now
-
-        basin = basins(grid) if refine or segmenter.k is None else None
-        fitted: SpectralSegmenter | BlockSpectralSegmenter = segmenter
-        if segmenter.k is None:
-            assert basin is not None
-            places = count_basins(grid, basin)
-            if places > BLOCK_PLACES:
-                blocks, per_block = keyframe_blocks(grid, basin, keyframes, BLOCK_PLACES)
-                fitted = BlockSpectralSegmenter(segmenter, blocks, per_block)
-            else:
-                fitted = replace(segmenter, k=min(len(keyframes), places))
-        fitted.fit(keyframes)
-        lap("spectral")
-        poses = poses_array(keyframes)
-        rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])
-        spectral = Regions(grid, dense_labels(grid, rows, cols, fitted.labels_))
-        lap("regions")
-        regions = spectral
-        if refine:
-            snapped = snap_to_basins(grid, spectral.labels, basin)
-            regions = Regions(grid, merge_open_boundaries(grid, snapped))
-            lap("refine")
-        graph = region_graph(regions, _regions_of(regions, rows, cols))
-        lap("graph")
-        topo = cls(grid, keyframes, fitted, spectral, regions, graph, seconds)
+    def _build(cls, grid: OccupancyGrid, found: Segmentation) -> TopoMap:
+        seconds = dict(found.seconds)
+        start = time.perf_counter()
+        graph = region_graph(found.regions, found.keyframe_regions())
+        seconds["graph"] = time.perf_counter() - start
+        topo = cls(grid, found, graph, seconds)
+        start = time.perf_counter()
         topo.label()
-        lap("labels")
+        seconds["labels"] = time.perf_counter() - start
         return topo
+
+    @property
+    def regions(self) -> Regions:
+        """The regions (refined unless the pipeline ran with ``refine=False``)."""
+        return self.segmentation.regions
+
+    @property
+    def spectral(self) -> Regions:
+        """The spectral partition alone, made dense."""
+        return self.segmentation.spectral
+
+    @property
+    def keyframes(self) -> list[Keyframe]:
+        """The keyframes that were clustered (virtual ones for a map alone)."""
+        return self.segmentation.keyframes
+
+    @property
+    def segmenter(self) -> SpectralSegmenter | BlockSpectralSegmenter:
+        """The fitted spectral partition."""
+        return self.segmentation.segmenter
+
+    @property
+    def conditioned(self) -> ConditionedMap:
+        """The building space, clutter and dropped cells (see :mod:`segmentation.conditioning`)."""
+        return self.segmentation.conditioned
 
     def region_at(self, x: float, y: float) -> int:
         """The region id at map point ``(x, y)``, 0 if none."""
@@ -206,6 +208,9 @@ class TopoMap:
         """The hierarchical planner on this map for a disc robot of ``robot_radius`` metres
         (made once per radius and kept, with its leg cache). ``options`` go to
         :class:`~planners.hierarchical.HierarchicalPlanner`."""
+        from planners.hierarchical import HierarchicalPlanner
+        from planners.workspace import Workspace
+
         key = (robot_radius, tuple(sorted(options.items())))
         if key not in self._planners:
             space = Workspace(self.grid, robot_radius)
@@ -223,10 +228,8 @@ class TopoMap:
         return self.planner(robot_radius).plan(start, target)
 
     def keyframe_regions(self) -> NDArray[np.int64]:
-        """Region of each keyframe's position (0 if it is not on a free cell)."""
-        poses = poses_array(self.keyframes)
-        rows, cols = self.grid.world_to_cell(poses[:, 0], poses[:, 1])
-        return _regions_of(self.regions, rows, cols)
+        """Region of each keyframe's position (0 if it is not on a labelled cell)."""
+        return self.segmentation.keyframe_regions()
 
     def save(self, out: str | Path, *, overwrite: bool = False) -> list[Path]:
         """Write ``regions.png``, ``graph.graphml``, ``graph.json`` and ``regions.geojson``."""
@@ -250,10 +253,3 @@ class TopoMap:
             for frame, region in zip(self.keyframes, self.keyframe_regions(), strict=True):
                 writer.writerow([frame.scan_index, *(f"{v:.4f}" for v in frame.pose), region])
         return path
-
-
-def _regions_of(regions: Regions, rows: NDArray, cols: NDArray) -> NDArray[np.int64]:
-    inside = regions.grid.contains(rows, cols)
-    found = np.zeros(len(rows), np.int64)
-    found[inside] = regions.labels[rows[inside], cols[inside]]
-    return found

@@ -19,7 +19,8 @@ def test_a_generated_flat_is_segmented_into_its_rooms(flat):
     topo = TopoMap.from_grid(flat.grid, random_state=0)
     assert score(topo.regions.labels, flat.labels).mcc > 0.9
     assert score(topo.spectral.labels, flat.labels).mcc > 0.8
-    assert set(topo.seconds) == {"keyframes", "spectral", "regions", "refine", "graph", "labels"}
+    stages = {"condition", "places", "keyframes", "spectral", "regions", "refine", "graph", "labels"}
+    assert set(topo.seconds) == stages
     # every region is a node, touching regions are joined, and the doors are door-sized
     assert sorted(topo.graph.nodes) == topo.regions.ids
     widths = [d.width for _, _, doors in topo.graph.edges(data="doors") for d in doors]

@@ -1,0 +1,228 @@
+"""The whole map (or keyframes) -> regions pipeline, one object with its settings.
+
+Stages, each timed in :attr:`Segmentation.seconds`:
+
+1. ``condition``: the map's building space and its clutter (:mod:`segmentation.conditioning`).
+2. ``places``: watershed basins of the clearance (:func:`segmentation.refine.basins`) measured
+   in the conditioned space, where furniture does not count as wall.
+3. ``keyframes``: for a map alone, virtual 360 degree scans at the most open point of every
+   place and on a lattice of ``spacing`` metres, simulated in the conditioned space; a robot's
+   keyframes are used as they are.
+4. ``spectral``: the paper's spectral partition of the keyframes
+   (:class:`~segmentation.spectral.SpectralSegmenter`), with the guess ``k'`` = the number of
+   places, block by block on maps of more than ``block_places`` places.
+5. ``regions``: every cell of the building gets the cluster of its geodesically nearest
+   keyframe: the spectral partition alone, made dense.
+6. ``refine`` (optional): boundaries snapped to the places' boundaries (doors and narrow
+   passages), cuts where nothing narrows merged away (:mod:`segmentation.refine`).
+
+Clutter and dropped cells carry no region (label 0).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from maps.grid import OccupancyGrid
+from maps.laser_sim import LaserModel
+from maps.scan import Keyframe, poses_array
+from maps.seeding import RandomState
+from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
+from segmentation.conditioning import ConditionedMap, condition
+from segmentation.errors import ParameterError, SegmentationError
+from segmentation.refine import basins, count_basins, merge_open_boundaries, snap_to_basins
+from segmentation.regions import Regions, dense_labels
+from segmentation.spectral import SpectralSegmenter
+from segmentation.virtual import VIRTUAL_LASER, virtual_keyframes
+from segmentation.working import pool, pool_factor, unpool
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class Segmentation:
+    """What :meth:`MapSegmenter.segment` found.
+
+    Attributes
+    ----------
+    conditioned
+        The building space, its clutter and what was dropped.
+    working
+        The grid the segmentation ran on: the building space in cells of about
+        ``cell_size`` metres (:func:`~segmentation.working.pool`).
+    places
+        Label image of the places (clearance basins) on ``working``.
+    keyframes
+        The keyframes clustered (virtual ones for a map alone).
+    segmenter
+        The fitted spectral partition (one per block on large maps).
+    spectral
+        The spectral partition alone, made dense.
+    regions
+        The refined regions (the spectral partition when ``refine=False``).
+    seconds
+        Time per stage.
+    """
+
+    conditioned: ConditionedMap
+    working: OccupancyGrid
+    places: NDArray[np.int32]
+    keyframes: list[Keyframe]
+    segmenter: SpectralSegmenter | BlockSpectralSegmenter
+    spectral: Regions
+    regions: Regions
+    seconds: dict[str, float]
+
+    def keyframe_regions(self) -> NDArray[np.int64]:
+        """Region of each keyframe's position (0 if it is not on a labelled cell)."""
+        poses = poses_array(self.keyframes)
+        return self.regions.at_points(poses[:, 0], poses[:, 1])
+
+
+@dataclass
+class MapSegmenter:
+    """The map -> regions pipeline (see the module docstring), configured in metres.
+
+    Parameters
+    ----------
+    spectral
+        Settings of the spectral partition; its ``k``, when set, overrides the place count.
+    robot_radius, clutter_size, min_area
+        Conditioning (:func:`~segmentation.conditioning.condition`).
+    place_depth
+        A place's clearance peak must rise this many metres above the passages around it.
+    spacing
+        Lattice step of the virtual keyframes, metres.
+    cell_size
+        Finer maps are segmented on cells of about this size (metres), then labelled cell by
+        cell.
+    refine
+        Snap boundaries to doors and merge open cuts.
+    block_places
+        Maps with more places are partitioned block by block.
+    laser
+        The virtual laser.
+    on_stage
+        Called with each stage's name as it starts (progress for long maps).
+
+    Examples
+    --------
+    >>> import maps
+    >>> plan = maps.generate_floor_plan("flat", random_state=0)
+    >>> found = MapSegmenter(spectral=SpectralSegmenter(random_state=0)).segment(plan.grid)
+    >>> found.regions.labels.shape == plan.grid.shape
+    True
+    """
+
+    spectral: SpectralSegmenter = field(default_factory=SpectralSegmenter)
+    robot_radius: float = 0.2
+    clutter_size: float = 2.0
+    min_area: float = 1.0
+    place_depth: float = 0.3
+    spacing: float = 2.0
+    cell_size: float = 0.1
+    refine: bool = True
+    block_places: int = 100
+    laser: LaserModel = VIRTUAL_LASER
+    on_stage: Callable[[str], None] | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        for name in ("place_depth", "spacing", "cell_size"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and value > 0):
+                raise ParameterError(f"{name} must be > 0 metres, got {value!r}")
+        if not (isinstance(self.block_places, int) and self.block_places >= 2):
+            raise ParameterError(f"block_places must be an integer >= 2, got {self.block_places!r}")
+
+    def segment(
+        self,
+        grid: OccupancyGrid,
+        keyframes: Sequence[Keyframe] | None = None,
+        *,
+        random_state: RandomState = None,
+    ) -> Segmentation:
+        """Segment ``grid``, clustering ``keyframes`` if given (else virtual ones).
+
+        ``random_state`` overrides the spectral settings' seed.
+        """
+        seconds: dict[str, float] = {}
+        clock = [time.perf_counter()]
+
+        def stage(name: str) -> None:
+            log.info("stage %s", name)
+            if self.on_stage is not None:
+                self.on_stage(name)
+
+        def lap(name: str) -> None:
+            now = time.perf_counter()
+            seconds[name] = now - clock[0]
+            clock[0] = now
+
+        spectral = self.spectral
+        if random_state is not None:
+            spectral = replace(spectral, random_state=random_state)
+        stage("condition")
+        conditioned = condition(grid, self.robot_radius, self.clutter_size, self.min_area)
+        if not conditioned.free.any():
+            raise SegmentationError(
+                "the map has no free space a robot of radius "
+                f"{self.robot_radius} m fits in ({conditioned.summary()})"
+            )
+        factor = pool_factor(grid.resolution, self.cell_size)
+        space = pool(conditioned.space, grid, factor)
+        lap("condition")
+        stage("places")
+        places = basins(space, self.place_depth)
+        lap("places")
+        if keyframes is None:
+            stage("keyframes")
+            keyframes = virtual_keyframes(
+                space,
+                self.spacing,
+                model=self.laser,
+                min_clearance=self.robot_radius,
+                places=places,
+                random_state=spectral.random_state,
+            )
+            lap("keyframes")
+        keyframes = list(keyframes)
+        stage("spectral")
+        fitted = self._fit(space, places, keyframes, spectral)
+        lap("spectral")
+        stage("regions")
+        poses = poses_array(keyframes)
+        rows, cols = space.world_to_cell(poses[:, 0], poses[:, 1])
+        dense = dense_labels(space, rows, cols, fitted.labels_, min_area=self.min_area)
+        spectral_regions = Regions(grid, unpool(dense, factor, conditioned.free))
+        lap("regions")
+        regions = spectral_regions
+        if self.refine:
+            stage("refine")
+            snapped = snap_to_basins(space, dense, places, self.min_area)
+            merged = merge_open_boundaries(space, snapped)
+            regions = Regions(grid, unpool(merged, factor, conditioned.free))
+            lap("refine")
+        return Segmentation(
+            conditioned, space, places, keyframes, fitted, spectral_regions, regions, seconds
+        )
+
+    def _fit(
+        self,
+        space: OccupancyGrid,
+        places: NDArray[np.int32],
+        keyframes: list[Keyframe],
+        spectral: SpectralSegmenter,
+    ) -> SpectralSegmenter | BlockSpectralSegmenter:
+        if spectral.k is not None:
+            return spectral.fit(keyframes)
+        count = count_basins(space, places, self.min_area)
+        if count > self.block_places:
+            blocks, per_block = keyframe_blocks(space, places, keyframes, self.block_places)
+            return BlockSpectralSegmenter(spectral, blocks, per_block).fit(keyframes)
+        return replace(spectral, k=min(len(keyframes), count)).fit(keyframes)

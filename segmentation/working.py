@@ -1,0 +1,75 @@
+"""A coarser working grid for the segmentation, and labels brought back to the map's cells.
+
+Places and doors are metres wide; cells of a few centimetres only make the segmentation slower.
+:func:`pool` merges ``factor x factor`` blocks of cells into one cell that is free only when
+all of them are (walls stay closed, passages narrow by at most one coarse cell), and
+:func:`unpool` brings labels back, every fine cell of the mask taking the label of its coarse
+cell, or of the nearest labelled cell when its coarse cell has none.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from maps.grid import OccupancyGrid
+
+
+def pool_factor(resolution: float, cell_size: float) -> int:
+    """How many map cells per side make one working cell of about ``cell_size`` metres.
+
+    Examples
+    --------
+    >>> pool_factor(0.05, 0.1), pool_factor(0.1, 0.1), pool_factor(0.02, 0.1)
+    (2, 1, 5)
+    """
+    return max(1, math.floor(cell_size / resolution + 1e-9))
+
+
+def pool(space: NDArray[np.bool_], grid: OccupancyGrid, factor: int) -> OccupancyGrid:
+    """The working grid: ``space`` pooled by ``factor`` (free where every cell is), with the
+    map's frame (the padding to whole blocks goes below and right of the map).
+
+    Examples
+    --------
+    >>> grid = OccupancyGrid(np.zeros((3, 4), np.int8), 0.05, (1.0, 2.0, 0.0))
+    >>> coarse = pool(grid.free, grid, 2)
+    >>> coarse.shape, coarse.origin, coarse.free.tolist()
+    ((2, 2), (1.0, 1.95, 0.0), [[True, True], [False, False]])
+    """
+    if factor == 1:
+        return OccupancyGrid.from_masks(space, grid.resolution, grid.origin)
+    height, width = space.shape
+    rows, cols = math.ceil(height / factor), math.ceil(width / factor)
+    padded = np.zeros((rows * factor, cols * factor), bool)
+    padded[:height, :width] = space
+    coarse = padded.reshape(rows, factor, cols, factor).all(axis=(1, 3))
+    drop = (rows * factor - height) * grid.resolution
+    ox, oy, yaw = grid.origin
+    origin = (ox + math.sin(yaw) * drop, oy - math.cos(yaw) * drop, yaw)
+    return OccupancyGrid.from_masks(coarse, grid.resolution * factor, origin)
+
+
+def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) -> NDArray[np.int32]:
+    """Fine labels for the cells of ``keep`` from coarse ``labels`` (see the module docstring).
+
+    Examples
+    --------
+    >>> keep = np.ones((3, 4), bool)
+    >>> unpool(np.array([[1, 2], [0, 0]]), 2, keep).tolist()
+    [[1, 1, 2, 2], [1, 1, 2, 2], [1, 1, 2, 2]]
+    """
+    height, width = keep.shape
+    fine = np.repeat(np.repeat(labels.astype(np.int32), factor, 0), factor, 1)[:height, :width]
+    fine = np.where(keep, fine, 0)
+    missing = keep & (fine == 0)
+    if missing.any() and (fine > 0).any():
+        _, nearest = cv2.distanceTransformWithLabels(
+            (fine == 0).astype(np.uint8), cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL
+        )
+        found = fine[fine > 0]  # the labelled cells in raster order: label k is found[k - 1]
+        fine[missing] = found[nearest[missing] - 1]
+    return fine
