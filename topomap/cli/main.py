@@ -24,11 +24,37 @@ def _table(rows: list[dict[str, object]], columns: list[str]) -> str:
 
 def _read_keyframes(source: Path, args: argparse.Namespace) -> list:
     from maps.carmen import read_carmen
-    from maps.rosbag import read_rosbag
+    from maps.rosbag import read_bag_scans
 
-    if source.is_dir() or source.suffix in (".bag", ".mcap", ".db3"):
-        return read_rosbag(source, scan_topic=args.scan_topic, pose_topic=args.pose_topic)
+    if _is_bag(source):
+        found = read_bag_scans(
+            source,
+            scan_topic=args.scan_topic,
+            pose_topic=args.pose_topic,
+            fixed_frame=args.fixed_frame,
+        )
+        print(f"{source}: {found.describe()}", file=sys.stderr)
+        return found.keyframes
     return read_carmen(source)
+
+
+def _is_bag(source: Path) -> bool:
+    """A ROS 1 ``.bag`` or a ROS 2 bag folder."""
+    return source.is_dir() or source.suffix in (".bag", ".mcap", ".db3")
+
+
+def _add_bag_options(parser: argparse.ArgumentParser, *, map_topic: bool) -> None:
+    """``--fixed-frame`` for scans in bags (and ``--map-topic``, ``--stamp`` for their maps)."""
+    parser.add_argument(
+        "--fixed-frame", help="place bag scans in this tf frame (default: map, else odom)"
+    )
+    if map_topic:
+        parser.add_argument(
+            "--map-topic", help="segment the bag's nav_msgs/OccupancyGrid on this topic"
+        )
+        parser.add_argument(
+            "--stamp", type=float, help="with --map-topic: the last map at or before this time, s"
+        )
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -120,7 +146,12 @@ def cmd_segment(args: argparse.Namespace) -> int:
         topo = TopoMap.from_keyframes(keyframes, **_segmenter_options(args))
         source = args.scans
     else:
-        grid = OccupancyGrid.load(args.map)
+        if args.map_topic is not None or _is_bag(Path(args.map)):
+            from maps.rosbag import read_rosbag_map
+
+            grid = read_rosbag_map(args.map, topic=args.map_topic, stamp=args.stamp)
+        else:
+            grid = OccupancyGrid.load(args.map)
         topo = TopoMap.from_grid(grid, spacing=args.spacing, **_segmenter_options(args))
         source = args.map
     written = topo.save(out, overwrite=args.force)
@@ -260,6 +291,48 @@ def cmd_bench_plan(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_batch(args: argparse.Namespace) -> int:
+    from topomap.cli.batch import BatchOptions, dask_client, find_inputs, run_batch, tqdm_bar
+
+    options = BatchOptions(
+        distance=args.distance,
+        resolution=args.resolution,
+        scan_topic=args.scan_topic,
+        fixed_frame=args.fixed_frame,
+        map_topic=args.map_topic,
+        stamp=args.stamp,
+        segmenter=_segmenter_options(args),
+    )
+    find_inputs(args.inputs)  # a bad input stops the command before a cluster starts
+    bar = None if getattr(args, "quiet", False) else tqdm_bar
+    with dask_client(args.workers, args.scheduler) as client:
+        records = run_batch(
+            args.inputs, args.out, client=client, force=args.force, options=options, progress=bar
+        )
+    print(_table(records, ["name", "status", "regions", "keyframes", "seconds", "error"]))
+    statuses = [r["status"] for r in records]
+    print(
+        f"{statuses.count('ok')} done, {statuses.count('skipped')} skipped (done before), "
+        f"{statuses.count('failed')} failed; wrote {args.out}/index.csv and summary.json"
+    )
+    return 1 if "failed" in statuses else 0
+
+
+def cmd_bench_batch(args: argparse.Namespace) -> int:
+    from topomap.cli.bench_batch import bench_batch
+
+    results = bench_batch(
+        args.out, maps=args.maps, workers=args.workers, size=args.size, campus=args.campus
+    )
+    columns = ["workers", "maps", "startup_s", "seconds", "maps_per_min", "speedup", "failed"]
+    print(_table(results["batch"], columns))
+    if "campus_blocks" in results:
+        campus = results["campus_blocks"]
+        print(_table([campus], list(campus)))
+    print(f"wrote {args.out}/results.json")
+    return 0
+
+
 def _point(text: str, what: str) -> tuple[float, float]:
     """``"X,Y"`` as two floats, or a ValueError naming the option."""
     parts = text.split(",")
@@ -351,6 +424,7 @@ def build_parser() -> argparse.ArgumentParser:
     build.add_argument("--max-range", type=float, default=30.0, help="metres")
     build.add_argument("--scan-topic")
     build.add_argument("--pose-topic")
+    _add_bag_options(build, map_topic=False)
     build.add_argument("--force", action="store_true", help="overwrite existing map files")
     build.set_defaults(func=cmd_map)
 
@@ -370,6 +444,7 @@ def build_parser() -> argparse.ArgumentParser:
     seg.add_argument("--distance", type=float, default=0.5, help="keyframe spacing in a log, m")
     seg.add_argument("--scan-topic")
     seg.add_argument("--pose-topic")
+    _add_bag_options(seg, map_topic=True)
     seg.add_argument("--force", action="store_true", help="overwrite existing files")
     _add_segmenter_options(seg)
     seg.set_defaults(func=cmd_segment)
@@ -413,6 +488,30 @@ def build_parser() -> argparse.ArgumentParser:
     plan_bench.add_argument("--robot-radius", type=float, default=0.2, help="metres")
     plan_bench.add_argument("--time-limit", type=float, default=20.0, help="flat planners, s")
     plan_bench.set_defaults(func=cmd_bench_plan)
+
+    from topomap.cli.batch import worker_count
+
+    batch = sub.add_parser("batch", help="segment many maps, logs and bags on a Dask cluster")
+    batch.add_argument("inputs", nargs="+", help="map YAMLs, logs, bags, folders or globs")
+    batch.add_argument("--out", required=True, help="one folder per input, index.csv, summary.json")
+    batch.add_argument("--workers", type=worker_count, default=2, help="local worker processes")
+    batch.add_argument("--scheduler", help="address of a running Dask scheduler (tcp://host:8786)")
+    batch.add_argument("--force", action="store_true", help="redo inputs already done")
+    batch.add_argument("--distance", type=float, default=0.5, help="keyframe spacing in a log, m")
+    batch.add_argument("--resolution", type=float, default=0.05, help="maps from logs, m/cell")
+    batch.add_argument("--scan-topic")
+    _add_bag_options(batch, map_topic=True)
+    _add_segmenter_options(batch)
+    batch.set_defaults(func=cmd_batch)
+    batch_bench = bench_sub.add_parser("batch", help="topomap batch: maps per minute, 1-2 workers")
+    batch_bench.add_argument("--out", default="out/bench-batch")
+    batch_bench.add_argument("--maps", type=int, default=12, help="generated buildings")
+    batch_bench.add_argument("--size", default="flat", choices=["flat", "office"])
+    batch_bench.add_argument("--workers", type=worker_count, nargs="+", default=[1, 2])
+    batch_bench.add_argument(
+        "--campus", action="store_true", help="also the block-wise campus segmentation"
+    )
+    batch_bench.set_defaults(func=cmd_bench_batch)
 
     plan = sub.add_parser("plan", help="plan a path on a map, print it as JSON")
     plan.add_argument("map", help="map_server YAML")

@@ -1,0 +1,143 @@
+"""``topomap batch`` on a real dask.distributed LocalCluster of 2 worker processes."""
+
+import csv
+import json
+import os
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from maps.errors import MapFileNotFoundError
+from maps.floorplan import generate_floor_plan
+from topomap.cli.batch import dask_client, find_inputs, fit_blocks, run_batch
+from topomap.cli.main import main
+from topomap.topomap import TopoMap
+
+
+@pytest.fixture(scope="module")
+def client():
+    with dask_client(workers=2) as client:
+        assert len(client.scheduler_info()["workers"]) == 2
+        yield client
+
+
+@pytest.fixture(scope="module")
+def plans(tmp_path_factory):
+    """Three generated flats as map YAMLs, and a map YAML whose image is missing."""
+    folder = tmp_path_factory.mktemp("maps")
+    grids = {}
+    for seed in range(3):
+        grids[f"flat-{seed}"] = generate_floor_plan("flat", random_state=seed).grid
+        grids[f"flat-{seed}"].save(folder / f"flat-{seed}.yaml")
+    (folder / "broken.yaml").write_text(
+        "image: nowhere.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.196\n"
+    )
+    return folder, grids
+
+
+def _index(out):
+    with (out / "index.csv").open() as stream:
+        return {row["name"]: row for row in csv.DictReader(stream)}
+
+
+@pytest.mark.slow
+def test_batch_isolates_failures_skips_done_and_forces(tmp_path, client, plans):
+    folder, grids = plans
+    out = tmp_path / "out"
+    records = run_batch([str(folder)], out, client=client)
+    by_name = {r["name"]: r for r in records}
+    assert sorted(by_name) == ["broken", "flat-0", "flat-1", "flat-2"]
+    assert by_name["broken"]["status"] == "failed"
+    assert "nowhere.pgm" in by_name["broken"]["error"]
+    assert not (out / "broken").exists()
+    for name, grid in grids.items():
+        record = by_name[name]
+        assert record["status"] == "ok"
+        # the same regions as the facade run here, in this process
+        assert record["regions"] == TopoMap.from_grid(grid).graph.number_of_nodes()
+        files = {p.name for p in (out / name).iterdir()}
+        assert {"regions.png", "graph.graphml", "graph.json", "regions.geojson"} <= files
+        assert json.loads((out / name / "result.json").read_text())["status"] == "ok"
+    index = _index(out)
+    assert {n: r["status"] for n, r in index.items()} == {
+        n: r["status"] for n, r in by_name.items()
+    }
+    assert float(index["flat-1"]["seconds"]) > 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["counts"] == {"ok": 3, "skipped": 0, "failed": 1}
+    assert summary["run"]["workers"] == 2
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no partial folder left
+
+    # a re-run skips what is done (untouched) and retries the failure
+    stamp = os.stat(out / "flat-0" / "result.json").st_mtime_ns
+    again = {r["name"]: r for r in run_batch([str(folder / "*.yaml")], out, client=client)}
+    assert [again[f"flat-{s}"]["status"] for s in range(3)] == ["skipped"] * 3
+    assert again["flat-0"]["regions"] == by_name["flat-0"]["regions"]
+    assert again["broken"]["status"] == "failed"
+    assert os.stat(out / "flat-0" / "result.json").st_mtime_ns == stamp
+
+    # --force redoes one input; the records of the others stay in the index
+    forced = run_batch([str(folder / "flat-0.yaml")], out, client=client, force=True)
+    assert forced[0]["status"] == "ok"
+    assert os.stat(out / "flat-0" / "result.json").st_mtime_ns != stamp
+    assert set(_index(out)) == set(by_name)
+
+
+def test_find_inputs_names_and_errors(tmp_path, plans):
+    folder, _ = plans
+    other = tmp_path / "b"
+    other.mkdir()
+    (other / "flat-0.yaml").write_text((folder / "flat-0.yaml").read_text())
+    (other / "intel.log.gz").write_bytes(b"")
+    (other / "run.bag").write_bytes(b"")
+    bag = other / "ros2"
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    (other / "notes.yaml").write_text("title: not a map\n")
+    jobs = find_inputs([str(folder / "flat-0.yaml"), str(other), str(folder / "flat-0.yaml")])
+    assert [(j.kind, j.name) for j in jobs] == [
+        ("map", f"{folder.name}__flat-0"),
+        ("map", f"{tmp_path.name}__b__flat-0"),
+        ("log", "intel"),
+        ("bag", "ros2"),
+        ("bag", "run"),
+    ]
+    with pytest.raises(MapFileNotFoundError, match="missing"):
+        find_inputs([str(tmp_path / "missing")])
+    with pytest.raises(MapFileNotFoundError, match=r"\*\.nothing"):
+        find_inputs([str(tmp_path / "*.nothing")])
+
+
+@pytest.mark.slow
+def test_parallel_blocks_equal_the_sequential_run(client):
+    from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
+    from segmentation.refine import basins
+    from segmentation.spectral import SpectralSegmenter
+    from segmentation.virtual import virtual_keyframes
+
+    plan = generate_floor_plan("flat", random_state=2)
+    keyframes = virtual_keyframes(plan.grid, 0.8, random_state=0)
+    blocks, places = keyframe_blocks(plan.grid, basins(plan.grid), keyframes, places=3)
+    model = BlockSpectralSegmenter(SpectralSegmenter(random_state=0), blocks, places)
+    sequential = replace(model).fit(keyframes)
+    parallel = fit_blocks(replace(model), keyframes, client)
+    assert len(places) >= 2
+    assert np.array_equal(parallel.labels_, sequential.labels_)
+    assert parallel.n_regions_ == sequential.n_regions_
+    assert len(parallel.segmenters_) == len(sequential.segmenters_)
+
+
+@pytest.mark.slow
+def test_batch_command(tmp_path, plans, capsys):
+    folder, _ = plans
+    out = tmp_path / "out"
+    status = main(["batch", str(folder / "flat-*.yaml"), "--out", str(out), "--workers", "2"])
+    assert status == 0
+    printed = capsys.readouterr()
+    assert "3 done, 0 skipped" in printed.out
+    assert "inputs" in printed.err  # the progress bar
+    assert main(["batch", str(folder), "--out", str(out), "--workers", "1"]) == 1
+    assert "0 done, 3 skipped (done before), 1 failed" in capsys.readouterr().out
+    assert main(["batch", str(tmp_path / "none*.yaml"), "--out", str(out)]) == 2

@@ -1,0 +1,453 @@
+"""``topomap batch``: segment, label and export many maps, logs and bags on a Dask cluster.
+
+Each input (a map_server YAML, a CARMEN log, a ROS bag) is one task on ``dask.distributed``:
+a :class:`~distributed.LocalCluster` of worker processes by default, or an existing cluster
+given by its scheduler address. A task writes its results into a hidden folder and renames it
+into place when everything is written, so an output folder is always complete; its
+``result.json`` marks the input done, and a re-run skips it. The driver rewrites ``index.csv``
+and ``summary.json`` after every finished input, keeping the records of earlier runs.
+"""
+
+from __future__ import annotations
+
+import csv
+import glob
+import io
+import json
+import logging
+import os
+import shutil
+import sys
+import time
+import traceback
+import uuid
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+import yaml
+
+from maps.errors import MapFileNotFoundError
+
+log = logging.getLogger(__name__)
+
+#: Columns of ``index.csv``.
+COLUMNS = ["name", "source", "kind", "status", "regions", "keyframes", "seconds", "error"]
+LOG_SUFFIXES = (".log", ".clf", ".gz")
+
+
+@dataclass(frozen=True)
+class Job:
+    """One input of a batch: its ``source`` path, ``kind`` (``map``, ``log`` or ``bag``) and
+    the ``name`` of its output folder."""
+
+    source: str
+    kind: str
+    name: str
+
+
+@dataclass(frozen=True)
+class BatchOptions:
+    """How each input is read (the options of ``topomap segment``); ``segmenter`` holds the
+    options of :meth:`TopoMap.from_grid` / :meth:`TopoMap.from_keyframes` (criterion, k...)."""
+
+    distance: float = 0.5
+    resolution: float = 0.05
+    segmenter: dict[str, Any] = field(default_factory=dict)
+    scan_topic: str | None = None
+    fixed_frame: str | None = None
+    map_topic: str | None = None
+    stamp: float | None = None
+
+
+def input_kind(path: Path) -> str | None:
+    """``"map"``, ``"log"`` or ``"bag"`` for a path topomap can segment, else None.
+
+    A ROS 2 bag is a folder with ``metadata.yaml``; a map is a YAML file with an ``image``
+    field (map_server's).
+    """
+    if path.is_dir():
+        return "bag" if (path / "metadata.yaml").is_file() else None
+    name = path.name.lower()
+    if name.endswith(".bag"):
+        return "bag"
+    if name.endswith(LOG_SUFFIXES):
+        return "log"
+    if name.endswith((".yaml", ".yml")) and name != "metadata.yaml":
+        try:
+            content = yaml.safe_load(path.read_text())
+        except (OSError, UnicodeDecodeError, yaml.YAMLError):
+            return None
+        return "map" if isinstance(content, dict) and "image" in content else None
+    return None
+
+
+def _expand(pattern: str) -> list[Path]:
+    """The inputs a command-line argument names: a glob, a file, a bag, or a folder of them."""
+    if glob.has_magic(pattern):
+        paths = [Path(p) for p in sorted(glob.glob(pattern, recursive=True))]
+        if not paths:
+            raise MapFileNotFoundError(pattern, "input matching")
+    else:
+        paths = [Path(pattern)]
+        if not paths[0].exists():
+            raise MapFileNotFoundError(pattern, "input")
+    found = []
+    for path in paths:
+        if input_kind(path) is not None:
+            found.append(path)
+        elif path.is_dir():
+            found += _walk(path)
+    return found
+
+
+def _walk(folder: Path) -> list[Path]:
+    """Inputs in a folder and its subfolders (not inside a bag), in name order."""
+    found = []
+    for entry in sorted(folder.iterdir()):
+        if input_kind(entry) is not None:
+            found.append(entry)
+        elif entry.is_dir():
+            found += _walk(entry)
+    return found
+
+
+def _stem(path: Path) -> str:
+    name = path.name
+    for suffix in (".gz", ".log", ".clf", ".bag", ".yaml", ".yml"):
+        name = name.removesuffix(suffix)
+    return name or path.name
+
+
+def find_inputs(patterns: Sequence[str]) -> list[Job]:
+    """The inputs named by files, folders and globs, each once, with unique output names.
+
+    An output folder is named after its input's stem (``lab_ipa`` for ``lab_ipa.yaml``,
+    ``intel`` for ``intel.log.gz``); inputs sharing a stem take their parent folders' names
+    too (``ipa__lab_ipa``).
+
+    Raises
+    ------
+    MapFileNotFoundError
+        If a named path does not exist, a glob matches nothing, or nothing at all can be
+        segmented.
+    """
+    paths: list[Path] = []
+    for pattern in patterns:
+        paths += [p for p in _expand(pattern) if p.resolve() not in {q.resolve() for q in paths}]
+    if not paths:
+        raise MapFileNotFoundError(", ".join(patterns), "map YAML, log or bag")
+    names = [_stem(p) for p in paths]
+    for name in {n for n in names if names.count(n) > 1}:
+        clashing = [i for i, n in enumerate(names) if n == name]
+        common = Path(os.path.commonpath([paths[i].resolve() for i in clashing]))
+        for i in clashing:
+            folders = paths[i].resolve().parent.relative_to(common).parts
+            names[i] = "__".join([*folders, name])
+    for name in {n for n in names if names.count(n) > 1}:  # a.yaml beside a.log
+        names = [
+            f"{n}.{input_kind(p)}" if n == name else n for n, p in zip(names, paths, strict=True)
+        ]
+    return [Job(str(p), str(input_kind(p)), n) for p, n in zip(paths, names, strict=True)]
+
+
+def _topomap(job: Job, options: BatchOptions) -> tuple[Any, bool]:
+    """The segmented :class:`TopoMap` of one input, and whether it came from scans."""
+    from maps.carmen import read_carmen
+    from maps.grid import OccupancyGrid
+    from maps.rosbag import read_rosbag, read_rosbag_map
+    from maps.scan import select_keyframes
+    from topomap.topomap import TopoMap
+
+    segmenter = options.segmenter
+    if job.kind == "map" or (job.kind == "bag" and options.map_topic is not None):
+        if job.kind == "map":
+            grid = OccupancyGrid.load(job.source)
+        else:
+            grid = read_rosbag_map(job.source, topic=options.map_topic, stamp=options.stamp)
+        return TopoMap.from_grid(grid, **segmenter), False
+    if job.kind == "bag":
+        frames = read_rosbag(
+            job.source, scan_topic=options.scan_topic, fixed_frame=options.fixed_frame
+        )
+    else:
+        frames = read_carmen(job.source)
+    keyframes = select_keyframes(frames, distance=options.distance)
+    topo = TopoMap.from_keyframes(keyframes, resolution=options.resolution, **segmenter)
+    return topo, True
+
+
+def process(job: Job, out: str, options: BatchOptions) -> dict[str, Any]:
+    """Segment, label and export one input into ``out/<job.name>`` (runs on a worker).
+
+    Everything is written into a hidden folder first and moved into place at the end (an
+    earlier result of the same input, kept until then, is replaced only now). Any error is
+    returned as a ``failed`` record with its traceback, never raised, so one bad input cannot
+    stop the batch.
+    """
+    start = time.perf_counter()
+    record: dict[str, Any] = {"name": job.name, "source": job.source, "kind": job.kind}
+    work = Path(out) / f".{job.name}.{uuid.uuid4().hex[:8]}.partial"
+    try:
+        topo, from_scans = _topomap(job, options)
+        work.mkdir(parents=True)
+        written = topo.save(work)
+        if from_scans:
+            written += [
+                topo.grid.save(work / "map.yaml"),
+                topo.save_keyframes(work / "keyframes.csv"),
+            ]
+        record.update(
+            status="ok",
+            regions=topo.graph.number_of_nodes(),
+            keyframes=len(topo.keyframes),
+            names={int(r): n for r, n in sorted(topo.graph.nodes(data="name"))},
+            files=sorted(p.name for p in written),
+            seconds=round(time.perf_counter() - start, 3),
+            error="",
+        )
+        (work / "result.json").write_text(json.dumps(record, indent=1))
+        final = Path(out) / job.name
+        old = final.with_name(f".{job.name}.{uuid.uuid4().hex[:8]}.old")
+        if final.exists():
+            final.rename(old)
+        work.rename(final)
+        shutil.rmtree(old, ignore_errors=True)
+    except Exception as err:  # isolated per input; the traceback is kept in the record
+        shutil.rmtree(work, ignore_errors=True)
+        record.update(
+            status="failed",
+            regions="",
+            keyframes="",
+            seconds=round(time.perf_counter() - start, 3),
+            error=f"{type(err).__name__}: {err}",
+            traceback=traceback.format_exc(),
+        )
+    return record
+
+
+def finished(out: Path, name: str) -> dict[str, Any] | None:
+    """The record of an input already done in ``out`` (its folder's ``result.json``)."""
+    try:
+        record = json.loads((out / name / "result.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) and record.get("status") == "ok" else None
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    partial = path.with_name(f".{path.name}.partial")
+    partial.write_text(text)
+    os.replace(partial, path)
+
+
+@dataclass
+class Index:
+    """``index.csv`` and ``summary.json`` of an output folder: one record per input ever run
+    there, this run's replacing earlier ones of the same name."""
+
+    out: Path
+    records: dict[str, dict[str, Any]] = field(default_factory=dict)
+    run: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def read(cls, out: Path) -> Index:
+        try:
+            summary = json.loads((out / "summary.json").read_text())
+            records = {r["name"]: r for r in summary["inputs"]}
+        except (OSError, ValueError, KeyError, TypeError):
+            records = {}
+        return cls(out, records)
+
+    def add(self, record: dict[str, Any]) -> None:
+        self.records[record["name"]] = record
+        self.write()
+
+    def counts(self) -> dict[str, int]:
+        statuses = [r["status"] for r in self.records.values()]
+        return {s: statuses.count(s) for s in ("ok", "skipped", "failed")}
+
+    def write(self) -> None:
+        rows = sorted(self.records.values(), key=lambda r: r["name"])
+        stream = io.StringIO()
+        writer = csv.DictWriter(stream, COLUMNS, extrasaction="ignore", lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+        _write_atomic(self.out / "index.csv", stream.getvalue())
+        summary = {"run": self.run, "counts": self.counts(), "inputs": rows}
+        _write_atomic(self.out / "summary.json", json.dumps(summary, indent=1))
+
+
+class Progress(Protocol):
+    def update(self, n: int = 1) -> object: ...
+
+    def close(self) -> object: ...
+
+
+@contextmanager
+def dask_client(workers: int = 2, scheduler: str | None = None) -> Iterator[Any]:
+    """A ``distributed.Client``: on the cluster at ``scheduler``, or on a new local cluster of
+    ``workers`` single-threaded processes (closed on exit)."""
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        with Client(scheduler) as client:
+            yield client
+        return
+    with (
+        LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        yield client
+
+
+def tqdm_bar(total: int) -> Progress:
+    """A tqdm bar over ``total`` inputs on stderr."""
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc="inputs", unit="input", file=sys.stderr, dynamic_ncols=True)
+
+
+def worker_count(text: str) -> int:
+    """``--workers``: a whole number of at least 1."""
+    import argparse
+
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
+    return int(text)
+
+
+def run_batch(
+    inputs: Sequence[str],
+    out: str | Path,
+    *,
+    client: Any,
+    force: bool = False,
+    options: BatchOptions | None = None,
+    progress: Callable[[int], Progress] | None = None,
+) -> list[dict[str, Any]]:
+    """Segment, label and export every input on a Dask ``client``, one folder each in ``out``.
+
+    Parameters
+    ----------
+    inputs
+        Map YAMLs, CARMEN logs, ROS bags, folders of them, globs.
+    out
+        The output folder: ``<name>/`` per input, ``index.csv``, ``summary.json``.
+    client
+        A ``distributed.Client`` (see :func:`dask_client`).
+    force
+        Redo inputs already done (else they are skipped and keep their results).
+    options
+        How inputs are read and segmented.
+    progress
+        Called with the number of inputs to run; returns a bar updated once per input.
+
+    Returns
+    -------
+    list of dict
+        One record per input in input order: ``name, source, kind, status`` (``ok``,
+        ``skipped`` or ``failed``), ``regions``, ``keyframes``, ``seconds``, ``error``.
+
+    Examples
+    --------
+    >>> with dask_client(workers=2) as client:  # doctest: +SKIP
+    ...     records = run_batch(["maps/*.yaml"], "out/batch", client=client)
+    """
+    out = Path(out)
+    jobs = find_inputs(inputs)
+    options = options or BatchOptions()
+    out.mkdir(parents=True, exist_ok=True)
+    index = Index.read(out)
+    index.run = {"inputs": list(inputs), "options": asdict(options), "force": force}
+    index.run["scheduler"] = str(client.scheduler.address)
+    index.run["workers"] = len(client.scheduler_info().get("workers", {}))
+    todo = []
+    for job in jobs:
+        done = None if force else finished(out, job.name)
+        if done is not None:
+            index.records[job.name] = {**done, "status": "skipped"}
+        else:
+            todo.append(job)
+    index.write()
+    log.info("%d inputs, %d done before, %d to run", len(jobs), len(jobs) - len(todo), len(todo))
+    from distributed import as_completed
+
+    bar = progress(len(todo)) if progress is not None else None
+    start = time.perf_counter()
+    futures = {
+        client.submit(
+            process, job, str(out), options, key=f"topomap-{job.name}-{uuid.uuid4().hex}"
+        ): job
+        for job in todo
+    }
+    try:
+        for future in as_completed(futures):
+            job = futures[future]
+            try:
+                record = future.result()
+            except Exception as err:  # a worker lost, a task cancelled: that input only
+                record = {
+                    **asdict(job),
+                    "status": "failed",
+                    "regions": "",
+                    "keyframes": "",
+                    "seconds": "",
+                    "error": f"{type(err).__name__}: {err}",
+                }
+            if record["status"] == "failed":
+                log.warning("%s failed: %s", job.source, record["error"])
+            index.add(record)
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+        for future in futures:
+            future.cancel()
+    index.run["seconds"] = round(time.perf_counter() - start, 3)
+    index.write()
+    return [index.records[job.name] for job in jobs]
+
+
+def fit_blocks(model: Any, keyframes: Sequence[Any], client: Any) -> Any:
+    """Fit a :class:`~segmentation.blocks.BlockSpectralSegmenter` with its blocks run in
+    parallel on a Dask ``client``; the result equals ``model.fit(keyframes)``.
+
+    Each block is fitted as a one-block segmenter of its own (the same code and settings as
+    the sequential run), and the labels are offset in block order as the sequential run does.
+    """
+    from segmentation.blocks import BlockSpectralSegmenter
+
+    if len(model.blocks) != len(keyframes):
+        raise ValueError(f"{len(model.blocks)} block ids for {len(keyframes)} keyframes")
+    order = np.unique(model.blocks)
+    members = [np.flatnonzero(model.blocks == block) for block in order]
+    parts = [
+        client.submit(
+            BlockSpectralSegmenter(
+                model.segmenter, np.zeros(len(m), np.int64), model.places[[block]]
+            ).fit,
+            [keyframes[int(i)] for i in m],
+            pure=False,
+        )
+        for block, m in zip(order, members, strict=True)
+    ]
+    model.labels_ = np.zeros(len(keyframes), np.int64)
+    model.segmenters_ = []
+    offset = 0
+    for m, part in zip(members, client.gather(parts), strict=True):
+        model.labels_[m] = part.labels_ + offset
+        offset += part.n_regions_
+        model.segmenters_ += part.segmenters_
+    model.n_regions_ = offset
+    return model

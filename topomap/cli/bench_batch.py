@@ -1,0 +1,121 @@
+"""``topomap bench batch``: maps per minute of ``topomap batch`` with 1 and 2 local workers, and
+the speed-up of the block-wise campus segmentation run on 2 workers."""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from topomap.cli.batch import dask_client, fit_blocks, run_batch
+
+log = logging.getLogger(__name__)
+
+#: Places per block, as the facade divides a large map.
+PLACES_PER_BLOCK = 100
+
+
+def generated_maps(folder: Path, count: int, size: str = "flat") -> list[str]:
+    """Write ``count`` generated buildings (seeds 0, 1, ...) as map YAMLs in ``folder``."""
+    from maps.floorplan import generate_floor_plan
+
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for seed in range(count):
+        path = folder / f"{size}-{seed}.yaml"
+        if not path.exists():
+            generate_floor_plan(size, random_state=seed).grid.save(path)
+        paths.append(str(path))
+    return paths
+
+
+def bench_batch_maps(
+    out: Path, *, maps: int = 12, workers: Sequence[int] = (1, 2), size: str = "flat"
+) -> list[dict[str, Any]]:
+    """Run ``topomap batch`` on ``maps`` generated buildings with each worker count.
+
+    The cluster's start is timed apart (``startup_s``); ``seconds`` runs from the first
+    submission to the last result, every input redone (``force``).
+    """
+    inputs = generated_maps(out / "maps", maps, size)
+    records: list[dict[str, Any]] = []
+    for count in workers:
+        start = time.perf_counter()
+        with dask_client(count) as client:
+            ready = time.perf_counter()
+            results = run_batch(inputs, out / f"run-{count}", client=client, force=True)
+            seconds = time.perf_counter() - ready
+        failed = [r["name"] for r in results if r["status"] != "ok"]
+        records.append(
+            {
+                "workers": count,
+                "maps": maps,
+                "building": size,
+                "failed": len(failed),
+                "startup_s": round(ready - start, 2),
+                "seconds": round(seconds, 2),
+                "maps_per_min": round(60 * maps / seconds, 1),
+                "regions": int(sum(r["regions"] for r in results if r["status"] == "ok")),
+            }
+        )
+    for record in records:
+        record["speedup"] = round(records[0]["seconds"] / record["seconds"], 2)
+    return records
+
+
+def bench_campus_blocks(workers: int = 2, *, random_state: int = 0) -> dict[str, Any]:
+    """The spectral stage of the campus (block by block) run in turn and on ``workers``
+    Dask workers: seconds of each, the speed-up, and whether the labels are equal."""
+    from dataclasses import replace
+
+    from maps.floorplan import generate_floor_plan
+    from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
+    from segmentation.refine import basins
+    from segmentation.spectral import SpectralSegmenter
+    from segmentation.virtual import virtual_keyframes
+
+    grid = generate_floor_plan("campus", random_state=random_state).grid
+    keyframes = virtual_keyframes(grid, 0.8, random_state=random_state)
+    blocks, per_block = keyframe_blocks(grid, basins(grid), keyframes, PLACES_PER_BLOCK)
+    model = BlockSpectralSegmenter(SpectralSegmenter(random_state=random_state), blocks, per_block)
+    start = time.perf_counter()
+    sequential = replace(model).fit(keyframes)
+    one = time.perf_counter() - start
+    with dask_client(workers) as client:
+        start = time.perf_counter()
+        parallel = fit_blocks(replace(model), keyframes, client)
+        many = time.perf_counter() - start
+    return {
+        "keyframes": len(keyframes),
+        "blocks": len(per_block),
+        "regions": sequential.n_regions_,
+        "sequential_s": round(one, 1),
+        "workers": workers,
+        "parallel_s": round(many, 1),
+        "speedup": round(one / many, 2),
+        "same_labels": bool(np.array_equal(sequential.labels_, parallel.labels_)),
+    }
+
+
+def bench_batch(
+    out: str | Path,
+    *,
+    maps: int = 12,
+    workers: Sequence[int] = (1, 2),
+    size: str = "flat",
+    campus: bool = False,
+) -> dict[str, Any]:
+    """Both benchmarks; writes ``out/results.json`` and returns what it holds."""
+    out = Path(out)
+    results: dict[str, Any] = {
+        "batch": bench_batch_maps(out, maps=maps, workers=workers, size=size)
+    }
+    if campus:
+        results["campus_blocks"] = bench_campus_blocks(max(workers))
+    (out / "results.json").write_text(json.dumps(results, indent=2))
+    return results
