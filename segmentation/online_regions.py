@@ -1,0 +1,255 @@
+"""Dense regions and the region adjacency graph of a growing map, updated keyframe by keyframe.
+
+Every keyframe *claims* the free cells its beams crossed within ``reach`` metres (its scan's
+polygon, filled by OpenCV, without the cells the beams ended in): a cell is owned by the nearest
+keyframe that saw it through free space, and a cell's region is its owner's region; a cell a
+beam ended in is a wall for good. So when a keyframe arrives only the cells it saw change, and
+when two regions merge only the absorbed region's keyframes are relabelled: nothing is rebuilt
+from scratch.
+
+The graph has a node per region (``area_m2``, ``keyframes``, ``x``, ``y`` the mean keyframe
+position, ``name``) and an edge per pair of regions with 4-adjacent cells (``boundary_m``, the
+length of their common boundary in metres). Boundary lengths are counted incrementally from the
+cells whose region changed.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import networkx as nx
+import numpy as np
+from numpy.typing import NDArray
+
+from maps.scan import Keyframe
+from segmentation.errors import ParameterError
+
+#: Sub-pixel bits of the scan polygons given to OpenCV.
+_SHIFT = 4
+#: Cells of unknown border kept around the claimed area when the arrays grow.
+_MARGIN = 64
+
+
+class OnlineRegions:
+    """The dense regions of keyframes assigned one at a time (see the module docstring).
+
+    Parameters
+    ----------
+    resolution
+        Cell size in metres.
+    reach
+        A keyframe claims free cells up to this many metres from its pose.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from maps.scan import Keyframe, LaserScan
+    >>> scan = LaserScan(np.full(90, 2.0), -np.pi, 2 * np.pi / 90)
+    >>> regions = OnlineRegions(resolution=0.1, reach=4.0)
+    >>> regions.add(0, Keyframe((0.0, 0.0, 0.0), scan), region=1)
+    >>> regions.add(1, Keyframe((3.0, 0.0, 0.0), scan), region=2)
+    >>> regions.region_at(-1.0, 0.0), regions.region_at(2.5, 0.0), sorted(regions.graph.edges)
+    (1, 2, [(1, 2)])
+    """
+
+    def __init__(self, resolution: float = 0.1, reach: float = 4.0) -> None:
+        for name, value in (("resolution", resolution), ("reach", reach)):
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ParameterError(f"{name} must be a finite number > 0 metres, got {value!r}")
+        self.resolution = float(resolution)
+        self.reach = float(reach)
+        self._low = np.zeros(2, np.int64)  # cell (i, j) of array index [0, 0]
+        self._owner = np.full((0, 0), -1, np.int64)
+        self._distance = np.full((0, 0), np.inf, np.float32)
+        self._region_of = np.zeros(64, np.int64)  # region of each keyframe index
+        self._members: dict[int, list[int]] = {}
+        self._pose_sum: dict[int, NDArray[np.float64]] = {}
+        self._cells: dict[int, int] = {}
+        self._boundary: dict[tuple[int, int], int] = {}
+        self.graph = nx.Graph(resolution=self.resolution)
+
+    # --------------------------------------------------------------------------- queries
+    def region_at(self, x: float, y: float) -> int:
+        """Region id at map point ``(x, y)``, 0 if no keyframe claimed it."""
+        i, j = (np.floor(np.array([x, y]) / self.resolution).astype(np.int64) - self._low).tolist()
+        if not (0 <= i < self._owner.shape[0] and 0 <= j < self._owner.shape[1]):
+            return 0
+        owner = int(self._owner[i, j])
+        return int(self._region_of[owner]) if owner >= 0 else 0
+
+    def label_image(self) -> tuple[NDArray[np.int64], tuple[float, float, float, float]]:
+        """Region of every cell as an image (row 0 at the top, 0 = none) and its extent
+        ``(xmin, xmax, ymin, ymax)`` in metres."""
+        labels = self._labels(self._owner).T[::-1]
+        res = self.resolution
+        x0, y0 = self._low * res
+        return labels, (x0, x0 + self._owner.shape[0] * res, y0, y0 + self._owner.shape[1] * res)
+
+    def boundary_counts(self) -> dict[tuple[int, int], int]:
+        """Cell sides shared by regions ``a < b``, as counted incrementally."""
+        return {pair: count for pair, count in self._boundary.items() if count > 0}
+
+    def areas(self) -> dict[int, float]:
+        """Area of each region in square metres, as counted incrementally."""
+        return {r: n * self.resolution**2 for r, n in self._cells.items() if n > 0}
+
+    # --------------------------------------------------------------------------- updates
+    def add(self, index: int, keyframe: Keyframe, region: int) -> None:
+        """Keyframe number ``index`` of region ``region`` claims the free cells it saw."""
+        if index >= len(self._region_of):
+            grown = np.zeros(max(2 * len(self._region_of), index + 1), np.int64)
+            grown[: len(self._region_of)] = self._region_of
+            self._region_of = grown
+        self._region_of[index] = region
+        self._members.setdefault(region, []).append(index)
+        x, y = keyframe.pose[:2]
+        self._pose_sum[region] = self._pose_sum.get(region, np.zeros(2)) + np.array([x, y])
+        cells, distance, walls = self._seen(keyframe)
+        self._fit(np.vstack([cells, walls]))
+        for found, to, owner in (
+            (cells, distance, index),
+            (walls, np.full(len(walls), -np.inf), -1),
+        ):
+            i, j = (found - self._low).T
+            closer = to < self._distance[i, j]
+            if np.any(closer):
+                self._claim(i[closer], j[closer], to[closer], owner)
+        self._update_node(region)
+
+    def merge(self, survivor: int, absorbed: int) -> None:
+        """Region ``absorbed`` becomes part of ``survivor``."""
+        members = self._members.pop(absorbed, [])
+        self._region_of[np.asarray(members, np.int64)] = survivor
+        self._members.setdefault(survivor, []).extend(members)
+        self._pose_sum[survivor] = self._pose_sum.get(survivor, np.zeros(2)) + self._pose_sum.pop(
+            absorbed, np.zeros(2)
+        )
+        self._cells[survivor] = self._cells.get(survivor, 0) + self._cells.pop(absorbed, 0)
+        for (a, b), count in list(self._boundary.items()):
+            if absorbed in (a, b):
+                del self._boundary[(a, b)]
+                other = b if a == absorbed else a
+                if other != survivor:
+                    self._count_boundary(survivor, other, count)
+        if absorbed in self.graph:
+            self.graph.remove_node(absorbed)
+        self._update_node(survivor)
+        for pair in list(self._boundary):
+            if survivor in pair:
+                self._update_edge(*pair)
+
+    # --------------------------------------------------------------------------- internals
+    def _labels(self, owner: NDArray[np.int64]) -> NDArray[np.int64]:
+        return np.where(owner >= 0, self._region_of[np.maximum(owner, 0)], 0)
+
+    def _seen(
+        self, keyframe: Keyframe
+    ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.int64]]:
+        """Cells inside the scan's polygon (sensor, then every beam's end, cut at ``reach``)
+        but those the beams ended in, their distance to the pose, and the cells the beams
+        ended in (walls)."""
+        scan = keyframe.scan
+        valid, open_ = scan.valid, scan.no_return
+        top = min(scan.range_max, self.reach) if math.isfinite(scan.range_max) else self.reach
+        length = np.where(valid, np.minimum(scan.ranges, self.reach), np.where(open_, top, 0.0))
+        x, y, yaw = keyframe.pose
+        angles = scan.angles + yaw
+        res = self.resolution
+        corner = np.floor((np.array([x, y]) - self.reach) / res).astype(np.int64) - 1
+        size = int(math.ceil(2 * self.reach / res)) + 3
+        ends = np.column_stack([x + length * np.cos(angles), y + length * np.sin(angles)])
+        polygon = np.vstack([[x, y], ends]) / res - corner - 0.5  # pixel centres at integers
+        seen = np.zeros((size, size), np.uint8)
+        pixels = np.round(polygon * (1 << _SHIFT)).astype(np.int32)
+        cv2.fillPoly(seen, [pixels], 1, lineType=cv2.LINE_8, shift=_SHIFT)
+        hit = np.floor(polygon[1:][valid & (scan.ranges <= self.reach)] + 0.5).astype(np.int64)
+        seen[hit[:, 1], hit[:, 0]] = 0  # the cells the beams ended in are walls
+        j, i = np.nonzero(seen)
+        cells = np.column_stack([i, j]).astype(np.int64) + corner
+        centres = (cells + 0.5) * self.resolution
+        return cells, np.hypot(centres[:, 0] - x, centres[:, 1] - y), hit + corner
+
+    def _fit(self, cells: NDArray[np.int64]) -> None:
+        """Grow the arrays so ``cells`` and a one-cell border around them are inside."""
+        low = cells.min(axis=0) - 1
+        high = cells.max(axis=0) + 2
+        shape = np.array(self._owner.shape)
+        if self._owner.size and np.all(low >= self._low) and np.all(high <= self._low + shape):
+            return
+        if self._owner.size == 0:
+            new_low, new_high = low - _MARGIN, high + _MARGIN
+        else:
+            new_low = np.where(low < self._low, low - np.maximum(_MARGIN, shape // 2), self._low)
+            end = self._low + shape
+            new_high = np.where(high > end, high + np.maximum(_MARGIN, shape // 2), end)
+        size = tuple((new_high - new_low).tolist())
+        owner = np.full(size, -1, np.int64)
+        distance = np.full(size, np.inf, np.float32)
+        if self._owner.size:
+            a, b = self._low - new_low
+            owner[a : a + shape[0], b : b + shape[1]] = self._owner
+            distance[a : a + shape[0], b : b + shape[1]] = self._distance
+        self._owner, self._distance, self._low = owner, distance, new_low
+
+    def _claim(
+        self, i: NDArray[np.int64], j: NDArray[np.int64], distance: NDArray[np.float64], index: int
+    ) -> None:
+        """Give cells ``(i, j)`` to keyframe ``index`` (-1: walls, never claimed again); update
+        areas and boundary counts."""
+        width = self._owner.shape[1]
+        flat, first_seen = np.unique(i * width + j, return_index=True)
+        distance = distance[first_seen]
+        # every cell side touching a changed cell: (cell, +1 column) and (cell, +1 row)
+        sides = np.unique(
+            np.concatenate([flat * 2, flat * 2 + 1, (flat - 1) * 2, (flat - width) * 2 + 1])
+        )
+        first = sides // 2
+        second = first + np.where(sides % 2 == 0, 1, width)
+        owner = self._owner.ravel()
+        before = self._labels(owner[first]), self._labels(owner[second])
+        old = self._labels(owner[flat])
+        owner[flat] = index
+        self._distance.ravel()[flat] = distance
+        after = self._labels(owner[first]), self._labels(owner[second])
+        for labels, sign in ((old, -1), (self._labels(owner[flat]), 1)):
+            regions, counts = np.unique(labels[labels > 0], return_counts=True)
+            for region, count in zip(regions.tolist(), counts.tolist(), strict=True):
+                self._cells[region] = self._cells.get(region, 0) + sign * count
+        touched: set[tuple[int, int]] = set()
+        for (a, b), sign in ((before, -1), (after, 1)):
+            keep = (a != b) & (a > 0) & (b > 0)
+            low, high = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
+            pairs, counts = np.unique(np.column_stack([low, high]), axis=0, return_counts=True)
+            for (p, q), count in zip(pairs.tolist(), counts.tolist(), strict=True):
+                self._count_boundary(p, q, sign * count)
+                touched.add((p, q))
+        for region in np.unique(old[old > 0]).tolist():
+            self._update_node(region)
+        for pair in touched:
+            self._update_edge(*pair)
+
+    def _count_boundary(self, a: int, b: int, count: int) -> None:
+        pair = (min(a, b), max(a, b))
+        self._boundary[pair] = self._boundary.get(pair, 0) + count
+
+    def _update_node(self, region: int) -> None:
+        members = self._members.get(region)
+        if not members:
+            return
+        x, y = self._pose_sum[region] / len(members)
+        self.graph.add_node(
+            region,
+            area_m2=self._cells.get(region, 0) * self.resolution**2,
+            keyframes=len(members),
+            x=float(x),
+            y=float(y),
+            name=f"region {region}",
+        )
+
+    def _update_edge(self, a: int, b: int) -> None:
+        count = self._boundary.get((min(a, b), max(a, b)), 0)
+        if count > 0:
+            self.graph.add_edge(a, b, boundary_m=count * self.resolution)
+        elif self.graph.has_edge(a, b):
+            self.graph.remove_edge(a, b)

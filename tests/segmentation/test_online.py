@@ -1,0 +1,282 @@
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import maps
+from maps.errors import InvalidScanError
+from maps.grid import OCCUPIED, OccupancyGrid
+from maps.scan import Keyframe, LaserScan
+from segmentation.errors import ParameterError, SegmentationError
+from segmentation.online import Centre, OnlineSegmenter, OnlineStateError
+from segmentation.online_regions import OnlineRegions
+from segmentation.similarity import NearestNeighbour
+from segmentation.spectral import SpectralSegmenter
+
+
+@pytest.fixture(scope="module")
+def flat_run():
+    plan = maps.generate_floor_plan("flat", random_state=0)
+    route = maps.wander(plan.grid, plan.labels, random_state=0)
+    scans = maps.simulate_scans(plan.grid, route.poses, maps.LaserModel(), random_state=0)
+    return plan, maps.select_keyframes(scans)
+
+
+def online_run(keyframes, seed=80, **options):
+    online = OnlineSegmenter(SpectralSegmenter(random_state=0), **options).fit(keyframes[:seed])
+    online.partial_fit(keyframes[seed:])
+    return online
+
+
+@pytest.fixture(scope="module")
+def flat_online(flat_run):
+    return online_run(flat_run[1])
+
+
+def blank(segmenter: OnlineSegmenter, similarity_scale: float = 1.0) -> OnlineSegmenter:
+    """An unfitted segmenter's empty centre store, to place centres by hand."""
+    segmenter.centres_ = {}
+    segmenter._cell_index = {}
+    segmenter._tile_index = {}
+    segmenter._seen_tiles = set()
+    segmenter._cached = {}
+    segmenter._heap = []
+    segmenter.similarity_scale_ = similarity_scale
+    return segmenter
+
+
+def hits(segmenter: OnlineSegmenter, keyframe: Keyframe):
+    keys, tiles, _ = segmenter._scan(keyframe, 0)
+    return keys, tiles
+
+
+def test_a_centre_of_one_scan_is_compared_by_eq_12_exactly(flat_run):
+    keyframes = flat_run[1]
+    criterion = NearestNeighbour()
+    offline = criterion.affinity(keyframes[:40]).toarray()
+    online = blank(OnlineSegmenter())
+    for i, keyframe in enumerate(keyframes[:40]):
+        online.centres_[i + 1] = Centre({}, 0, 0, set(), [], 0)
+        online._join(i + 1, i, *hits(online, keyframe), move=True)
+    for i in (0, 7, 21, 39):
+        keys, tiles = hits(online, keyframes[i])
+        regions, similarity = online._nn_similarities(keys, np.ones(len(keys), np.int64), i + 1)
+        expected = {j + 1: offline[i, j] for j in range(40) if offline[i, j] > 0}
+        assert dict(zip(regions, similarity.tolist(), strict=True)) == pytest.approx(expected)
+
+
+def _scan_through(cells: set[tuple[int, int]], resolution: float) -> Keyframe:
+    """A keyframe whose end points are the centres of ``cells`` (a 360 degree scan at the
+    origin, one beam per cell, each beam aimed at its cell)."""
+    points = (np.array(sorted(cells), float) + 0.5) * resolution
+    angles = np.arctan2(points[:, 1], points[:, 0])
+    order = np.argsort(angles)
+    beams = 3600
+    ranges = np.full(beams, np.nan)
+    index = np.round((angles[order] + math.pi) / (2 * math.pi / beams)).astype(int) % beams
+    ranges[index] = np.hypot(points[order, 0], points[order, 1])
+    scan = LaserScan(ranges, -math.pi, 2 * math.pi / beams)
+    return Keyframe((0.0, 0.0, 0.0), scan)
+
+
+@settings(max_examples=25)
+@given(
+    st.lists(
+        st.sets(st.tuples(st.integers(30, 45), st.integers(30, 45)), min_size=1, max_size=12),
+        min_size=1,
+        max_size=6,
+    ),
+    st.randoms(use_true_random=False),
+)
+def test_eq_15_the_centre_is_the_mean_hit_histogram_in_any_order(scans, random):
+    online = blank(OnlineSegmenter())
+    keyframes = [_scan_through(cells, online._resolution) for cells in scans]
+    order = list(range(len(keyframes)))
+    random.shuffle(order)
+    online.centres_[1] = Centre({}, 0, 0, set(), [], 0)
+    for i in order:
+        online._join(1, i, *hits(online, keyframes[i]), move=True)
+    centre = online.centres_[1]
+    # the mean of the scans' indicator vectors, counted here cell by cell
+    expected: dict[int, float] = {}
+    for keyframe in keyframes:
+        for key in hits(online, keyframe)[0].tolist():
+            expected[key] = expected.get(key, 0) + 1 / len(keyframes)
+    assert centre.members == len(keyframes)
+    assert {k: v / centre.members for k, v in centre.counts.items()} == pytest.approx(expected)
+    assert centre.mass == sum(len(hits(online, k)[0]) for k in keyframes)
+
+
+def test_every_event_follows_the_papers_rules(flat_online):
+    online = flat_online
+    threshold, theta = online.threshold_, online.theta
+    after_seed = [e for e in online.events_ if e.keyframe >= online.n_seed_]
+    arrivals = [e for e in after_seed if e.kind != "merged"]
+    assert [e.keyframe for e in arrivals] == list(range(online.n_seed_, len(online.labels_)))
+    for event in arrivals:
+        if event.kind == "created":
+            assert event.distance >= threshold
+        elif event.decided:
+            assert event.distance <= theta * threshold
+        else:
+            assert theta * threshold < event.distance < threshold
+    assert {e.kind for e in arrivals} >= {"created", "grown"}
+    assert online.arrival_labels_.tolist() == (
+        [int(x) for x in online.arrival_labels_[: online.n_seed_]]
+        + [e.region for e in arrivals]
+    )
+
+
+@pytest.mark.parametrize("theta", [0.0, 1.0])
+def test_theta_bounds_decide_every_scan_or_none(flat_run, theta):
+    online = online_run(flat_run[1], theta=theta)
+    grown = [e for e in online.events_ if e.kind == "grown"]
+    if theta == 1.0:
+        assert all(e.decided for e in grown)
+    else:
+        assert not any(e.decided and e.distance > 0 for e in grown)
+
+
+def test_ids_are_stable_and_merges_name_the_survivor(flat_run):
+    online = online_run(flat_run[1], max_clusters=3, patience=5)
+    merges = [e for e in online.events_ if e.kind == "merged"]
+    assert merges, "a cap of 3 clusters must merge"
+    gone = {e.absorbed for e in merges}
+    created = [e.region for e in online.events_ if e.kind == "created"]
+    assert len(created) == len(set(created))  # an id is never given twice
+    assert not gone & set(online.labels_.tolist())
+    assert set(online.centres_) == set(online.labels_.tolist())
+    # every keyframe ends where its arrival region's chain of merges leads
+    final = {}
+    for event in merges:
+        for region, target in list(final.items()):
+            if target == event.absorbed:
+                final[region] = event.region
+        final[event.absorbed] = event.region
+    expected = [final.get(r, r) for r in online.arrival_labels_.tolist()]
+    assert online.labels_.tolist() == expected
+    assert len(online.centres_) <= 3 + sum(
+        1 for c in online.centres_.values() if len(online.labels_) - 1 - c.born < 5
+    )
+
+
+def test_same_seed_same_events(flat_run):
+    first = online_run(flat_run[1])
+    second = online_run(flat_run[1])
+    assert first.events_ == second.events_
+    assert first.labels_.tolist() == second.labels_.tolist()
+
+
+@pytest.mark.parametrize(
+    "criterion", ["hausdorff", "features", lambda a, b: 1.0 / (1.0 + abs(len(a) - len(b)))]
+)
+def test_any_offline_criterion_works_online(flat_run, criterion):
+    keyframes = flat_run[1]
+    segmenter = SpectralSegmenter(criterion=criterion, random_state=0)
+    online = OnlineSegmenter(segmenter, dense=False).fit(keyframes[:60])
+    regions = online.partial_fit(keyframes[60:100])
+    assert len(online.labels_) == 100 and regions == online.arrival_labels_[60:].tolist()
+    assert 0 < online.threshold_ <= 1
+
+
+def _empty_scan_keyframe() -> Keyframe:
+    return Keyframe((1.0, 1.0, 0.0), LaserScan(np.full(10, np.nan), -1.0, 0.2))
+
+
+def _state(online: OnlineSegmenter):
+    return (
+        online.labels_.tolist(),
+        list(online.events_),
+        {r: (dict(c.counts), c.members, list(c.keyframes)) for r, c in online.centres_.items()},
+        online.regions_.boundary_counts(),
+        online.regions_.areas(),
+    )
+
+
+def test_refused_keyframes_leave_the_state_unchanged(flat_run):
+    keyframes = flat_run[1]
+    online = OnlineSegmenter(SpectralSegmenter(random_state=0)).fit(keyframes[:60])
+    before = _state(online)
+    with pytest.raises(SegmentationError, match="keyframe 60 .*no valid beam"):
+        online.partial_fit(_empty_scan_keyframe())
+    far = dataclasses.replace(keyframes[70], pose=(500.0, 500.0, 0.0))
+    with pytest.raises(SegmentationError, match=r"\(500.00, 500.00\) is .* outside the map"):
+        online.partial_fit(far)
+    nan = dataclasses.replace(keyframes[70])
+    object.__setattr__(nan, "pose", (math.nan, 0.0, 0.0))
+    with pytest.raises(SegmentationError, match="pose that is not finite"):
+        online.partial_fit(nan)
+    with pytest.raises(SegmentationError, match="not a Keyframe"):
+        online.partial_fit([keyframes[60], "scan"])  # type: ignore[list-item]
+    online_after_one = _state(online)
+    assert online_after_one[0] == before[0] + [online.labels_[60]]
+    with pytest.raises(InvalidScanError, match="finite"):
+        Keyframe((math.nan, 0.0, 0.0), keyframes[0].scan)
+
+
+def test_bad_parameters_and_order_are_typed_errors(flat_run):
+    for theta in (-0.1, 1.5, math.nan):
+        with pytest.raises(ParameterError, match="theta must lie in"):
+            OnlineSegmenter(theta=theta)
+    with pytest.raises(OnlineStateError, match="partial_fit before fit"):
+        OnlineSegmenter().partial_fit(flat_run[1][0])
+    with pytest.raises(OnlineStateError, match="not fitted"):
+        OnlineSegmenter().region_at(0.0, 0.0)
+    with pytest.raises(SegmentationError, match="no keyframes"):
+        OnlineSegmenter().fit([])
+    with pytest.raises(SegmentationError, match="keyframe 1 .*no valid beam"):
+        OnlineSegmenter().fit([flat_run[1][0], _empty_scan_keyframe()])
+
+
+def _recount(labels: np.ndarray) -> dict[tuple[int, int], int]:
+    counts: dict[tuple[int, int], int] = {}
+    for a, b in ((labels[:-1], labels[1:]), (labels[:, :-1], labels[:, 1:])):
+        keep = (a != b) & (a > 0) & (b > 0)
+        for p, q in zip(a[keep].tolist(), b[keep].tolist(), strict=True):
+            pair = (min(p, q), max(p, q))
+            counts[pair] = counts.get(pair, 0) + 1
+    return counts
+
+
+def test_incremental_regions_equal_a_recount_after_growth_and_merges(flat_run):
+    online = online_run(flat_run[1], max_clusters=4, patience=5)
+    regions = online.regions_
+    assert any(e.kind == "merged" for e in online.events_)
+    image, (xmin, xmax, ymin, ymax) = regions.label_image()
+    assert regions.boundary_counts() == _recount(image)
+    sizes = np.bincount(image.ravel())
+    assert regions.areas() == pytest.approx(
+        {r: sizes[r] * regions.resolution**2 for r in np.flatnonzero(sizes) if r > 0}
+    )
+    assert set(online.graph_.nodes) == set(online.labels_.tolist())
+    assert {tuple(sorted(e)) for e in online.graph_.edges} == set(_recount(image))
+    rows, cols = np.nonzero(image)
+    for r, c in list(zip(rows.tolist(), cols.tolist(), strict=True))[::997]:
+        x = xmin + (c + 0.5) * regions.resolution
+        y = ymax - (r + 0.5) * regions.resolution
+        assert online.region_at(x, y) == image[r, c]
+    assert online.region_at(xmax + 50, ymin - 50) == 0
+
+
+def test_a_cell_belongs_to_the_nearest_keyframe_that_saw_it():
+    # a 10 x 4 m box; keyframes at x = 1 and x = 7 see the whole box
+    res = 0.1
+    cells = np.zeros((40, 100), np.int8)
+    cells[[0, -1], :] = OCCUPIED
+    cells[:, [0, -1]] = OCCUPIED
+    grid = OccupancyGrid(cells, res)
+    model = maps.LaserModel(fov=2 * math.pi, beams=720, noise=0.0)
+    poses = np.array([[1.0, 2.0, 0.0], [7.0, 2.0, 0.0]])
+    keyframes = maps.simulate_scans(grid, poses, model, random_state=0)
+    regions = OnlineRegions(resolution=res, reach=20.0)
+    for i, keyframe in enumerate(keyframes):
+        regions.add(i, keyframe, region=i + 1)
+    for x in np.arange(0.35, 9.7, 0.5):
+        expected = 1 if abs(x - 1.0) < abs(x - 7.0) else 2
+        assert regions.region_at(x, 2.03) == expected, x
+    assert regions.region_at(-3.0, 2.0) == 0
+    assert set(regions.graph.edges) == {(1, 2)}
+    assert regions.graph.edges[1, 2]["boundary_m"] == pytest.approx(3.8, abs=0.25)
