@@ -16,11 +16,44 @@ def _where(path: str | Path | None, line: int | None, field: str | None) -> str:
     return ", ".join(parts)
 
 
-class MapsError(Exception):
+class TopomapError(Exception):
+    """Root of every error the topomap packages raise on bad input.
+
+    Each package has its own branch: :class:`MapError` (:mod:`maps`),
+    ``segmentation.errors.SegmentationError``, ``planners.errors.PlanningError`` and
+    ``topomap.errors.LabelError``; each error is also the built-in exception that fits
+    (``ValueError``, ``FileNotFoundError``...). Anything else that escapes is a bug.
+
+    Examples
+    --------
+    >>> issubclass(InvalidMapError, TopomapError) and issubclass(InvalidMapError, ValueError)
+    True
+    """
+
+
+class OutputExistsError(TopomapError, FileExistsError):
+    """A file that exists and would be overwritten; nothing is replaced without asking.
+
+    Examples
+    --------
+    >>> str(OutputExistsError("out/map.yaml"))
+    'out/map.yaml exists; pass overwrite=True to replace it'
+    """
+
+    def __init__(self, path: str | Path, how: str = "overwrite=True") -> None:
+        super().__init__(f"{path} exists; pass {how} to replace it")
+        self.filename = str(path)
+
+
+class MapError(TopomapError):
     """Base class of every error raised by :mod:`maps`."""
 
 
-class MapFileNotFoundError(MapsError, FileNotFoundError):
+#: The former name of :class:`MapError`.
+MapsError = MapError
+
+
+class MapFileNotFoundError(MapError, FileNotFoundError):
     """A map, image, log or bag file that does not exist."""
 
     def __init__(self, path: str | Path, what: str = "file") -> None:
@@ -28,7 +61,7 @@ class MapFileNotFoundError(MapsError, FileNotFoundError):
         self.filename = str(path)
 
 
-class FormatError(MapsError, ValueError):
+class FormatError(MapError, ValueError):
     """A file whose content is malformed, located by file, line and field.
 
     Parameters
@@ -62,11 +95,11 @@ class LogFormatError(FormatError):
     """A laser log (CARMEN, ROS bag) that cannot be read."""
 
 
-class InvalidMapError(MapsError, ValueError):
+class InvalidMapError(MapError, ValueError):
     """Map parameters that make no sense (a zero resolution, a wrong array shape...)."""
 
 
-class InvalidScanError(MapsError, ValueError):
+class InvalidScanError(MapError, ValueError):
     """A laser scan or pose with values that make no sense (NaN pose, negative angle step...)."""
 
 

@@ -17,7 +17,7 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from maps.errors import MapFileNotFoundError, MapFormatError
+from maps.errors import MapFileNotFoundError, MapFormatError, OutputExistsError
 from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 
 MODES = ("trinary", "scale", "raw")
@@ -194,14 +194,14 @@ def save_map(grid: OccupancyGrid, path: str | Path, *, overwrite: bool = False) 
 
     Raises
     ------
-    FileExistsError
-        If the YAML or image exists and ``overwrite`` is False.
+    OutputExistsError
+        If the YAML or image exists and ``overwrite`` is False (a ``FileExistsError``).
     """
     path = Path(path)
     image_path = path.with_suffix(".pgm")
     for target in (path, image_path):
         if target.exists() and not overwrite:
-            raise FileExistsError(f"{target} exists; pass overwrite=True to replace it")
+            raise OutputExistsError(target)
     cells = grid.cells
     if np.isin(cells, (UNKNOWN, FREE, OCCUPIED)).all():
         pixels = np.full(cells.shape, SAVED_UNKNOWN, np.uint8)

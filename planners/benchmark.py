@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from maps.seeding import RandomState, as_generator
-from planners.errors import PlanningError
+from planners.errors import InvalidQueryError, PlanningError
 from planners.path import Path as PlannedPath
 from planners.visibility import VisibilityGraph
 from planners.workspace import Point, Workspace
@@ -43,13 +43,13 @@ def far_queries(
 
     Raises
     ------
-    ValueError
+    InvalidQueryError
         When 1000 tries per query find none (a map with no two far-apart free points).
     """
     rng = as_generator(random_state)
     rows, cols = np.nonzero(space.free)
     if len(rows) == 0:
-        raise ValueError("the map has no free cell for the robot")
+        raise InvalidQueryError("the map has no free cell for the robot")
     xs, ys = space.grid.cell_to_world(rows, cols)
     xmin, ymin, xmax, ymax = space.grid.bounds()
     least = min_fraction * math.hypot(xmax - xmin, ymax - ymin)
@@ -63,7 +63,7 @@ def far_queries(
         if space.components[rows[i], cols[i]] != space.components[rows[j], cols[j]]:
             continue
         queries.append(((float(xs[i]), float(ys[i])), (float(xs[j]), float(ys[j]))))
-    raise ValueError(f"found only {len(queries)} of {count} queries {least:.1f} m apart")
+    raise InvalidQueryError(f"found only {len(queries)} of {count} queries {least:.1f} m apart")
 
 
 def run_queries(

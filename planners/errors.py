@@ -2,9 +2,16 @@
 
 from __future__ import annotations
 
+from maps.errors import TopomapError
 
-class PlanningError(Exception):
+
+class PlanningError(TopomapError):
     """Base class of every error raised by :mod:`planners`."""
+
+
+class PlannerParameterError(PlanningError, ValueError):
+    """A planner option or input that makes no sense: an unknown OMPL planner, a time limit
+    that is not positive, a label image whose shape is not the map's."""
 
 
 class InvalidQueryError(PlanningError, ValueError):

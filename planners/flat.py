@@ -12,7 +12,7 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from maps.seeding import RandomState, as_generator
-from planners.errors import InvalidQueryError, NoPathError
+from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
 from planners.path import Path
 from planners.workspace import Workspace
 
@@ -88,9 +88,11 @@ class FlatPlanner:
         random_state: RandomState = 0,
     ) -> None:
         if planner not in PLANNERS:
-            raise ValueError(f"unknown OMPL planner {planner!r}; known: {', '.join(PLANNERS)}")
+            raise PlannerParameterError(
+                f"unknown OMPL planner {planner!r}; known: {', '.join(PLANNERS)}"
+            )
         if not time_limit > 0:
-            raise ValueError(f"time_limit must be > 0 seconds, got {time_limit}")
+            raise PlannerParameterError(f"time_limit must be > 0 seconds, got {time_limit}")
         _seed_once(random_state)
         self.space, self.time_limit, self.simplify = space, float(time_limit), simplify
         self.name = f"flat_{planner.lower()}"
@@ -119,7 +121,7 @@ class FlatPlanner:
     def grow_roadmap(self, seconds: float) -> None:
         """Grow a roadmap planner's graph for ``seconds`` before any query (preprocessing)."""
         if not self._keeps_roadmap:
-            raise ValueError(f"{self.name} keeps no roadmap")
+            raise PlannerParameterError(f"{self.name} keeps no roadmap")
         self._planner.growRoadmap(seconds)
 
     def plan(self, start: ArrayLike, goal: ArrayLike) -> Path:

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
 from maps.grid import OCCUPIED_FROM, UNKNOWN, OccupancyGrid
-from planners.errors import InvalidQueryError
+from planners.errors import InvalidQueryError, PlannerParameterError
 
 Point = tuple[float, float]
 #: A point given as a tuple, a list or a numpy array of two numbers.
@@ -59,7 +59,9 @@ class Workspace:
         else:
             free = np.asarray(self.free, bool)
             if free.shape != self.grid.shape:
-                raise ValueError(f"free has shape {free.shape}, the grid {self.grid.shape}")
+                raise PlannerParameterError(
+                    f"free has shape {free.shape}, the grid {self.grid.shape}"
+                )
             free = free & self.grid.free
         free.setflags(write=False)
         object.__setattr__(self, "free", free)

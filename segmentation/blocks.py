@@ -22,6 +22,7 @@ from sklearn.cluster import KMeans
 
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
+from segmentation.errors import ParameterError
 from segmentation.spectral import SpectralSegmenter
 
 
@@ -113,7 +114,7 @@ class BlockSpectralSegmenter:
     def fit(self, keyframes: Sequence[Keyframe]) -> BlockSpectralSegmenter:
         """Partition each block's keyframes."""
         if len(self.blocks) != len(keyframes):
-            raise ValueError(f"{len(self.blocks)} block ids for {len(keyframes)} keyframes")
+            raise ParameterError(f"{len(self.blocks)} block ids for {len(keyframes)} keyframes")
         self.labels_ = np.zeros(len(keyframes), np.int64)
         self.segmenters_ = []
         offset = 0

@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
-
-class SegmentationError(ValueError):
-    """Input that cannot be segmented: empty keyframes, NaN poses, a map with no free cell."""
+from maps.errors import TopomapError
 
 
-class ParameterError(ValueError):
+class SegmentationError(TopomapError, ValueError):
+    """Base class of every error raised by :mod:`segmentation`; raised itself for input that
+    cannot be segmented: empty keyframes, NaN poses, a map with no free cell."""
+
+
+class ParameterError(SegmentationError):
     """A parameter out of its range, e.g. ``k`` larger than the number of keyframes."""
 
 
-class ExportFormatError(ValueError):
+class ExportFormatError(SegmentationError):
     """A region or graph file that cannot be read back: names the file and the field."""

@@ -18,6 +18,7 @@ import shapely
 from numpy.typing import NDArray
 from shapely.geometry import mapping, shape
 
+from maps.errors import MapFileNotFoundError, OutputExistsError
 from segmentation.errors import ExportFormatError
 from segmentation.transitions import Transition
 
@@ -78,7 +79,7 @@ def _decoded(graph: nx.Graph, source: Path) -> nx.Graph:
 
 def _refuse_overwrite(path: Path, overwrite: bool) -> None:
     if path.exists() and not overwrite:
-        raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
+        raise OutputExistsError(path)
 
 
 def write_graphml(graph: nx.Graph, path: str | Path, *, overwrite: bool = False) -> Path:
@@ -95,7 +96,7 @@ def read_graphml(path: str | Path) -> nx.Graph:
     try:
         raw = nx.read_graphml(path, node_type=int)
     except FileNotFoundError:
-        raise
+        raise MapFileNotFoundError(path, "region graph") from None
     except Exception as err:  # networkx raises bare ElementTree / KeyError errors
         raise ExportFormatError(f"{path}: not valid GraphML: {err}") from err
     return _decoded(raw, path)
@@ -115,7 +116,7 @@ def read_node_link(path: str | Path) -> nx.Graph:
     try:
         raw = nx.node_link_graph(json.loads(path.read_text()), edges="edges")
     except FileNotFoundError:
-        raise
+        raise MapFileNotFoundError(path, "region graph") from None
     except (ValueError, KeyError, TypeError) as err:
         raise ExportFormatError(f"{path}: not node-link JSON: {err!r}") from err
     return _decoded(raw, path)
@@ -164,7 +165,7 @@ def read_geojson(path: str | Path) -> nx.Graph:
             node = int(properties.pop("id"))
             graph.add_node(node, polygon=shape(feature["geometry"]), **properties)
     except FileNotFoundError:
-        raise
+        raise MapFileNotFoundError(path, "regions GeoJSON") from None
     except (ValueError, KeyError, TypeError, AttributeError) as err:
         where = f" feature {index}" if index >= 0 else ""
         raise ExportFormatError(f"{path}{where}: not topomap regions GeoJSON: {err!r}") from err
@@ -187,7 +188,7 @@ def read_label_image(path: str | Path) -> NDArray[np.int32]:
     image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if image is None:
         if not Path(path).exists():
-            raise FileNotFoundError(f"no such label image: {path}")
+            raise MapFileNotFoundError(path, "label image")
         raise ExportFormatError(f"{path}: not an image OpenCV can read")
     if image.ndim != 2:
         raise ExportFormatError(f"{path}: a label image has one channel, found {image.shape[2]}")

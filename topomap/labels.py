@@ -25,6 +25,7 @@ from skimage.morphology import disk
 from sklearn.ensemble import RandomForestClassifier
 
 from segmentation.regions import Regions
+from topomap.errors import LabelError
 
 #: The place types, in table order.
 PLACE_TYPES = ("room", "corridor", "hall", "doorway")
@@ -48,10 +49,6 @@ FURNITURE_HOLE_M2 = 4.0
 FURNITURE_GAP_M = 0.5
 
 Classifier = Callable[[Mapping[str, NDArray[np.float64]]], Sequence[str]] | Any
-
-
-class LabelError(ValueError):
-    """A classifier's output that cannot be used, or a name that is unknown or taken."""
 
 
 def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.float64]]:

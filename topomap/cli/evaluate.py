@@ -34,7 +34,7 @@ def floor_plans(data_dir: str | Path) -> list[FloorPlan]:
     """Every ``NAME.yaml`` / ``NAME_furnitures.yaml`` with a ``NAME_gt_labels.png`` beside it."""
     data_dir = Path(data_dir)
     if not data_dir.is_dir():
-        raise MapFileNotFoundError(f"no such data folder: {data_dir}")
+        raise MapFileNotFoundError(data_dir, "data folder")
     found = []
     for yaml in sorted(data_dir.glob("*.yaml")):
         name = yaml.stem
@@ -43,7 +43,7 @@ def floor_plans(data_dir: str | Path) -> list[FloorPlan]:
         if truth.exists():
             found.append(FloorPlan(name, yaml, truth, name != base))
     if not found:
-        raise MapFileNotFoundError(f"{data_dir}: no map YAML with a *_gt_labels.png beside it")
+        raise MapFileNotFoundError(data_dir / "*.yaml", "map YAML with a *_gt_labels.png")
     return found
 
 

@@ -1,0 +1,13 @@
+"""Errors raised by the topomap package (the facade, labels and names).
+
+The roots of every branch live in the lowest package, :mod:`maps.errors`
+(:class:`~maps.errors.TopomapError`), since imports only go downwards.
+"""
+
+from __future__ import annotations
+
+from maps.errors import TopomapError
+
+
+class LabelError(TopomapError, ValueError):
+    """A classifier's output that cannot be used, or a name that is unknown or taken."""
