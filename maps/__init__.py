@@ -1,43 +1,81 @@
-"""Occupancy grids, laser scans and keyframes, file readers and writers, and simulation."""
+"""Occupancy grids, laser scans and keyframes, file readers and writers, and simulation.
 
-from maps.carmen import read_carmen
-from maps.errors import (
-    FormatError,
-    InvalidMapError,
-    InvalidScanError,
-    LogFormatError,
-    MapFileNotFoundError,
-    MapFormatError,
-    MapsError,
-)
-from maps.floorplan import FloorPlan, generate_floor_plan
-from maps.grid import OccupancyGrid
-from maps.laser_sim import LaserModel, RayCaster, simulate_scans
-from maps.mapping import grid_from_keyframes
-from maps.rosbag import read_rosbag
-from maps.scan import Keyframe, LaserScan, select_keyframes
-from maps.wander import Route, wander
+Names are imported lazily, the first time they are used (but :func:`wander`).
 
-__all__ = [
-    "FloorPlan",
-    "FormatError",
-    "InvalidMapError",
-    "InvalidScanError",
-    "Keyframe",
-    "LaserModel",
-    "LaserScan",
-    "LogFormatError",
-    "MapFileNotFoundError",
-    "MapFormatError",
-    "MapsError",
-    "OccupancyGrid",
-    "RayCaster",
-    "Route",
-    "generate_floor_plan",
-    "grid_from_keyframes",
-    "read_carmen",
-    "read_rosbag",
-    "select_keyframes",
-    "simulate_scans",
-    "wander",
-]
+Examples
+--------
+>>> import maps
+>>> import numpy as np
+>>> grid = maps.OccupancyGrid(np.zeros((4, 6), np.int8), resolution=0.5)
+>>> grid.bounds()
+(0.0, 0.0, 3.0, 2.0)
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from maps import _exports
+
+# ``wander`` is also the name of its module: bound now, or importing ``maps.wander`` anywhere
+# first would leave the module, not the function, as ``maps.wander``
+from maps.wander import Route as Route
+from maps.wander import wander as wander
+
+if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
+    from maps.carmen import read_carmen as read_carmen
+    from maps.errors import FormatError as FormatError
+    from maps.errors import InvalidMapError as InvalidMapError
+    from maps.errors import InvalidScanError as InvalidScanError
+    from maps.errors import LogFormatError as LogFormatError
+    from maps.errors import MapError as MapError
+    from maps.errors import MapFileNotFoundError as MapFileNotFoundError
+    from maps.errors import MapFormatError as MapFormatError
+    from maps.errors import MapsError as MapsError
+    from maps.errors import OutputExistsError as OutputExistsError
+    from maps.errors import TopomapError as TopomapError
+    from maps.floorplan import FloorPlan as FloorPlan
+    from maps.floorplan import generate_floor_plan as generate_floor_plan
+    from maps.grid import OccupancyGrid as OccupancyGrid
+    from maps.laser_sim import LaserModel as LaserModel
+    from maps.laser_sim import RayCaster as RayCaster
+    from maps.laser_sim import simulate_scans as simulate_scans
+    from maps.mapping import grid_from_keyframes as grid_from_keyframes
+    from maps.rosbag import read_rosbag as read_rosbag
+    from maps.scan import Keyframe as Keyframe
+    from maps.scan import LaserScan as LaserScan
+    from maps.scan import select_keyframes as select_keyframes
+
+_EXPORTS = {
+    "FloorPlan": "maps.floorplan",
+    "FormatError": "maps.errors",
+    "InvalidMapError": "maps.errors",
+    "InvalidScanError": "maps.errors",
+    "Keyframe": "maps.scan",
+    "LaserModel": "maps.laser_sim",
+    "LaserScan": "maps.scan",
+    "LogFormatError": "maps.errors",
+    "MapError": "maps.errors",
+    "MapFileNotFoundError": "maps.errors",
+    "MapFormatError": "maps.errors",
+    "MapsError": "maps.errors",
+    "OccupancyGrid": "maps.grid",
+    "OutputExistsError": "maps.errors",
+    "RayCaster": "maps.laser_sim",
+    "TopomapError": "maps.errors",
+    "generate_floor_plan": "maps.floorplan",
+    "grid_from_keyframes": "maps.mapping",
+    "read_carmen": "maps.carmen",
+    "read_rosbag": "maps.rosbag",
+    "select_keyframes": "maps.scan",
+    "simulate_scans": "maps.laser_sim",
+}
+__all__ = sorted([*_EXPORTS, "Route", "wander"])
+
+
+def __getattr__(name: str) -> Any:
+    return _exports.load(__name__, _EXPORTS, name)
+
+
+def __dir__() -> list[str]:
+    return _exports.names(__name__, _EXPORTS)

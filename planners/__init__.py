@@ -1,1 +1,47 @@
-"""Planners on occupancy grids and region graphs (to come: issue 4)."""
+"""Planners on occupancy grids and region graphs: the hierarchical planner
+(:class:`HierarchicalPlanner`: the region graph first, then OMPL inside each submap), the flat
+OMPL baseline (:class:`FlatPlanner`), the reference planners (:class:`GridAStar`, the exact
+:class:`VisibilityGraph`), the shared validity rule (:class:`Workspace`) and planned paths
+(:class:`Path`). Names are imported lazily: OMPL is loaded only with the first planner that
+uses it.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from maps import _exports
+
+if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
+    from planners.errors import InvalidQueryError as InvalidQueryError
+    from planners.errors import NoPathError as NoPathError
+    from planners.errors import PlannerParameterError as PlannerParameterError
+    from planners.errors import PlanningError as PlanningError
+    from planners.flat import FlatPlanner as FlatPlanner
+    from planners.grid_astar import GridAStar as GridAStar
+    from planners.hierarchical import HierarchicalPlanner as HierarchicalPlanner
+    from planners.path import Path as Path
+    from planners.visibility import VisibilityGraph as VisibilityGraph
+    from planners.workspace import Workspace as Workspace
+
+_EXPORTS = {
+    "FlatPlanner": "planners.flat",
+    "GridAStar": "planners.grid_astar",
+    "HierarchicalPlanner": "planners.hierarchical",
+    "InvalidQueryError": "planners.errors",
+    "NoPathError": "planners.errors",
+    "Path": "planners.path",
+    "PlannerParameterError": "planners.errors",
+    "PlanningError": "planners.errors",
+    "VisibilityGraph": "planners.visibility",
+    "Workspace": "planners.workspace",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    return _exports.load(__name__, _EXPORTS, name)
+
+
+def __dir__() -> list[str]:
+    return _exports.names(__name__, _EXPORTS)

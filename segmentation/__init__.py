@@ -1,1 +1,68 @@
-"""Spectral segmentation into regions and the region adjacency graph (issue 3, to come)."""
+"""Spectral segmentation of keyframes or a map into regions, and the region adjacency graph.
+
+The similarity criteria (:mod:`segmentation.similarity`), the spectral partition
+(:class:`SpectralSegmenter`, block by block on large maps: :class:`BlockSpectralSegmenter`),
+virtual keyframes for a map alone, regions (:class:`Regions`) with their refinement, doors
+(:class:`Transition`), the region graph (:func:`region_graph`), its exports and the
+benchmark metrics (:func:`score`). Names are imported lazily, the first time they are used.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from maps import _exports
+
+if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
+    from segmentation.blocks import BlockSpectralSegmenter as BlockSpectralSegmenter
+    from segmentation.errors import ExportFormatError as ExportFormatError
+    from segmentation.errors import ParameterError as ParameterError
+    from segmentation.errors import SegmentationError as SegmentationError
+    from segmentation.export import read_geojson as read_geojson
+    from segmentation.export import read_graphml as read_graphml
+    from segmentation.export import read_label_image as read_label_image
+    from segmentation.export import read_node_link as read_node_link
+    from segmentation.export import write_geojson as write_geojson
+    from segmentation.export import write_graphml as write_graphml
+    from segmentation.export import write_label_image as write_label_image
+    from segmentation.export import write_node_link as write_node_link
+    from segmentation.graph import region_graph as region_graph
+    from segmentation.metrics import Scores as Scores
+    from segmentation.metrics import score as score
+    from segmentation.regions import Regions as Regions
+    from segmentation.spectral import SpectralSegmenter as SpectralSegmenter
+    from segmentation.transitions import Transition as Transition
+    from segmentation.transitions import find_transitions as find_transitions
+    from segmentation.virtual import virtual_keyframes as virtual_keyframes
+
+_EXPORTS = {
+    "BlockSpectralSegmenter": "segmentation.blocks",
+    "ExportFormatError": "segmentation.errors",
+    "ParameterError": "segmentation.errors",
+    "Regions": "segmentation.regions",
+    "Scores": "segmentation.metrics",
+    "SegmentationError": "segmentation.errors",
+    "SpectralSegmenter": "segmentation.spectral",
+    "Transition": "segmentation.transitions",
+    "find_transitions": "segmentation.transitions",
+    "read_geojson": "segmentation.export",
+    "read_graphml": "segmentation.export",
+    "read_label_image": "segmentation.export",
+    "read_node_link": "segmentation.export",
+    "region_graph": "segmentation.graph",
+    "score": "segmentation.metrics",
+    "virtual_keyframes": "segmentation.virtual",
+    "write_geojson": "segmentation.export",
+    "write_graphml": "segmentation.export",
+    "write_label_image": "segmentation.export",
+    "write_node_link": "segmentation.export",
+}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    return _exports.load(__name__, _EXPORTS, name)
+
+
+def __dir__() -> list[str]:
+    return _exports.names(__name__, _EXPORTS)

@@ -1,7 +1,83 @@
 """topomap: semantic topological maps for robot navigation.
 
-The lower packages do one part each: :mod:`maps` (grids, scans, readers, simulation),
-:mod:`segmentation`, :mod:`planners`; this package runs the pipeline, draws and exports.
+``from topomap import TopoMap`` is the front door; the names a user needs (the map readers,
+the planners, the errors) are here too, imported lazily the first time they are used, so
+``import topomap`` is quick and OMPL is loaded only when planning starts. The lower packages
+do one part each: :mod:`maps` (grids, scans, readers, simulation), :mod:`segmentation`,
+:mod:`planners`.
+
+Examples
+--------
+>>> import topomap
+>>> issubclass(topomap.NoPathError, topomap.TopomapError)
+True
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
+    from maps.carmen import read_carmen as read_carmen
+    from maps.errors import MapError as MapError
+    from maps.errors import OutputExistsError as OutputExistsError
+    from maps.errors import TopomapError as TopomapError
+    from maps.floorplan import generate_floor_plan as generate_floor_plan
+    from maps.grid import OccupancyGrid as OccupancyGrid
+    from maps.mapping import grid_from_keyframes as grid_from_keyframes
+    from maps.rosbag import read_rosbag as read_rosbag
+    from maps.scan import Keyframe as Keyframe
+    from maps.scan import LaserScan as LaserScan
+    from maps.scan import select_keyframes as select_keyframes
+    from planners.errors import InvalidQueryError as InvalidQueryError
+    from planners.errors import NoPathError as NoPathError
+    from planners.errors import PlanningError as PlanningError
+    from planners.flat import FlatPlanner as FlatPlanner
+    from planners.hierarchical import HierarchicalPlanner as HierarchicalPlanner
+    from planners.path import Path as Path
+    from segmentation.errors import SegmentationError as SegmentationError
+    from segmentation.regions import Regions as Regions
+    from segmentation.spectral import SpectralSegmenter as SpectralSegmenter
+    from topomap.errors import LabelError as LabelError
+    from topomap.topomap import TopoMap as TopoMap
+
 __version__ = "0.1.0"
+
+_EXPORTS = {
+    "FlatPlanner": "planners.flat",
+    "HierarchicalPlanner": "planners.hierarchical",
+    "InvalidQueryError": "planners.errors",
+    "Keyframe": "maps.scan",
+    "LabelError": "topomap.errors",
+    "LaserScan": "maps.scan",
+    "MapError": "maps.errors",
+    "NoPathError": "planners.errors",
+    "OccupancyGrid": "maps.grid",
+    "OutputExistsError": "maps.errors",
+    "Path": "planners.path",
+    "PlanningError": "planners.errors",
+    "Regions": "segmentation.regions",
+    "SegmentationError": "segmentation.errors",
+    "SpectralSegmenter": "segmentation.spectral",
+    "TopoMap": "topomap.topomap",
+    "TopomapError": "maps.errors",
+    "generate_floor_plan": "maps.floorplan",
+    "grid_from_keyframes": "maps.mapping",
+    "read_carmen": "maps.carmen",
+    "read_rosbag": "maps.rosbag",
+    "select_keyframes": "maps.scan",
+}
+__all__ = sorted([*_EXPORTS, "__version__"])
+
+
+def __getattr__(name: str) -> Any:
+    # the helper is imported here, not above, so that ``import topomap`` imports nothing else
+    from maps import _exports
+
+    return _exports.load(__name__, _EXPORTS, name)
+
+
+def __dir__() -> list[str]:
+    from maps import _exports
+
+    return _exports.names(__name__, _EXPORTS)
