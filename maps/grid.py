@@ -286,10 +286,19 @@ class OccupancyGrid:
     def clearance(self) -> NDArray[np.float64]:
         """Distance in metres from each cell centre to the nearest non-free cell centre.
 
-        Non-free cells have 0. Cached: the grid is immutable.
+        The map's edge is an obstacle: the cells just outside the grid count as non-free, so
+        no cell is clearer than its distance to the edge. Non-free cells have 0. Cached: the
+        grid is immutable.
+
+        Examples
+        --------
+        >>> grid = OccupancyGrid(np.zeros((3, 5), np.int8), resolution=0.1)  # all free
+        >>> grid.clearance()[1]
+        array([0.1, 0.2, 0.2, 0.2, 0.1])
         """
         if "clearance" not in self._derived:
-            dist = ndimage.distance_transform_edt(self.free) * self.resolution
+            padded = np.pad(self.free, 1, constant_values=False)
+            dist = ndimage.distance_transform_edt(padded)[1:-1, 1:-1] * self.resolution
             dist.setflags(write=False)
             self._derived["clearance"] = dist
         return self._derived["clearance"]  # type: ignore[return-value]

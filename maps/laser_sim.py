@@ -7,7 +7,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
 
 from maps.errors import InvalidScanError
 from maps.grid import OccupancyGrid
@@ -87,7 +86,8 @@ class RayCaster:
     def __init__(self, grid: OccupancyGrid) -> None:
         self.grid = grid
         self.blocked = ~grid.free
-        self.clearance = ndimage.distance_transform_edt(~self.blocked).astype(np.float32)
+        # in cells; off the grid blocks, so the edge counts (a sphere step never leaves the map)
+        self.clearance = (grid.clearance() / grid.resolution).astype(np.float32)
 
     def cast(self, origins: ArrayLike, angles: ArrayLike, max_range: float) -> NDArray[np.float64]:
         """Ranges in metres of rays from map-frame ``origins`` ``(n, 2)`` at map-frame ``angles``

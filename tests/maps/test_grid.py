@@ -92,6 +92,33 @@ def test_inflation_keeps_a_robot_clear_of_walls():
     assert inflated.free.sum() == (grid.clearance() > 0.275).sum() > 0
 
 
+@given(
+    height=st.integers(1, 30),
+    width=st.integers(1, 30),
+    resolution=st.sampled_from([0.02, 0.05, 0.1]),
+)
+def test_the_map_edge_is_an_obstacle(height, width, resolution):
+    # an all-free map: each cell is as clear as the cell beyond the nearest edge is far,
+    # counted here cell by cell (0.5 cells to the edge, 0.5 more to that cell's centre)
+    grid = OccupancyGrid(np.zeros((height, width), np.int8), resolution)
+    rows, cols = np.indices((height, width))
+    cells_to_edge = np.minimum.reduce([rows + 1, cols + 1, height - rows, width - cols])
+    np.testing.assert_allclose(grid.clearance(), cells_to_edge * resolution)
+
+
+def test_a_robot_is_not_clear_next_to_the_map_edge():
+    # 5 cm from the edge of an all-free 4 x 4 m map: no room for a 0.2 m robot
+    grid = OccupancyGrid(np.zeros((80, 80), np.int8), 0.05)
+    inflated = grid.inflate(0.2)
+    assert not inflated.is_free(0.05, 2.0)
+    assert not inflated.is_free(2.0, 3.95)
+    assert inflated.is_free(2.0, 2.0)
+    # a 0.2 m disc on the centre of column 3 (x = 0.175 m) crosses the edge, on column 4's
+    # (x = 0.225 m) it stays 2.5 cm inside
+    assert not inflated.is_free(0.175, 2.0)
+    assert inflated.is_free(0.225, 2.0)
+
+
 def _write(tmp_path, text, image=True):
     if image:
         OccupancyGrid(np.zeros((3, 3), np.int8), 0.1).save(tmp_path / "img.yaml", overwrite=True)
