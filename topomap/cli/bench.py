@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from maps.errors import MapFileNotFoundError
 from maps.floorplan import generate_floor_plan
@@ -20,6 +21,7 @@ from planners.benchmark import Planner, far_queries, run_queries, summarise, wri
 from planners.flat import FlatPlanner
 from planners.grid_astar import GridAStar
 from planners.visibility import VisibilityGraph
+from segmentation.errors import ParameterError
 from segmentation.naive import naive_segment
 from segmentation.spectral import SpectralSegmenter
 from topomap.topomap import TopoMap
@@ -31,6 +33,7 @@ def bench_sim(
     scans: tuple[int, ...] = (1_000, 10_000),
     beams: tuple[int, ...] = (181, 361),
     seed: int = 0,
+    progress: Callable[[Any], Any] = iter,
 ) -> list[dict[str, Any]]:
     """Time the laser simulator on a generated office floor (100 x 60 m, 5 cm cells).
 
@@ -45,26 +48,27 @@ def bench_sim(
     setup = time.perf_counter() - start
     rows, cols = np.nonzero(plan.grid.free)
     records: list[dict[str, Any]] = []
+    poses: dict[int, NDArray[np.float64]] = {}
     for n in scans:
         pick = rng.integers(len(rows), size=n)
         x, y = plan.grid.cell_to_world(rows[pick], cols[pick])
-        poses = np.column_stack((x, y, rng.uniform(-np.pi, np.pi, n)))
-        for b in beams:
-            model = LaserModel(fov=np.pi if b % 2 else 2 * np.pi, beams=b, noise=0.01)
-            start = time.perf_counter()
-            simulate_scans(plan.grid, poses, model, random_state=seed, caster=caster)
-            seconds = time.perf_counter() - start
-            records.append(
-                {
-                    "scans": n,
-                    "beams": b,
-                    "seconds": round(seconds, 4),
-                    "scans_per_s": round(n / seconds),
-                    "rays_per_s": round(n * b / seconds),
-                    "map_cells": list(plan.grid.shape),
-                    "setup_seconds": round(setup, 4),
-                }
-            )
+        poses[n] = np.column_stack((x, y, rng.uniform(-np.pi, np.pi, n)))
+    for n, b in progress([(n, b) for n in scans for b in beams]):
+        model = LaserModel(fov=np.pi if b % 2 else 2 * np.pi, beams=b, noise=0.01)
+        start = time.perf_counter()
+        simulate_scans(plan.grid, poses[n], model, random_state=seed, caster=caster)
+        seconds = time.perf_counter() - start
+        records.append(
+            {
+                "scans": n,
+                "beams": b,
+                "seconds": round(seconds, 4),
+                "scans_per_s": round(n / seconds),
+                "rays_per_s": round(n * b / seconds),
+                "map_cells": list(plan.grid.shape),
+                "setup_seconds": round(setup, 4),
+            }
+        )
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps(records, indent=2))
@@ -79,7 +83,10 @@ def robot_keyframes(size: str, count: int, seed: int = 0) -> list[Keyframe]:
     scans = simulate_scans(plan.grid, route.poses, LaserModel(noise=0.01), random_state=seed)
     keyframes = select_keyframes(scans)
     if len(keyframes) < count:
-        raise ValueError(f"the {size} building gives {len(keyframes)} keyframes, not {count}")
+        raise ParameterError(
+            f"the {size} building gives {len(keyframes)} keyframes, not {count}: "
+            "ask for fewer (--sizes) or a larger building (--building)"
+        )
     return keyframes[:count]
 
 
@@ -90,6 +97,7 @@ def bench_segment(
     naive_up_to: int = 2_000,
     building: str = "campus",
     seed: int = 0,
+    progress: Callable[[Any], Any] = iter,
 ) -> list[dict[str, Any]]:
     """Time the spectral partition (similarity + eigenvectors + k search) against the naive one.
 
@@ -99,7 +107,7 @@ def bench_segment(
     """
     keyframes = robot_keyframes(building, max(sizes), seed)
     records: list[dict[str, Any]] = []
-    for n in sizes:
+    for n in progress(sizes):
         runs = [("topomap", lambda k: SpectralSegmenter(random_state=seed).fit(k).labels_)]
         if n <= naive_up_to:
             runs.append(("naive", lambda k: naive_segment(k, random_state=seed)))

@@ -203,12 +203,24 @@ STAGES: list[Callable[[DemoRun], None]] = [
 ]
 
 
-def run_demo(out: str | Path, *, size: str = "office", seed: int = 0) -> dict[str, Any]:
-    """Run every stage, write ``summary.json`` and the pictures into ``out``; return the summary."""
+def run_demo(
+    out: str | Path,
+    *,
+    size: str = "office",
+    seed: int = 0,
+    on_stage: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """Run every stage, write ``summary.json`` and the pictures into ``out``; return the summary.
+
+    ``on_stage`` is called as each stage starts, with its number, name and what it does.
+    """
     run = DemoRun(Path(out), size=size, seed=seed)
     run.out.mkdir(parents=True, exist_ok=True)
     seconds: dict[str, float] = {}
-    for stage in STAGES:
+    for number, stage in enumerate(STAGES, start=1):
+        if on_stage is not None:
+            doc = " ".join((stage.__doc__ or "").split(";")[0].split(".")[0].split())
+            on_stage(f"[{number}/{len(STAGES)}] {stage.__name__}: {doc}")
         start = time.perf_counter()
         stage(run)
         seconds[stage.__name__] = round(time.perf_counter() - start, 3)
@@ -216,3 +228,37 @@ def run_demo(out: str | Path, *, size: str = "office", seed: int = 0) -> dict[st
     run.summary["seconds"] = seconds
     (run.out / "summary.json").write_text(json.dumps(run.summary, indent=2))
     return run.summary
+
+
+def summary_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per stage of a :func:`run_demo` summary: ``stage``, ``seconds`` and a short
+    ``result`` (the numbers a reader checks first; ``summary.json`` holds them all)."""
+    building, robot, built = summary["building"], summary["robot"], summary["map"]
+    width, height = building["extent_m"]
+    spaces = sum(building["spaces"].values())
+    results = {
+        "generate": f"{building['size']} {width:g} x {height:g} m, {spaces} spaces, "
+        f"{building['doors']} doors",
+        "drive": f"{robot['route_m']:g} m, {robot['rooms_visited']} rooms visited, "
+        f"{robot['scans']} scans, {robot['keyframes']} keyframes",
+        "build_map": f"{100 * built['true_free_cells_found']:.1f}% of the free cells found, "
+        f"{100 * built['free_cells_not_free_in_truth']:.1f}% wrongly free",
+    }
+    for name in ("segment_log", "segment_plan"):
+        found, refined = summary[name], summary[name]["refined"]
+        results[name] = (
+            f"{found['regions']} regions ({refined['rooms']} true): MCC {refined['mcc']:.2f}, "
+            f"recall {refined['recall']:.2f}, precision {refined['precision']:.2f}"
+        )
+    plan = summary["plan"]
+    results["plan_paths"] = (
+        f"{plan['queries']} queries, median hierarchical {plan['hierarchical']['median_ms']:g} "
+        f"ms, flat RRTConnect {plan['flat_rrtconnect']['median_ms']:g} ms "
+        f"({plan['speedup']:g}x)"
+    )
+    rows = [
+        {"stage": stage, "seconds": f"{seconds:.1f}", "result": results.get(stage, "")}
+        for stage, seconds in summary["seconds"].items()
+    ]
+    total = sum(summary["seconds"].values())
+    return [*rows, {"stage": "total", "seconds": f"{total:.1f}", "result": ""}]

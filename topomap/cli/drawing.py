@@ -1,4 +1,9 @@
-"""Pictures of maps, routes and keyframes, written to files (matplotlib, Agg backend)."""
+"""Pictures of maps, routes and keyframes, written to PNG files.
+
+Figures are made with matplotlib's object API (:class:`matplotlib.figure.Figure`, which writes
+PNGs with the Agg canvas), never through pyplot: no global backend is chosen, no window opens
+and nothing is left for the caller to close.
+"""
 
 from __future__ import annotations
 
@@ -12,15 +17,7 @@ from maps.grid import OccupancyGrid
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
-
-
-def _pyplot() -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    from matplotlib.figure import Figure
 
 
 def show_grid(ax: Axes, grid: OccupancyGrid) -> None:
@@ -39,12 +36,14 @@ def show_grid(ax: Axes, grid: OccupancyGrid) -> None:
 
 def _map_figure(
     grid: OccupancyGrid, labels: NDArray[np.integer] | None = None, alpha: float = 0.8
-) -> Any:
+) -> tuple[Figure, Axes]:
     """``(figure, axes)``: the map 12 inches wide, with the regions in colour if given."""
-    plt = _pyplot()
+    from matplotlib.figure import Figure
+
     xmin, ymin, xmax, ymax = grid.bounds()
     width = 12.0
-    fig, ax = plt.subplots(figsize=(width, max(3.0, width * (ymax - ymin) / (xmax - xmin))))
+    fig = Figure(figsize=(width, max(3.0, width * (ymax - ymin) / (xmax - xmin))))
+    ax = fig.subplots()
     show_grid(ax, grid)
     if labels is not None:
         colours = region_colours(int(labels.max(initial=0)))
@@ -53,12 +52,11 @@ def _map_figure(
     return fig, ax
 
 
-def _save(fig: Any, ax: Axes, path: str | Path, title: str) -> Path:
-    """Title the axes, write the figure as a PNG, close it."""
+def _save(fig: Figure, ax: Axes, path: str | Path, title: str) -> Path:
+    """Title the axes, write the figure as a PNG."""
     ax.set_title(title)
     path = Path(path)
     fig.savefig(path, dpi=150, bbox_inches="tight")
-    _pyplot().close(fig)
     return path
 
 

@@ -96,19 +96,20 @@ def ipa_places_regions(
 
 
 def generated_regions(
-    sizes: tuple[str, ...] = ("flat", "office"), seeds: tuple[int, ...] = (0, 1, 2)
+    sizes: tuple[str, ...] = ("flat", "office"),
+    seeds: tuple[int, ...] = (0, 1, 2),
+    progress: Callable[[Any], Any] = iter,
 ) -> list[dict[str, Any]]:
     """:func:`labelled_regions` of generated buildings, the truth being the generator's
     room types."""
     found = []
-    for size in sizes:
-        for seed in seeds:
-            plan = generate_floor_plan(size, random_state=seed)
-            truth = np.full(plan.labels.shape, -1, np.int8)
-            for index, place in enumerate(plan.types, start=1):
-                truth[plan.labels == index] = PLACE_TYPES.index(place)
-            topo = TopoMap.from_grid(plan.grid, random_state=seed)
-            found.append(labelled_regions(topo, truth, f"generated-{size}-{seed}"))
+    for size, seed in progress([(size, seed) for size in sizes for seed in seeds]):
+        plan = generate_floor_plan(size, random_state=seed)
+        truth = np.full(plan.labels.shape, -1, np.int8)
+        for index, place in enumerate(plan.types, start=1):
+            truth[plan.labels == index] = PLACE_TYPES.index(place)
+        topo = TopoMap.from_grid(plan.grid, random_state=seed)
+        found.append(labelled_regions(topo, truth, f"generated-{size}-{seed}"))
     return found
 
 
