@@ -341,9 +341,9 @@ class OnlineSegmenter:
             own = int(labels[i])
             others, distances = self._compare(keys, None, tiles, keyframe, own)
             for other, distance in zip(others, distances.tolist(), strict=True):
-                total = found.setdefault((min(own, other), max(own, other)), [0.0, 0.0])
-                total[0] += distance
-                total[1] += 1
+                pair = found.setdefault((min(own, other), max(own, other)), [0.0, 0.0])
+                pair[0] += distance
+                pair[1] += 1
         means = []
         for (a, b), (total, computed) in found.items():
             members = len(self.centres_[a].keyframes) + len(self.centres_[b].keyframes)

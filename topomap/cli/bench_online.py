@@ -1,0 +1,225 @@
+"""``topomap bench online``: latency of the online segmentation along a long run, and its
+agreement with the offline partition on the demo run and the CARMEN logs."""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from maps.carmen import read_carmen
+from maps.errors import MapFileNotFoundError
+from maps.floorplan import generate_floor_plan
+from maps.laser_sim import LaserModel, simulate_scans
+from maps.mapping import grid_from_keyframes
+from maps.scan import Keyframe, select_keyframes
+from maps.wander import wander
+from segmentation.metrics import score
+from segmentation.online import OnlineSegmenter
+from segmentation.spectral import SpectralSegmenter
+from topomap.cli.bench import robot_keyframes
+from topomap.cli.demo import _truth_on
+from topomap.cli.online import agreement, dense_regions, offline_segmenter, run_online
+
+Progress = Callable[[Iterable[Any]], Iterable[Any]]
+
+#: The four CARMEN logs of ``../shared/data/carmen``.
+LOGS = ("intel", "aces", "csail", "freiburg-079")
+
+
+def _ms(seconds: list[float]) -> dict[str, float]:
+    ms = 1000 * np.asarray(seconds)
+    return {
+        "median_ms": round(float(np.median(ms)), 3),
+        "p95_ms": round(float(np.percentile(ms, 95)), 3),
+        "max_ms": round(float(ms.max()), 3),
+    }
+
+
+def bench_latency(
+    *,
+    keyframes: int = 10_000,
+    seed_keyframes: int = 500,
+    building: str = "campus",
+    batch: int = 100,
+    offline_up_to: int = 3_000,
+    theta: float = 0.5,
+    seed: int = 0,
+    progress: Progress = iter,
+) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """Time every ``partial_fit`` (assignment and dense regions) along the first ``keyframes``
+    keyframes of a robot wandering through a generated ``building``, seeded on the first
+    ``seed_keyframes``; per batch of ``batch`` keyframes, the latency and, up to
+    ``offline_up_to`` keyframes, the time of re-running the offline partition on everything
+    seen so far. Returns one record per batch and a summary."""
+    run = robot_keyframes(building, keyframes, seed)
+    start = time.perf_counter()
+    online = OnlineSegmenter(SpectralSegmenter(random_state=seed), theta=theta)
+    online.fit(run[:seed_keyframes])
+    seed_seconds = time.perf_counter() - start
+    records: list[dict[str, Any]] = []
+    every: list[float] = []
+    for first in progress(range(seed_keyframes, len(run), batch)):
+        last = min(first + batch, len(run))
+        seconds = []
+        for keyframe in run[first:last]:
+            clock = time.perf_counter()
+            online.partial_fit(keyframe)
+            seconds.append(time.perf_counter() - clock)
+        every += seconds
+        offline = None
+        if last <= offline_up_to:
+            clock = time.perf_counter()
+            SpectralSegmenter(random_state=seed).fit(run[:last])
+            offline = round(time.perf_counter() - clock, 3)
+        records.append(
+            {
+                "first": first,
+                "keyframes_seen": last,
+                **_ms(seconds),
+                "online_s": round(sum(seconds), 4),
+                "offline_rerun_s": offline,
+                "regions": online.n_regions_,
+            }
+        )
+    rerun = [r for r in records if r["offline_rerun_s"] is not None]
+    summary = {
+        "building": building,
+        "keyframes": len(run),
+        "seed_keyframes": seed_keyframes,
+        "seed_seconds": round(seed_seconds, 3),
+        "theta": theta,
+        "threshold_T": round(online.threshold_, 4),
+        "regions": online.n_regions_,
+        **_ms(every),
+        "online_total_s": round(sum(every), 3),
+        "offline_reruns_up_to": rerun[-1]["keyframes_seen"] if rerun else 0,
+        "offline_reruns_total_s": round(sum(r["offline_rerun_s"] for r in rerun), 3),
+        "online_total_same_prefix_s": round(sum(r["online_s"] for r in rerun), 3),
+    }
+    return records, summary
+
+
+def _quality(
+    name: str,
+    keyframes: list[Keyframe],
+    seed_fraction: float,
+    theta: float,
+    seed: int,
+) -> tuple[dict[str, Any], Any, Any]:
+    """ARI of the final online partition against the offline one of all keyframes."""
+    offline = offline_segmenter(keyframes, seed).fit(keyframes)
+    run = run_online(
+        keyframes,
+        seed_keyframes=max(2, round(seed_fraction * len(keyframes))),
+        theta=theta,
+        random_state=seed,
+    )
+    record = {
+        "run": name,
+        "keyframes": len(keyframes),
+        "seed_keyframes": run.online.n_seed_,
+        "offline_clusters": offline.n_regions_,
+        "online_clusters": run.online.n_regions_,
+        "ari": agreement(run.online.labels_, offline.labels_),
+        **run.latency_ms(),
+    }
+    return record, offline.labels_, run.online.labels_
+
+
+def bench_quality(
+    *,
+    logs_dir: str | Path | None = "../shared/data/carmen",
+    demo: bool = True,
+    seed_fraction: float = 0.5,
+    theta: float = 0.5,
+    seed: int = 0,
+    progress: Progress = iter,
+) -> list[dict[str, Any]]:
+    """Online against offline on the demo's run (the robot in the generated office, also
+    scored against the generator's rooms: MCC of both made dense on the run's map) and on
+    the CARMEN logs (keyframes every 0.5 m)."""
+    runs: list[str] = (["demo office"] if demo else []) + (list(LOGS) if logs_dir else [])
+    records = []
+    for name in progress(runs):
+        if name == "demo office":
+            plan = generate_floor_plan("office", furniture=0.3, random_state=seed)
+            route = wander(plan.grid, plan.labels, random_state=seed)
+            model = LaserModel(noise=0.01, dropout=0.01)
+            scans = simulate_scans(plan.grid, route.poses, model, random_state=seed)
+            keyframes = select_keyframes(scans)
+            record, offline, online = _quality(name, keyframes, seed_fraction, theta, seed)
+            grid = grid_from_keyframes(keyframes, plan.grid.resolution)
+            truth = _truth_on(grid, plan)
+            for method, labels in (("offline", offline), ("online", online)):
+                regions = dense_regions(grid, keyframes, labels)[0]
+                record[f"mcc_{method}"] = round(score(regions.labels, truth).mcc, 4)
+        else:
+            path = Path(str(logs_dir)) / f"{name}-corrected.log.gz"
+            if not path.is_file():
+                raise MapFileNotFoundError(path, "CARMEN log")
+            keyframes = select_keyframes(read_carmen(path), distance=0.5)
+            record = _quality(name, keyframes, seed_fraction, theta, seed)[0]
+        records.append(record)
+    return records
+
+
+def draw_latency(path: Path, records: list[dict[str, Any]], title: str) -> Path:
+    """The latency curve: per batch median / p95 / max against the keyframes seen, with the
+    offline re-run time on a second axis."""
+    from matplotlib.figure import Figure
+
+    seen = [r["keyframes_seen"] for r in records]
+    fig = Figure(figsize=(9, 4.5))
+    ax = fig.subplots()
+    for key, style in (("median_ms", "-"), ("p95_ms", "--"), ("max_ms", ":")):
+        ax.plot(seen, [r[key] for r in records], style, label=f"online {key[:-3]}")
+    ax.set_xlabel("keyframes seen")
+    ax.set_ylabel("online ms per keyframe")
+    ax.set_yscale("log")
+    rerun = [r for r in records if r["offline_rerun_s"] is not None]
+    if rerun:
+        other = ax.twinx()
+        other.plot(
+            [r["keyframes_seen"] for r in rerun],
+            [r["offline_rerun_s"] for r in rerun],
+            color="tab:red",
+            label="offline re-run (s, right)",
+        )
+        other.set_ylabel("offline re-run on all seen, s")
+        other.legend(loc="upper right", fontsize=8)
+    ax.legend(loc="upper left", fontsize=8)
+    ax.set_title(title)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    return path
+
+
+def bench_online(
+    out: str | Path,
+    *,
+    parts: tuple[str, ...] = ("latency", "quality"),
+    progress: Progress = iter,
+    **options: Any,
+) -> dict[str, Any]:
+    """Run the ``parts`` and write ``results.json`` (``latency``: one record per batch and a
+    summary; ``quality``: one record per run) and ``latency.png`` into ``out``."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    latency_keys = {"keyframes", "seed_keyframes", "building", "batch", "offline_up_to"}
+    results: dict[str, Any] = {}
+    common = {k: v for k, v in options.items() if k in ("theta", "seed")}
+    if "latency" in parts:
+        chosen = {k: v for k, v in options.items() if k in latency_keys}
+        records, summary = bench_latency(**chosen, **common, progress=progress)
+        results["latency"] = {"batches": records, "summary": summary}
+        title = f"online, generated {summary['building']}, seed {summary['seed_keyframes']}"
+        draw_latency(out / "latency.png", records, title)
+    if "quality" in parts:
+        chosen = {k: v for k, v in options.items() if k in ("logs_dir", "seed_fraction")}
+        results["quality"] = bench_quality(**chosen, **common, progress=progress)
+    (out / "results.json").write_text(json.dumps(results, indent=2))
+    return results

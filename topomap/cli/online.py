@@ -1,0 +1,297 @@
+"""Online segmentation for the command line, the demo and the benchmark.
+
+A run's keyframes go through :class:`~segmentation.online.OnlineSegmenter` one at a time after
+a spectral seed on the first ones; pictures of the growing regions are written every few
+keyframes and gathered into an animated GIF; the final partition is made dense on the map of
+the whole run, exactly as the offline keyframes are, so both can be scored alike.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import networkx as nx
+import numpy as np
+from numpy.typing import NDArray
+from sklearn.metrics import adjusted_rand_score
+
+from maps.grid import OccupancyGrid
+from maps.mapping import grid_from_keyframes
+from maps.scan import Keyframe, poses_array
+from segmentation.graph import region_graph
+from segmentation.online import Event, OnlineSegmenter
+from segmentation.refine import basins, count_basins
+from segmentation.regions import Regions, dense_labels
+from segmentation.spectral import SpectralSegmenter
+from topomap.cli.drawing import region_colours
+from topomap.labels import classify, name_regions, region_features
+
+
+def places(keyframes: Sequence[Keyframe], resolution: float = 0.05) -> int:
+    """The guess ``k'`` that :class:`~topomap.topomap.TopoMap` uses: the clearance basins of the
+    map built from ``keyframes`` (at most one per keyframe)."""
+    grid = grid_from_keyframes(keyframes, resolution)
+    return min(len(keyframes), count_basins(grid, basins(grid)))
+
+
+def offline_segmenter(
+    keyframes: Sequence[Keyframe], random_state: int = 0, **options: Any
+) -> SpectralSegmenter:
+    """A :class:`SpectralSegmenter` with ``options``; without ``k``, ``k'`` from
+    :func:`places` of ``keyframes``."""
+    if options.get("k") is None:
+        options["k"] = places(keyframes)
+    return SpectralSegmenter(random_state=random_state, **options)
+
+
+@dataclass
+class OnlineRun:
+    """An online pass over a run: the segmenter, the time of every ``partial_fit`` after the
+    seed (seconds) and the pictures written."""
+
+    online: OnlineSegmenter
+    seed_seconds: float
+    seconds: list[float] = field(default_factory=list)
+    frames: list[Path] = field(default_factory=list)
+
+    def latency_ms(self) -> dict[str, float]:
+        """Median, 95th percentile and maximum time per keyframe, milliseconds."""
+        ms = 1000 * np.asarray(self.seconds or [0.0])
+        return {
+            "median_ms": round(float(np.median(ms)), 3),
+            "p95_ms": round(float(np.percentile(ms, 95)), 3),
+            "max_ms": round(float(ms.max()), 3),
+        }
+
+
+def run_online(
+    keyframes: Sequence[Keyframe],
+    *,
+    seed_keyframes: int,
+    theta: float = 0.5,
+    random_state: int = 0,
+    frames_every: int | None = None,
+    frames_dir: Path | None = None,
+    progress: Callable[[Iterable[Any]], Iterable[Any]] = iter,
+    **options: Any,
+) -> OnlineRun:
+    """Seed on the first ``seed_keyframes`` (``k'`` from their map unless ``options`` give
+    ``k``), then assign the others one by one, timing each; every ``frames_every`` keyframes
+    draw the regions so far into ``frames_dir``."""
+    if not 2 <= seed_keyframes <= len(keyframes):
+        raise ValueError(
+            f"--seed-keyframes must lie in 2..{len(keyframes)} (the keyframes), "
+            f"got {seed_keyframes}"
+        )
+    if frames_every is not None and frames_every < 1:
+        raise ValueError(f"--frames must be a number of keyframes >= 1, got {frames_every}")
+    seed = keyframes[:seed_keyframes]
+    start = time.perf_counter()
+    online = OnlineSegmenter(offline_segmenter(seed, random_state, **options), theta=theta)
+    online.fit(seed)
+    run = OnlineRun(online, time.perf_counter() - start)
+    if frames_every is not None and frames_dir is not None:
+        frames_dir.mkdir(parents=True, exist_ok=True)
+        run.frames.append(draw_online(frames_dir / f"frame_{seed_keyframes:06d}.png", online))
+    for index in progress(range(seed_keyframes, len(keyframes))):
+        start = time.perf_counter()
+        online.partial_fit(keyframes[index])
+        run.seconds.append(time.perf_counter() - start)
+        done = index + 1
+        if frames_every and frames_dir is not None and (done - seed_keyframes) % frames_every == 0:
+            run.frames.append(draw_online(frames_dir / f"frame_{done:06d}.png", online))
+    return run
+
+
+def dense_regions(
+    grid: OccupancyGrid, keyframes: Sequence[Keyframe], labels: NDArray[np.integer]
+) -> tuple[Regions, nx.Graph, NDArray[np.int64]]:
+    """Keyframe labels made dense on ``grid`` as the offline pipeline does (each free cell
+    takes the label of its geodesically nearest keyframe), the region graph with labels and
+    names, and the region of each keyframe's cell."""
+    poses = poses_array(keyframes)
+    rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])
+    regions = Regions(grid, dense_labels(grid, rows, cols, np.asarray(labels, np.int64)))
+    inside = grid.contains(rows, cols)
+    keyframe_regions = np.zeros(len(keyframes), np.int64)
+    keyframe_regions[inside] = regions.labels[rows[inside], cols[inside]]
+    graph = region_graph(regions, keyframe_regions)
+    features = region_features(regions, graph)
+    found = dict(zip(features["id"].astype(int).tolist(), classify(None, features), strict=True))
+    names = name_regions(graph, found)
+    for region in graph.nodes:
+        graph.nodes[region]["label"] = found[region]
+        graph.nodes[region]["name"] = names[region]
+    return regions, graph, keyframe_regions
+
+
+def agreement(online: NDArray[np.integer], offline: NDArray[np.integer]) -> float:
+    """Adjusted Rand index of two keyframe partitions."""
+    return round(float(adjusted_rand_score(offline, online)), 4)
+
+
+def draw_online(path: Path, online: OnlineSegmenter, title: str | None = None) -> Path:
+    """A picture of the online dense regions and the region graph so far (fixed pixel size,
+    so the pictures can be frames of one GIF)."""
+    from matplotlib.figure import Figure
+
+    assert online.regions_ is not None
+    labels, extent = online.regions_.label_image()
+    fig = Figure(figsize=(8, 6), dpi=100)
+    ax = fig.subplots()
+    ax.set_facecolor("0.85")
+    ax.imshow(region_colours(int(labels.max(initial=0)))[labels], extent=extent)
+    graph = online.graph_
+    for a, b in graph.edges:
+        ax.plot(
+            [graph.nodes[a]["x"], graph.nodes[b]["x"]],
+            [graph.nodes[a]["y"], graph.nodes[b]["y"]],
+            color="black",
+            lw=0.6,
+        )
+    for node, data in graph.nodes(data=True):
+        ax.annotate(str(node), (data["x"], data["y"]), fontsize=6, ha="center")
+    n = len(online.labels_)
+    ax.set_title(title or f"keyframe {n}: {online.n_regions_} regions")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    fig.savefig(path)
+    return path
+
+
+def write_gif(frames: Sequence[Path], path: Path, seconds_per_frame: float = 0.4) -> Path:
+    """An animated GIF (looping) of the PNG ``frames``."""
+    from PIL import Image
+
+    images = [Image.open(frame).convert("RGB") for frame in frames]
+    images[0].save(
+        path,
+        save_all=True,
+        append_images=images[1:],
+        duration=round(1000 * seconds_per_frame),
+        loop=0,
+    )
+    return path
+
+
+def write_events(path: Path, events: Iterable[Event]) -> Path:
+    """``events.jsonl``: one JSON object per event."""
+    with path.open("w") as stream:
+        for event in events:
+            stream.write(json.dumps(event.as_dict()) + "\n")
+    return path
+
+
+def write_keyframes(
+    path: Path,
+    keyframes: Sequence[Keyframe],
+    regions: NDArray[np.integer],
+    online: OnlineSegmenter,
+) -> Path:
+    """``keyframes.csv``: ``scan_index,x,y,theta,region`` as offline (``region`` = the dense
+    region of ``regions.png`` at the keyframe) plus ``region_on_arrival`` and
+    ``region_final`` (the online ids, stable over the run)."""
+    rows = zip(keyframes, regions, online.arrival_labels_, online.labels_, strict=True)
+    with path.open("w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(
+            ["scan_index", "x", "y", "theta", "region", "region_on_arrival", "region_final"]
+        )
+        for frame, region, arrival, final in rows:
+            pose = (f"{v:.4f}" for v in frame.pose)
+            writer.writerow([frame.scan_index, *pose, int(region), int(arrival), int(final)])
+    return path
+
+
+def segment_online(
+    keyframes: Sequence[Keyframe],
+    out: Path,
+    *,
+    source: str,
+    seed_keyframes: int,
+    theta: float = 0.5,
+    frames_every: int | None = None,
+    overwrite: bool = False,
+    progress: Callable[[Iterable[Any]], Iterable[Any]] = iter,
+    **options: Any,
+) -> dict[str, Any]:
+    """``topomap segment --scans LOG --online``: the online pass, then the files of the
+    offline command (``regions.png``, ``graph.graphml``, ``graph.json``, ``regions.geojson``,
+    ``map.yaml``, ``keyframes.csv``, ``segmentation.png``, ``summary.json``) for its final
+    partition, plus ``events.jsonl`` and, with ``frames_every``, ``frames/*.png`` and
+    ``regions.gif``. Returns the summary."""
+    from segmentation.export import (
+        write_geojson,
+        write_graphml,
+        write_label_image,
+        write_node_link,
+    )
+    from topomap.cli.drawing import draw_regions
+
+    names = ["events.jsonl", "keyframes.csv", "summary.json", "segmentation.png", "regions.gif"]
+    for name in names:
+        if (out / name).exists() and not overwrite:
+            raise FileExistsError(f"{out / name} exists; pass --force to replace it")
+    out.mkdir(parents=True, exist_ok=True)
+    frames_dir = out / "frames" if frames_every else None
+    run = run_online(
+        keyframes,
+        seed_keyframes=seed_keyframes,
+        theta=theta,
+        frames_every=frames_every,
+        frames_dir=frames_dir,
+        progress=progress,
+        **options,
+    )
+    online = run.online
+    start = time.perf_counter()
+    grid = grid_from_keyframes(keyframes, 0.05)
+    regions, graph, keyframe_regions = dense_regions(grid, keyframes, online.labels_)
+    dense_seconds = time.perf_counter() - start
+    written = [
+        write_label_image(regions.labels, out / "regions.png", overwrite=overwrite),
+        write_graphml(graph, out / "graph.graphml", overwrite=overwrite),
+        write_node_link(graph, out / "graph.json", overwrite=overwrite),
+        write_geojson(graph, out / "regions.geojson", overwrite=overwrite),
+        grid.save(out / "map.yaml", overwrite=overwrite),
+        write_keyframes(out / "keyframes.csv", keyframes, keyframe_regions, online),
+        write_events(out / "events.jsonl", online.events_),
+        draw_regions(
+            out / "segmentation.png",
+            grid,
+            regions.labels,
+            graph,
+            title=f"{Path(source).name} online: {graph.number_of_nodes()} regions",
+        ),
+    ]
+    if run.frames:
+        written.append(write_gif(run.frames, out / "regions.gif"))
+    kinds = [e.kind for e in online.events_ if e.keyframe >= online.n_seed_]
+    summary = {
+        "source": source,
+        "keyframes": len(keyframes),
+        "seed_keyframes": seed_keyframes,
+        "theta": theta,
+        "threshold_T": round(online.threshold_, 4),
+        "online_regions": online.n_regions_,
+        "regions": graph.number_of_nodes(),
+        "events_after_seed": {kind: kinds.count(kind) for kind in ("created", "grown", "merged")},
+        "latency": run.latency_ms(),
+        "seconds": {
+            "seed": round(run.seed_seconds, 3),
+            "online_total": round(sum(run.seconds), 3),
+            "final_dense_regions": round(dense_seconds, 3),
+        },
+        "names": {int(r): name for r, name in sorted(graph.nodes(data="name"))},
+        "frames": len(run.frames),
+        "written": [p.name for p in written],
+    }
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    return summary
