@@ -10,6 +10,7 @@ import pytest
 
 from maps.errors import MapFileNotFoundError
 from maps.floorplan import generate_floor_plan
+from tests.maps.bags import Robot, tf_bag
 from topomap.cli.batch import dask_client, find_inputs, fit_blocks, run_batch
 from topomap.cli.main import main
 from topomap.topomap import TopoMap
@@ -133,11 +134,16 @@ def test_parallel_blocks_equal_the_sequential_run(client):
 def test_batch_command(tmp_path, plans, capsys):
     folder, _ = plans
     out = tmp_path / "out"
-    status = main(["batch", str(folder / "flat-*.yaml"), "--out", str(out), "--workers", "2"])
-    assert status == 0
+    bag = tf_bag(tmp_path, "sqlite3", Robot())  # a ROS 2 bag: scans placed by tf
+    inputs = [str(folder / "flat-*.yaml"), str(bag)]
+    assert main(["batch", *inputs, "--out", str(out), "--workers", "2"]) == 0
     printed = capsys.readouterr()
-    assert "3 done, 0 skipped" in printed.out
+    assert "4 done, 0 skipped" in printed.out
     assert "inputs" in printed.err  # the progress bar
+    assert {"map.yaml", "keyframes.csv", "graph.json"} <= {
+        p.name for p in (out / bag.name).iterdir()
+    }
     assert main(["batch", str(folder), "--out", str(out), "--workers", "1"]) == 1
     assert "0 done, 3 skipped (done before), 1 failed" in capsys.readouterr().out
+    assert len(_index(out)) == 5  # the bag's record is kept
     assert main(["batch", str(tmp_path / "none*.yaml"), "--out", str(out)]) == 2

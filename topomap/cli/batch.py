@@ -293,6 +293,8 @@ def dask_client(workers: int = 2, scheduler: str | None = None) -> Iterator[Any]
     ``workers`` single-threaded processes (closed on exit)."""
     from distributed import Client, LocalCluster
 
+    # the scheduler and nannies log every start and stop at INFO in this process
+    logging.getLogger("distributed").setLevel(logging.WARNING)
     if scheduler is not None:
         with Client(scheduler) as client:
             yield client

@@ -322,7 +322,12 @@ def cmd_bench_batch(args: argparse.Namespace) -> int:
     from topomap.cli.bench_batch import bench_batch
 
     results = bench_batch(
-        args.out, maps=args.maps, workers=args.workers, size=args.size, campus=args.campus
+        args.out,
+        maps=args.maps,
+        workers=args.workers,
+        size=args.size,
+        rounds=args.rounds,
+        campus=args.campus,
     )
     columns = ["workers", "maps", "startup_s", "seconds", "maps_per_min", "speedup", "failed"]
     print(_table(results["batch"], columns))
@@ -508,6 +513,7 @@ def build_parser() -> argparse.ArgumentParser:
     batch_bench.add_argument("--maps", type=int, default=12, help="generated buildings")
     batch_bench.add_argument("--size", default="flat", choices=["flat", "office"])
     batch_bench.add_argument("--workers", type=worker_count, nargs="+", default=[1, 2])
+    batch_bench.add_argument("--rounds", type=worker_count, default=2, help="turns per count")
     batch_bench.add_argument(
         "--campus", action="store_true", help="also the block-wise campus segmentation"
     )
