@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
 
 
@@ -31,18 +32,34 @@ class TopomapError(Exception):
     """
 
 
-class OutputExistsError(TopomapError, FileExistsError):
+class _FileError(OSError):
+    """An ``OSError`` with ``errno``, ``filename`` and a message of our own as its text
+    (``OSError`` would print ``[Errno 2] ...: 'path'``); pickled by its own arguments."""
+
+    def __init__(self, code: int, message: str, path: str | Path, *arguments: str) -> None:
+        super().__init__(code, message)
+        self.filename = str(path)
+        self._arguments = (path, *arguments)
+
+    def __str__(self) -> str:
+        return str(self.strerror)
+
+    def __reduce__(self) -> tuple[type, tuple[str | Path, ...]]:
+        return type(self), self._arguments
+
+
+class OutputExistsError(TopomapError, _FileError, FileExistsError):
     """A file that exists and would be overwritten; nothing is replaced without asking.
 
     Examples
     --------
-    >>> str(OutputExistsError("out/map.yaml"))
-    'out/map.yaml exists; pass overwrite=True to replace it'
+    >>> error = OutputExistsError("out/map.yaml")
+    >>> str(error), error.filename
+    ('out/map.yaml exists; pass overwrite=True to replace it', 'out/map.yaml')
     """
 
     def __init__(self, path: str | Path, how: str = "overwrite=True") -> None:
-        super().__init__(f"{path} exists; pass {how} to replace it")
-        self.filename = str(path)
+        super().__init__(errno.EEXIST, f"{path} exists; pass {how} to replace it", path, how)
 
 
 class MapError(TopomapError):
@@ -53,12 +70,17 @@ class MapError(TopomapError):
 MapsError = MapError
 
 
-class MapFileNotFoundError(MapError, FileNotFoundError):
-    """A map, image, log or bag file that does not exist."""
+class MapFileNotFoundError(MapError, _FileError, FileNotFoundError):
+    """A map, image, log or bag file that does not exist.
+
+    Examples
+    --------
+    >>> str(MapFileNotFoundError("maps/lab.yaml", "map YAML"))
+    'map YAML not found: maps/lab.yaml'
+    """
 
     def __init__(self, path: str | Path, what: str = "file") -> None:
-        super().__init__(f"{what} not found: {path}")
-        self.filename = str(path)
+        super().__init__(errno.ENOENT, f"{what} not found: {path}", path, what)
 
 
 class FormatError(MapError, ValueError):

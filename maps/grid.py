@@ -44,8 +44,8 @@ class OccupancyGrid:
     Examples
     --------
     >>> grid = OccupancyGrid(np.zeros((10, 20), np.int8), resolution=0.1)
-    >>> grid.world_to_cell(0.05, 0.05)
-    (array(9), array(0))
+    >>> [int(v) for v in grid.world_to_cell(0.05, 0.05)]
+    [9, 0]
     """
 
     cells: NDArray[np.int8]

@@ -34,7 +34,7 @@ def region_graph(regions: Regions, keyframe_regions: NDArray[np.integer] | None 
     >>> grid = maps.OccupancyGrid(np.zeros((4, 6), np.int8), resolution=0.5)
     >>> labels = np.array([[1, 1, 1, 2, 2, 2]] * 4, np.int32)
     >>> graph = region_graph(Regions(grid, labels))
-    >>> sorted(graph.edges), graph.edges[1, 2]["width"]
+    >>> sorted(graph.edges), round(graph.edges[1, 2]["width"], 6)
     ([(1, 2)], 2.0)
     """
     counts = np.zeros(len(regions.cell_counts), np.int64)
