@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from maps.errors import InvalidScanError
 from maps.grid import OccupancyGrid
-from maps.scan import Keyframe, LaserScan, check_pose
+from maps.scan import Keyframe, LaserScan, check_pose, keyframe_indices
 from maps.seeding import RandomState, as_generator
 
 #: Rays traced together; bounds memory at about 100 bytes a ray.
@@ -190,3 +190,32 @@ def simulate_scans(
         )
         for i, (pose, row) in enumerate(zip(pose_array, ranges, strict=True))
     ]
+
+
+def simulate_keyframes(
+    grid: OccupancyGrid,
+    poses: ArrayLike,
+    model: LaserModel | None = None,
+    *,
+    distance: float = 0.5,
+    angle: float = math.radians(30),
+    random_state: RandomState = None,
+) -> list[Keyframe]:
+    """The keyframes a robot driving through ``poses`` would keep from a scan at every pose
+    (:func:`~maps.scan.select_keyframes` with ``distance`` and ``angle``), with the scans cast
+    at the kept poses only: the selection needs only the poses. ``scan_index`` is the
+    position in ``poses``; noise and dropouts are drawn for the kept scans alone.
+
+    Examples
+    --------
+    >>> free = np.zeros((40, 40), bool)
+    >>> free[1:-1, 1:-1] = True
+    >>> grid = OccupancyGrid.from_masks(free, 0.1)
+    >>> poses = [(0.5 + 0.1 * i, 2.0, 0.0) for i in range(30)]
+    >>> [k.scan_index for k in simulate_keyframes(grid, poses, distance=1.0)]
+    [0, 11, 22]
+    """
+    pose_array = np.asarray(poses, float).reshape(-1, 3)
+    kept = keyframe_indices(pose_array, distance=distance, angle=angle)
+    frames = simulate_scans(grid, pose_array[kept], model, random_state=random_state)
+    return [Keyframe(f.pose, f.scan, scan_index=i) for f, i in zip(frames, kept, strict=True)]

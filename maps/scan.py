@@ -143,18 +143,34 @@ def select_keyframes(
     >>> [k.scan_index for k in select_keyframes(frames, distance=0.25)]
     [0, 3, 6, 9]
     """
+    frames = list(frames)
+    kept = keyframe_indices(poses_array(frames), distance=distance, angle=angle)
+    return [frames[i] for i in kept]
+
+
+def keyframe_indices(
+    poses: ArrayLike, *, distance: float = 0.5, angle: float = math.radians(30)
+) -> list[int]:
+    """Positions of the poses ``(n, 3)`` that :func:`select_keyframes` keeps: the rule needs
+    only the poses, so a simulation can cast the keyframes' scans alone.
+
+    Examples
+    --------
+    >>> keyframe_indices([(0.0, 0, 0), (0.3, 0, 0), (0.6, 0, 0), (0.6, 0, 1.0)], distance=0.5)
+    [0, 2, 3]
+    """
     if not distance >= 0 or not angle >= 0:
         raise InvalidScanError(f"distance and angle must be >= 0, got {distance}, {angle}")
-    kept: list[Keyframe] = []
-    for frame in frames:
+    kept: list[int] = []
+    last_x = last_y = last_yaw = math.nan
+    for i, (x, y, yaw) in enumerate(np.asarray(poses, float).reshape(-1, 3).tolist()):
         if kept:
-            lx, ly, lyaw = kept[-1].pose
-            x, y, yaw = frame.pose
-            moved = math.hypot(x - lx, y - ly) > distance
-            turned = abs(angle_difference(yaw, lyaw)) > angle
+            moved = math.hypot(x - last_x, y - last_y) > distance
+            turned = abs(angle_difference(yaw, last_yaw)) > angle
             if not (moved or turned):
                 continue
-        kept.append(frame)
+        kept.append(i)
+        last_x, last_y, last_yaw = x, y, yaw
     return kept
 
 

@@ -9,7 +9,7 @@ from scipy import ndimage
 from maps.errors import InvalidMapError, InvalidScanError
 from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
-from maps.laser_sim import LaserModel, simulate_scans
+from maps.laser_sim import LaserModel, simulate_keyframes, simulate_scans
 from maps.mapping import grid_from_keyframes
 from maps.scan import select_keyframes
 from maps.wander import wander
@@ -134,3 +134,16 @@ def test_wandering_robot_visits_every_room_without_collision(seed):
     frames = simulate_scans(plan.grid, route.poses, random_state=seed)
     keyframes = select_keyframes(frames)
     assert 10 < len(keyframes) < len(frames)
+
+
+def test_keyframes_simulated_alone_equal_those_kept_from_every_scan():
+    plan = generate_floor_plan("flat", random_state=4)
+    route = wander(plan.grid, plan.labels, random_state=4)
+    model = LaserModel(beams=91)
+    every = select_keyframes(simulate_scans(plan.grid, route.poses, model), distance=0.4)
+    alone = simulate_keyframes(plan.grid, route.poses, model, distance=0.4)
+    assert len(alone) < len(route.poses) / 4
+    assert [k.scan_index for k in alone] == [k.scan_index for k in every]
+    for a, b in zip(alone, every, strict=True):
+        assert a.pose == b.pose
+        np.testing.assert_array_equal(a.scan.ranges, b.scan.ranges)
