@@ -3,12 +3,16 @@
 Each query is run by every planner in turn (so machine noise hits them alike) and checked
 independently: the path must join start and goal, be collision-free when sampled every tenth
 of a cell against the inflated map, and its length is compared with the exact shortest path.
+A planner whose queries on a map have used up a time budget skips the rest (counted as
+skipped, not failed). Results are also written in OMPL's benchmark log format, one log per
+map, which ``ompl_benchmark_statistics`` turns into a database for Planner Arena.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import platform
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -20,11 +24,18 @@ from numpy.typing import ArrayLike
 from maps.seeding import RandomState, as_generator
 from planners.errors import InvalidQueryError, PlanningError
 from planners.path import Path as PlannedPath
-from planners.visibility import VisibilityGraph
 from planners.workspace import Point, Workspace
 
-#: Benchmark names of the planners, in table order.
-PLANNER_NAMES = ("hierarchical", "flat_rrtconnect", "flat_prm", "grid_astar")
+#: Benchmark names of the planners, in table order (``grid_astar`` is the pure-Python
+#: reference, run only on request: a correctness check, not a speed baseline).
+PLANNER_NAMES = (
+    "hierarchical",
+    "grid_mcp",
+    "flat_rrtconnect",
+    "flat_prm",
+    "flat_bitstar",
+    "grid_astar",
+)
 
 
 class Planner(Protocol):
@@ -70,21 +81,28 @@ def run_queries(
     map_name: str,
     space: Workspace,
     planners: Sequence[Planner],
-    reference: VisibilityGraph,
+    optimal: Sequence[float],
     queries: Sequence[tuple[Point, Point]],
     *,
+    budget: float = math.inf,
     progress: Callable[[Any], Any] = iter,
-) -> list[dict[str, Any]]:
-    """Run every planner on every query; one record per planner and query.
+) -> tuple[list[dict[str, Any]], dict[str, int]]:
+    """Run every planner on every query; one record per planner and query run.
 
     Records hold ``map``, ``planner``, ``query``, ``success``, ``seconds`` (wall time of the
-    ``plan`` call), ``length_m``, ``optimal_m`` (exact shortest path), ``collisions``
-    (samples off the free space) and ``error`` (why it failed, or None).
+    ``plan`` call), ``length_m``, ``optimal_m`` (``optimal[query]``, the exact shortest
+    path), ``collisions`` (samples off the free space) and ``error`` (why it failed, or None).
+    A planner whose query time on this map passes ``budget`` seconds runs no more queries;
+    the second result counts the queries each planner skipped.
     """
     records = []
+    spent = dict.fromkeys((p.name for p in planners), 0.0)
+    skipped = dict.fromkeys(spent, 0)
     for index, (start, goal) in progress(list(enumerate(queries))):
-        optimal = reference.plan(start, goal).length
         for planner in planners:
+            if spent[planner.name] > budget:
+                skipped[planner.name] += 1
+                continue
             clock = time.perf_counter()
             path: PlannedPath | None = None
             error: str | None = None
@@ -93,7 +111,8 @@ def run_queries(
             except PlanningError as err:
                 error = str(err)
             seconds = time.perf_counter() - clock
-            records.append(_record(map_name, planner.name, index, seconds, optimal, error))
+            spent[planner.name] += seconds
+            records.append(_record(map_name, planner.name, index, seconds, optimal[index], error))
             if path is not None:
                 joins = np.allclose(path.waypoints[[0, -1]], [start, goal], atol=1e-9)
                 records[-1].update(
@@ -102,7 +121,7 @@ def run_queries(
                     collisions=space.collisions(path.waypoints),
                     error=None if joins else "the path does not join start and goal",
                 )
-    return records
+    return records, skipped
 
 
 def _record(
@@ -159,10 +178,12 @@ def write_report(
     out: str | Path,
     records: Sequence[dict[str, Any]],
     summary: Sequence[dict[str, Any]],
-    preprocessing: dict[str, dict[str, float]],
+    preprocessing: dict[str, dict[str, Any]],
+    time_limit: float = 20.0,
 ) -> list[Path]:
     """Write ``results.json`` (the records), ``preprocessing.json``, ``summary.json``,
-    ``results.md`` (the table) and ``times.png`` (query times per planner and map)."""
+    ``results.md`` (the table), ``times.png`` (query times per planner and map) and
+    ``ompl/MAP.log`` (:func:`write_ompl_log`; ``time_limit`` is the flat planners')."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "results.json", out / "preprocessing.json", out / "summary.json"]
@@ -172,7 +193,78 @@ def write_report(
     written.append(out / "results.md")
     written[-1].write_text(markdown_table(summary) + "\n")
     written.append(_plot(out / "times.png", records))
+    for name in dict.fromkeys(r["map"] for r in records):
+        mine = [r for r in records if r["map"] == name]
+        written.append(write_ompl_log(out / "ompl" / f"{name}.log", name, mine, time_limit))
     return written
+
+
+#: Per-run properties of the OMPL log, with their SQL types.
+_OMPL_PROPERTIES = (
+    ("time", "REAL"),
+    ("solved", "BOOLEAN"),
+    ("correct solution", "BOOLEAN"),
+    ("solution length", "REAL"),
+    ("length ratio", "REAL"),
+    ("collisions", "INTEGER"),
+    ("query", "INTEGER"),
+)
+
+
+def write_ompl_log(
+    path: str | Path, experiment: str, records: Sequence[dict[str, Any]], time_limit: float
+) -> Path:
+    """Write one map's records as an OMPL benchmark log (the format of
+    ``ompl::tools::Benchmark::saveResultsToFile``), readable by ``ompl_benchmark_statistics``
+    and Planner Arena. A run is ``solved`` when the planner returned a path joining start
+    and goal; ``correct solution`` when that path is also collision-free."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    planners = list(dict.fromkeys(r["planner"] for r in records))
+    total = sum(r["seconds"] for r in records)
+    lines = [
+        "topomap version 0.1.0",
+        f"Experiment {experiment}",
+        f"Running on {platform.node() or 'localhost'}",
+        f"Starting at {time.strftime('%Y-%m-%d %H:%M:%S')}",
+        "<<<|",
+        f"topomap planning benchmark on {experiment}: far-apart start/goal pairs",
+        "|>>>",
+        "<<<|",
+        f"{platform.processor() or platform.machine()}",
+        "|>>>",
+        "0 is the random seed",
+        f"{time_limit:g} seconds per run",
+        "0 MB per run",
+        f"{max(sum(r['planner'] == p for r in records) for p in planners)} runs per planner",
+        f"{total:.6f} seconds spent to collect the data",
+        f"{len(planners)} planners",
+    ]
+    for planner in planners:
+        runs = [r for r in records if r["planner"] == planner]
+        lines += [
+            planner,
+            "0 common properties",
+            f"{len(_OMPL_PROPERTIES)} properties for each run",
+        ]
+        lines += [f"{name} {kind}" for name, kind in _OMPL_PROPERTIES]
+        lines.append(f"{len(runs)} runs")
+        for r in runs:
+            solved = bool(r["success"])
+            ratio = r["length_m"] / r["optimal_m"] if solved and r["optimal_m"] else math.nan
+            values = [
+                r["seconds"],
+                int(solved),
+                int(solved and r["collisions"] == 0),
+                r["length_m"] if solved else math.nan,
+                ratio,
+                r["collisions"] if solved else math.nan,
+                r["query"],
+            ]
+            lines.append("".join(f"{v}; " for v in values))
+        lines.append(".")
+    path.write_text("\n".join(lines) + "\n")
+    return path
 
 
 #: Columns of the summary table.

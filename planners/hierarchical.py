@@ -1,36 +1,36 @@
-"""Hierarchical planning: search the region graph over doors, then plan legs inside submaps.
+"""Hierarchical planning at the level of HPA*: a door graph precomputed over near-convex submaps.
 
-Regions are first cut into near-convex parts (:mod:`planners.submaps`), the submaps. A query
-joins start and goal to the doors of their parts and runs A* over door nodes with the
-straight-line distance to the goal as heuristic. Edge weights are leg lengths inside one
-part; a leg not planned yet counts as its straight-line length (a lower bound), and the
-search is repeated after planning the legs of the route it found, until every leg on the
-route is planned (lazy shortest path). A leg is a straight motion when that is valid, else
-an OMPL plan inside the part's submap. Door-to-door legs are cached for later queries (or
-all planned up front by :meth:`HierarchicalPlanner.prepare`).
-The stitched route is finally shortened in the whole free space: skippable points are
-dropped, each door crossing slides along its door line to where the path is shortest and the
-other corners are pulled tight (:func:`planners.path.tighten`).
+Regions are first cut into near-convex parts (:mod:`planners.submaps`), the submaps; every
+opening between two parts where the robot fits gets doors (one per metre of opening).
+:meth:`HierarchicalPlanner.prepare` builds, once per map, the exact visibility graph of every
+submap with its doors as extra nodes (:class:`~planners.visibility.VisibilityGraph`), so the
+shortest door-to-door paths inside each part are known: together they are one sparse door
+graph. A query joins start and goal to the doors of their own parts (the corners and doors
+they see, plus the precomputed distances from there), runs Dijkstra over the door graph
+(``scipy.sparse.csgraph``, compiled), stitches the legs and tightens the result: skippable
+points are dropped and each door crossing slides along its door line (string pulling through
+the portals, :func:`planners.path.tighten`). Closing or opening a door only removes or
+restores its edges in the door graph; nothing precomputed changes.
 """
 
 from __future__ import annotations
 
-import heapq
+import itertools
 import logging
 import math
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 import networkx as nx
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import ndimage
+from scipy import ndimage, sparse
+from scipy.sparse.csgraph import dijkstra
 
-from planners.errors import InvalidQueryError, NoPathError
-from planners.flat import FlatPlanner
-from planners.path import Path, polyline_length, shortcut, tighten
+from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
+from planners.path import Path, shortcut, tighten
 from planners.submaps import convex_parts
+from planners.visibility import VisibilityGraph
 from planners.workspace import Point, Workspace, sample_polyline
 from segmentation.regions import boundary_pairs
 from segmentation.transitions import Transition, find_transitions
@@ -42,95 +42,133 @@ Goal = ArrayLike | int
 DOOR_SPACING = 1.0
 #: Metres a submap reaches beyond its part, so legs can pass the doorways they end in.
 SUBMAP_MARGIN = 0.5
-_START, _GOAL = -1, -2
 
 
 @dataclass(frozen=True)
 class Door:
     """A passable opening between submaps (parts) ``a`` and ``b``: ``portal`` spans the part
-    of the opening the robot fits through, ``point`` is its middle."""
+    of the opening the robot fits through, ``point`` is its middle, ``width`` its length in
+    metres."""
 
     a: int
     b: int
     point: Point
     portal: tuple[Point, Point]
+    width: float
 
 
-@dataclass
-class _Leg:
-    waypoints: NDArray[np.float64]
-    length: float
+@dataclass(frozen=True)
+class Reach:
+    """How a point joins the doors of its part: ``doors`` (door indices), ``dist`` (metres
+    to each) and ``via`` (the first node of the part's visibility graph on the way)."""
 
-
-#: Marks a leg not planned yet.
-_UNPLANNED = _Leg(np.zeros((0, 2)), math.nan)
+    part: int
+    point: Point
+    doors: NDArray[np.intp]
+    dist: NDArray[np.float64]
+    via: NDArray[np.intp]
 
 
 class HierarchicalPlanner:
-    """Plans on a segmented map: region graph first, OMPL inside each submap.
+    """Plans on a segmented map: a door graph over near-convex submaps, then string pulling.
 
     Parameters
     ----------
     space
         The free space (inflated map).
     labels
-        Region id of every cell (0 = none), aligned with ``space.grid``.
+        Region id of every cell (0 = none), aligned with ``space.grid``; any segmentation.
     graph
         The region adjacency graph (:func:`segmentation.graph.region_graph`): its nodes are
         the region ids, its edges the doors that can be closed.
-    leg_planner
-        OMPL planner for legs that are not straight.
-    leg_time_limit
-        Seconds allowed per leg.
-    random_state
-        Seed of the leg planners.
+
+    Examples
+    --------
+    >>> from maps.grid import OccupancyGrid
+    >>> cells = np.zeros((40, 80), np.int8)
+    >>> cells[:, 39:41] = 100
+    >>> cells[18:26, 39:41] = 0  # a doorway
+    >>> grid = OccupancyGrid(cells, resolution=0.1)
+    >>> labels = np.where(np.arange(80) < 40, 1, 2)[None].repeat(40, 0)
+    >>> graph = nx.Graph([(1, 2)])
+    >>> planner = HierarchicalPlanner(Workspace(grid, 0.1), labels, graph)
+    >>> path = planner.plan((1.0, 3.5), (7.0, 0.5))
+    >>> path.regions, round(path.length, 2)
+    ((1, 2), 6.71)
     """
 
     name = "hierarchical"
 
-    def __init__(
-        self,
-        space: Workspace,
-        labels: NDArray[np.integer],
-        graph: nx.Graph,
-        *,
-        leg_planner: str = "RRTConnect",
-        leg_time_limit: float = 2.0,
-        random_state: int = 0,
-    ) -> None:
+    def __init__(self, space: Workspace, labels: NDArray[np.integer], graph: nx.Graph) -> None:
         clock = time.perf_counter()
         labels = np.asarray(labels)
         if labels.shape != space.grid.shape:
-            raise ValueError(f"labels have shape {labels.shape}, the map {space.grid.shape}")
+            raise PlannerParameterError(
+                f"labels have shape {labels.shape}, the map {space.grid.shape}"
+            )
         self.space, self.graph = space, graph
-        self.leg_planner, self.leg_time_limit = leg_planner, leg_time_limit
-        self.random_state = random_state
         self.labels = _fill_unlabelled(labels, space.grid.free)
         self.parts, self.region_of = convex_parts(self.labels)
         self.doors = _find_doors(space, self.parts, find_transitions(space.grid, self.parts))
-        self._doors_of: dict[int, list[int]] = {}
+        self._doors_of: dict[int, list[int]] = {part: [] for part in self.region_of}
         for index, door in enumerate(self.doors):
-            self._doors_of.setdefault(door.a, []).append(index)
-            self._doors_of.setdefault(door.b, []).append(index)
+            self._doors_of[door.a].append(index)
+            self._doors_of[door.b].append(index)
+        self._door_regions = np.array(
+            [sorted((self.region_of[d.a], self.region_of[d.b])) for d in self.doors], np.int64
+        ).reshape(-1, 2)
         self._part_boxes = ndimage.find_objects(self.parts)
         self._region_boxes = ndimage.find_objects(self.labels)
         self._closed: set[tuple[int, int]] = set()
-        self._legs: dict[tuple[int, int, int], _Leg | None] = {}
-        self._submaps: dict[int, tuple[Workspace, NDArray[np.int32]]] = {}
-        self._leg_planners: dict[int, FlatPlanner] = {}
         self._centres: dict[int, Point] = {}
+        self._part_graphs: dict[int, VisibilityGraph] = {}
+        self._edges: tuple[NDArray[np.intp], ...] = ()
+        self._costs = np.zeros(0)
+        self._matrices: dict[frozenset[tuple[int, int]], sparse.csr_matrix] = {}
         self.build_seconds = time.perf_counter() - clock
+        self.prepare_seconds: float | None = None
 
     def prepare(self) -> float:
-        """Plan every door-to-door leg now rather than on first use; returns the seconds
-        taken (preprocessing, like the segmentation)."""
+        """Build the door graph now rather than at the first query: every submap's visibility
+        graph with its doors, and the shortest door-to-door distance inside each part.
+        Returns the seconds taken (preprocessing, like the segmentation)."""
+        if self.prepare_seconds is not None:
+            return self.prepare_seconds
         clock = time.perf_counter()
+        a, b, cost, part_of = [], [], [], []
         for part, doors in self._doors_of.items():
-            for i, a in enumerate(doors):
-                for b in doors[i + 1 :]:
-                    if self._leg((part, a, b), {}) is _UNPLANNED:
-                        self._plan_leg((part, a, b), {}, {})
-        return time.perf_counter() - clock
+            sub = self._crop(self.parts, self._part_boxes, part)
+            sites = np.array([self.doors[d].point for d in doors]).reshape(-1, 2)
+            graph = self._part_graphs[part] = VisibilityGraph(sub, sites)
+            n = len(graph.corners)
+            k, m = np.triu_indices(len(doors), 1)
+            dist = graph.site_distances()[k, n + m]
+            found = np.isfinite(dist)
+            ids = np.asarray(doors, np.intp)
+            a.append(ids[k[found]])
+            b.append(ids[m[found]])
+            cost.append(dist[found])
+            part_of.append(np.full(found.sum(), part))
+        a_, b_, cost_, part_ = (np.concatenate([*x, []]) for x in (a, b, cost, part_of))
+        order = np.lexsort((cost_, b_, a_))  # the cheapest part for every door pair
+        first = np.ones(len(order), bool)
+        first[1:] = (np.diff(a_[order]) != 0) | (np.diff(b_[order]) != 0)
+        keep = order[first]
+        self._edges = (a_[keep].astype(np.intp), b_[keep].astype(np.intp))
+        self._costs = np.maximum(cost_[keep], 1e-9)
+        self._edge_part = {
+            (int(i), int(j)): int(p)
+            for i, j, p in zip(a_[keep], b_[keep], part_[keep], strict=True)
+        }
+        self.prepare_seconds = time.perf_counter() - clock
+        log.info(
+            "door graph: %d parts, %d doors, %d edges in %.2f s",
+            len(self.region_of),
+            len(self.doors),
+            len(keep),
+            self.prepare_seconds,
+        )
+        return self.prepare_seconds
 
     # ------------------------------------------------------------------ queries on the map
     def region_at(self, x: float, y: float) -> int:
@@ -166,9 +204,29 @@ class HierarchicalPlanner:
             raise InvalidQueryError(f"regions {a} and {b} share no door")
         return (min(a, b), max(a, b))
 
-    def _open(self, door: int) -> bool:
-        a, b = self.region_of[self.doors[door].a], self.region_of[self.doors[door].b]
-        return (min(a, b), max(a, b)) not in self._closed
+    def _open_doors(self) -> NDArray[np.bool_]:
+        """Whether each door is open now."""
+        is_open = np.ones(len(self.doors), bool)
+        for a, b in self._closed:
+            is_open &= ~((self._door_regions[:, 0] == a) & (self._door_regions[:, 1] == b))
+        return is_open
+
+    def door_matrix(self) -> sparse.csr_matrix:
+        """The door graph now (closed doors have no edges) as a symmetric sparse matrix of
+        door-to-door path lengths, metres."""
+        self.prepare()
+        key = frozenset(self._closed)
+        if key not in self._matrices:
+            a, b = self._edges
+            is_open = self._open_doors()
+            keep = is_open[a] & is_open[b]
+            n = len(self.doors)
+            rows, cols = np.concatenate([a[keep], b[keep]]), np.concatenate([b[keep], a[keep]])
+            weights = np.concatenate([self._costs[keep], self._costs[keep]])
+            self._matrices = {
+                key: sparse.csr_matrix((weights, (rows, cols)), shape=(n, n))
+            }  # one door state kept: edits never pile up
+        return self._matrices[key]
 
     # ------------------------------------------------------------------ planning
     def plan(self, start: ArrayLike, goal: Goal) -> Path:
@@ -181,7 +239,6 @@ class HierarchicalPlanner:
         NoPathError
             No route: disconnected free space, or every route needs a closed door.
         """
-        seconds = {"graph_search": 0.0, "local_planning": 0.0, "smoothing": 0.0}
         s = self.space.check(start, "start")
         if isinstance(goal, int | np.integer):
             if goal not in self.graph:
@@ -191,130 +248,133 @@ class HierarchicalPlanner:
             g = self.space.check(goal, "goal")
         if self.space.component_at(s) != self.space.component_at(g):
             raise NoPathError(f"start {s} and goal {g} lie in different parts of the free space")
-        ends = {_START: (s, self._part_at(s)), _GOAL: (g, self._part_at(g))}
-        query_legs: dict[tuple[int, int, int], _Leg | None] = {}
-        while True:
-            clock = time.perf_counter()
-            route = self._search(ends, query_legs)
-            seconds["graph_search"] += time.perf_counter() - clock
-            if route is None:
-                raise NoPathError(f"no route from {s} to {g} through open doors")
-            pending = [step for step in route if self._leg(step, query_legs) is _UNPLANNED]
-            if not pending:
-                break
-            clock = time.perf_counter()
-            for step in pending:
-                self._plan_leg(step, query_legs, ends)
-            seconds["local_planning"] += time.perf_counter() - clock
+        matrix = self.door_matrix()
         clock = time.perf_counter()
-        waypoints, crossings = self._stitch(route, query_legs, ends)
+        ends = self.reach(s), self.reach(g)
+        direct = self._direct(s, g) if ends[0].part == ends[1].part else None
+        local = time.perf_counter()
+        bound = math.inf if direct is None else _length(direct)
+        doors = self._search(matrix, *ends, bound)
+        searched = time.perf_counter()
+        crossings: dict[int, int] = {}
+        if doors is not None:
+            waypoints = self._stitch(doors, *ends, crossings)
+        elif direct is not None:
+            waypoints = direct
+        else:
+            raise NoPathError(f"no route from {s} to {g} through open doors")
         kept = shortcut(self.space, waypoints)
         portals = {i: self.doors[crossings[k]].portal for i, k in enumerate(kept) if k in crossings}
         waypoints = tighten(self.space, waypoints[kept], portals)
         waypoints = waypoints[shortcut(self.space, waypoints)]
-        seconds["smoothing"] = time.perf_counter() - clock
+        seconds = {
+            "local_planning": local - clock,
+            "graph_search": searched - local,
+            "smoothing": time.perf_counter() - searched,
+        }
         return Path(waypoints, self.name, self._regions_along(waypoints), seconds)
 
-    def _point(self, node: int, ends: dict[int, tuple[Point, int]]) -> Point:
-        return ends[node][0] if node < 0 else self.doors[node].point
+    def reach(self, point: Point) -> Reach:
+        """The open doors of ``point``'s part and the shortest distances to them inside the
+        part (from the part's visibility graph: the nodes the point sees, then the
+        precomputed distances from those nodes to every door)."""
+        self.prepare()
+        part = self._part_at(point)
+        graph = self._part_graphs[part]
+        nodes, weights = graph.sight(point)
+        doors = np.asarray(self._doors_of[part], np.intp)
+        if len(nodes) == 0 or len(doors) == 0:
+            empty = np.zeros(0, np.intp)
+            return Reach(part, point, empty, np.zeros(0), empty)
+        total = graph.site_distances()[:, nodes] + weights
+        best = np.argmin(total, axis=1)
+        dist = total[np.arange(len(doors)), best]
+        keep = np.isfinite(dist) & self._open_doors()[doors]
+        return Reach(part, point, doors[keep], dist[keep], nodes[best[keep]])
 
-    def _neighbours(
-        self, node: int, ends: dict[int, tuple[Point, int]]
-    ) -> Iterator[tuple[int, int]]:
-        """``(part, next node)`` for every leg leaving ``node``."""
-        parts = (ends[node][1],) if node < 0 else (self.doors[node].a, self.doors[node].b)
-        for part in parts:
-            if part == ends[_GOAL][1]:
-                yield part, _GOAL
-            for door in self._doors_of.get(part, ()):
-                if door != node and self._open(door):
-                    yield part, door
+    def _direct(self, s: Point, g: Point) -> NDArray[np.float64] | None:
+        """The shortest path inside the part holding both ends, if any."""
+        try:
+            return self._part_graphs[self._part_at(s)].plan(s, g).waypoints
+        except NoPathError:
+            return None
 
     def _search(
-        self, ends: dict[int, tuple[Point, int]], query_legs: dict
-    ) -> list[tuple[int, int, int]] | None:
-        """A* from start to goal over door nodes; returns legs ``(part, from, to)``."""
-        goal = np.asarray(ends[_GOAL][0])
-        best = {_START: 0.0}
-        parent: dict[int, tuple[int, int]] = {}
-        frontier = [(0.0, 0.0, _START)]
-        done = set()
-        while frontier:
-            _, cost, node = heapq.heappop(frontier)
-            if node == _GOAL:
-                route = []
-                while node != _START:
-                    part, previous = parent[node]
-                    route.append((part, previous, node))
-                    node = previous
-                return route[::-1]
-            if node in done:
-                continue
-            done.add(node)
-            here = self._point(node, ends)
-            for part, nxt in self._neighbours(node, ends):
-                if nxt in done:
-                    continue
-                leg = self._leg((part, node, nxt), query_legs)
-                if leg is None:
-                    continue
-                there = self._point(nxt, ends)
-                step = leg.length if leg is not _UNPLANNED else math.dist(here, there)
-                new = cost + step
-                if new < best.get(nxt, math.inf):
-                    best[nxt] = new
-                    parent[nxt] = (part, node)
-                    heapq.heappush(frontier, (new + math.dist(there, goal), new, nxt))
-        return None
-
-    def _leg(self, step: tuple[int, int, int], query_legs: dict) -> _Leg | None:
-        """The planned leg (None if impossible), or ``_UNPLANNED``."""
-        part, a, b = step
-        store = query_legs if min(a, b) < 0 else self._legs
-        return store.get((part, min(a, b), max(a, b)), _UNPLANNED)
-
-    def _plan_leg(self, step: tuple[int, int, int], query_legs: dict, ends: dict) -> None:
-        part, a, b = step
-        lo, hi = min(a, b), max(a, b)
-        store = query_legs if lo < 0 else self._legs
-        p, q = np.asarray(self._point(lo, ends)), np.asarray(self._point(hi, ends))
-        sub, pieces = self._submap(part)
-        leg: _Leg | None
-        if sub.segment_free(p, q):
-            leg = _Leg(np.array([p, q]), math.dist(p, q))
-        elif not _same_piece(sub, pieces, p, q):
-            leg = None
-        else:
-            leg = self._ompl_leg(part, sub, p, q)
-        store[(part, lo, hi)] = leg
-
-    def _ompl_leg(self, part: int, sub: Workspace, p: NDArray, q: NDArray) -> _Leg | None:
-        if part not in self._leg_planners:
-            self._leg_planners[part] = FlatPlanner(
-                sub,
-                self.leg_planner,
-                time_limit=self.leg_time_limit,
-                bounds=sub.grid.bounds(),
-                random_state=self.random_state,
-            )
-        try:
-            planned = self._leg_planners[part].plan(p, q)
-        except (NoPathError, InvalidQueryError):
-            log.debug("no leg found in part %d from %s to %s", part, p, q)
+        self, matrix: sparse.csr_matrix, start: Reach, goal: Reach, bound: float
+    ) -> list[int] | None:
+        """Doors of the shortest route from ``start`` to ``goal`` through the door graph, or
+        None when no route is shorter than ``bound``."""
+        if len(start.doors) == 0 or len(goal.doors) == 0:
             return None
-        waypoints = tighten(sub, planned.waypoints[shortcut(sub, planned.waypoints)])
-        return _Leg(waypoints, polyline_length(waypoints))
+        n = matrix.shape[0]
+        graph = sparse.csr_matrix(
+            (
+                np.concatenate([matrix.data, start.dist]),
+                np.concatenate([matrix.indices, start.doors]),
+                np.append(matrix.indptr, matrix.indptr[-1] + len(start.doors)),
+            ),
+            shape=(n + 1, n + 1),
+        )
+        dist, parent = dijkstra(graph, indices=n, return_predecessors=True, limit=bound)
+        total = dist[goal.doors] + goal.dist
+        best = int(np.argmin(total))
+        if not total[best] < bound:
+            return None
+        doors = [int(goal.doors[best])]
+        while parent[doors[-1]] != n:
+            doors.append(int(parent[doors[-1]]))
+        return doors[::-1]
+
+    def _stitch(
+        self, doors: list[int], start: Reach, goal: Reach, crossings: dict[int, int]
+    ) -> NDArray[np.float64]:
+        """The route's legs joined into one polyline; fills waypoint index -> door crossed."""
+        first = int(np.flatnonzero(start.doors == doors[0])[0])
+        last = int(np.flatnonzero(goal.doors == doors[-1])[0])
+        legs = [
+            np.vstack(
+                [[start.point], self.path_in_part(start.part, doors[0], start.via[first])[::-1]]
+            )
+        ]
+        for a, b in itertools.pairwise(doors):
+            part = self._edge_part[(min(a, b), max(a, b))]
+            legs.append(self.leg(part, a, b))
+        legs.append(
+            np.vstack([self.path_in_part(goal.part, doors[-1], goal.via[last]), [goal.point]])
+        )
+        pieces, count = [], 0
+        for k, leg in enumerate(legs):
+            piece = leg if k == 0 else leg[1:]
+            pieces.append(piece)
+            count += len(piece)
+            if k < len(doors):
+                crossings[count - 1] = doors[k]
+        return np.vstack(pieces)
+
+    def _site(self, part: int, door: int) -> int:
+        return self._doors_of[part].index(door)
+
+    def door_edges(self) -> dict[tuple[int, int], int]:
+        """Edges ``(door a, door b)`` (``a < b``) of the door graph with every door open, and
+        the part whose shortest path joins them."""
+        self.prepare()
+        return dict(self._edge_part)
+
+    def leg(self, part: int, a: int, b: int) -> NDArray[np.float64]:
+        """Shortest polyline inside ``part`` from door ``a`` to door ``b`` (both its doors)."""
+        corners = len(self._part_graphs[part].corners)
+        return self.path_in_part(part, a, corners + self._site(part, b))
+
+    def path_in_part(self, part: int, door: int, node: int) -> NDArray[np.float64]:
+        """Shortest polyline inside ``part`` from ``door`` to ``node`` of the part's visibility
+        graph (e.g. a :class:`Reach`'s ``via``)."""
+        leg = self._part_graphs[part].site_path(self._site(part, door), int(node))
+        leg[0] = self.doors[door].point
+        return leg
 
     def _part_at(self, point: Point) -> int:
         row, col = self.space.grid.world_to_cell(*point)
         return int(self.parts[row, col])
-
-    def _submap(self, part: int) -> tuple[Workspace, NDArray[np.int32]]:
-        """The part's workspace (its cells and a margin) and its connected pieces."""
-        if part not in self._submaps:
-            sub = self._crop(self.parts, self._part_boxes, part)
-            self._submaps[part] = (sub, ndimage.label(sub.free)[0].astype(np.int32))
-        return self._submaps[part]
 
     def _crop(self, labels: NDArray[np.int32], boxes: list, index: int) -> Workspace:
         """Workspace of the cells labelled ``index`` and a margin around them."""
@@ -326,24 +386,6 @@ class HierarchicalPlanner:
         inside = ndimage.binary_dilation(labels[rows, cols] == index, iterations=m)
         return self.space.crop(rows, cols, inside)
 
-    def _stitch(
-        self, route: list, query_legs: dict, ends: dict
-    ) -> tuple[NDArray[np.float64], dict[int, int]]:
-        """The route's legs joined into one polyline, and waypoint index -> door crossed."""
-        pieces: list[NDArray[np.float64]] = []
-        crossings: dict[int, int] = {}
-        count = 0
-        for part, a, b in route:
-            leg = self._leg((part, a, b), query_legs)
-            assert isinstance(leg, _Leg)
-            points = leg.waypoints if a < b else leg.waypoints[::-1]
-            points = points if not pieces else points[1:]
-            pieces.append(points)
-            count += len(points)
-            if b >= 0:
-                crossings[count - 1] = b
-        return np.vstack(pieces), crossings
-
     def _regions_along(self, waypoints: NDArray[np.float64]) -> tuple[int, ...]:
         """Regions a polyline passes through, in order."""
         points = sample_polyline(waypoints, self.space.grid.resolution)
@@ -354,13 +396,8 @@ class HierarchicalPlanner:
         return tuple(int(r) for r in found[keep[: len(found)]])
 
 
-def _same_piece(sub: Workspace, pieces: NDArray[np.int32], p: NDArray, q: NDArray) -> bool:
-    rows, cols = sub.grid.world_to_cell([p[0], q[0]], [p[1], q[1]])
-    inside = sub.grid.contains(rows, cols)
-    if not inside.all():
-        return False
-    a, b = pieces[rows, cols]
-    return bool(a and a == b)
+def _length(waypoints: NDArray[np.float64]) -> float:
+    return float(np.hypot(*np.diff(waypoints, axis=0).T).sum())
 
 
 def _point(xy: NDArray[np.float64]) -> Point:
@@ -406,5 +443,6 @@ def _find_doors(
             stretch = points[piece]
             middle = stretch[np.argmin(np.abs(along[piece] - along[piece].mean()))]
             ends = (_point(stretch[0]), _point(stretch[-1]))
-            doors.append(Door(opening.a, opening.b, _point(middle), ends))
+            width = math.dist(*ends) + space.grid.resolution
+            doors.append(Door(opening.a, opening.b, _point(middle), ends, width))
     return doors

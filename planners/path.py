@@ -89,7 +89,8 @@ def tighten(
     straight line between the neighbours, or towards the neighbour mirrored in the portal,
     clamped to the segment); any other point is pulled towards the straight line between
     its neighbours. A move that would make a segment invalid is halved, up to three times.
-    Passes stop when no point moves by more than a hundredth of a cell.
+    A pass only tries the points next to one that moved in the pass before; passes stop when
+    no point moves by more than a hundredth of a cell.
 
     Parameters
     ----------
@@ -105,9 +106,10 @@ def tighten(
     p = np.asarray(waypoints, float).reshape(-1, 2).copy()
     portals = {} if portals is None else portals
     tolerance = space.grid.resolution * 1e-2
+    todo = set(range(1, len(p) - 1))  # points whose neighbours moved since they were tried
     for _ in range(passes):
-        largest = 0.0
-        for i in range(1, len(p) - 1):
+        moved: set[int] = set()
+        for i in sorted(todo):
             if i in portals:
                 e1, e2 = (np.asarray(e, float) for e in portals[i])
                 best = _best_on_segment(p[i - 1], p[i + 1], e1, e2)
@@ -117,11 +119,12 @@ def tighten(
                 continue
             for _halving in range(4):
                 if space.segment_free(p[i - 1], best) and space.segment_free(best, p[i + 1]):
-                    largest = max(largest, float(np.hypot(*(best - p[i]))))
                     p[i] = best
+                    moved.add(i)
                     break
                 best = (best + p[i]) / 2
-        if largest < tolerance:
+        todo = {j for i in moved for j in (i - 1, i, i + 1) if 0 < j < len(p) - 1}
+        if not todo:
             break
     return p
 

@@ -10,10 +10,10 @@ enough or small.
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
-from skimage.measure import regionprops
 
 
 def convex_parts(
@@ -57,14 +57,39 @@ def convex_parts(
                 parts[where][pieces[0]] = part
                 region_of[part] = index
                 continue
-            stack.extend((where, piece) for piece in pieces)
+            stack.extend(_cropped(where, piece) for piece in pieces)
     return parts, region_of
 
 
+def _cropped(
+    where: tuple[slice, slice], mask: NDArray[np.bool_]
+) -> tuple[tuple[slice, slice], NDArray[np.bool_]]:
+    """``mask`` cut to its bounding box, and that box in the coordinates of the map."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    r0, r1, c0, c1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+    box = (
+        slice(where[0].start + r0, where[0].start + r1),
+        slice(where[1].start + c0, where[1].start + c1),
+    )
+    return box, mask[r0:r1, c0:c1]
+
+
 def _needs_cut(mask: NDArray[np.bool_], min_solidity: float, min_cells: int) -> bool:
-    if mask.sum() < min_cells:
-        return False
-    return bool(regionprops(mask.astype(np.uint8))[0].solidity < min_solidity)
+    cells = int(mask.sum())
+    return cells >= min_cells and cells < min_solidity * _hull_area(mask)
+
+
+def _hull_area(mask: NDArray[np.bool_]) -> float:
+    """Area (in cells) of the convex hull of the cells' corners: at least the number of cell
+    centres in it, so a part kept whole has at least the solidity asked for."""
+    contours, _ = cv2.findContours(
+        mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE
+    )
+    centres = np.concatenate([c.reshape(-1, 2) for c in contours]).astype(np.float32)
+    corners = centres[:, None, :] + np.array(
+        [[-0.5, -0.5], [-0.5, 0.5], [0.5, -0.5], [0.5, 0.5]], np.float32
+    )
+    return float(cv2.contourArea(cv2.convexHull(corners.reshape(-1, 2))))
 
 
 def _cut(mask: NDArray[np.bool_]) -> list[NDArray[np.bool_]]:

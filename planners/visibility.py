@@ -32,15 +32,32 @@ class VisibilityGraph:
     space
         The free space; building the graph is the preprocessing, timed in
         :attr:`build_seconds`.
+    sites
+        Extra map-frame points made graph nodes (e.g. the doors of a submap); the shortest
+        paths from every site to every node are found once, at build time
+        (:meth:`site_distances`).
+
+    Examples
+    --------
+    >>> from maps.grid import OccupancyGrid
+    >>> cells = np.zeros((20, 20), np.int8)
+    >>> cells[5:15, 9:11] = 100
+    >>> grid = OccupancyGrid(cells, resolution=0.1)
+    >>> graph = VisibilityGraph(Workspace(grid, 0.0), sites=[(0.5, 1.8)])
+    >>> round(graph.plan((0.5, 1.0), (1.5, 1.0)).length, 3)
+    1.481
+    >>> graph.site_distances().shape
+    (1, 5)
     """
 
     name = "exact"
 
-    def __init__(self, space: Workspace) -> None:
+    def __init__(self, space: Workspace, sites: ArrayLike | None = None) -> None:
         clock = time.perf_counter()
         self.space = space
         self.corners, self._blocked = _convex_corners(space.free)
         n = len(self.corners)
+        self.sites = space.to_lattice(np.zeros((0, 2)) if sites is None else sites)
         rows, cols = [], []
         per_chunk = max(1, _CHUNK // max(n, 1))  # corners whose pairs are tested together
         for first in range(0, n, per_chunk):
@@ -51,15 +68,67 @@ class VisibilityGraph:
             seen = self._visible(self.corners[i], self.corners[j])
             rows.append(i[seen])
             cols.append(j[seen])
+        self.n_corner_edges = sum(len(r) for r in rows)
+        nodes = self.nodes
+        for k, site in enumerate(self.sites):  # site -> corners and earlier sites
+            sighted, _ = self._sight(site, nodes[: n + k])
+            rows.append(sighted)
+            cols.append(np.full(len(sighted), n + k))
         i, j = np.concatenate([*rows, []]).astype(int), np.concatenate([*cols, []]).astype(int)
-        length = np.hypot(*(self.corners[j] - self.corners[i]).T) * space.grid.resolution
-        self._edges = (i, j, length)
+        length = np.hypot(*(nodes[j] - nodes[i]).T) * space.grid.resolution
+        size = len(nodes)
+        self.graph = sparse.coo_matrix(
+            (np.concatenate([length, length]), (np.concatenate([i, j]), np.concatenate([j, i]))),
+            shape=(size, size),
+        ).tocsr()
+        self._site_paths: tuple[NDArray[np.float64], NDArray[np.int32]] | None = None
+        if len(self.sites):
+            self._site_paths = dijkstra(
+                self.graph, indices=np.arange(n, size), return_predecessors=True
+            )
         self.build_seconds = time.perf_counter() - clock
+
+    @property
+    def nodes(self) -> NDArray[np.float64]:
+        """Lattice coordinates of the graph's nodes: the corners, then the sites."""
+        return np.vstack([self.corners, self.sites])
 
     @property
     def n_edges(self) -> int:
         """Corner-to-corner edges in the graph."""
-        return len(self._edges[0])
+        return self.n_corner_edges
+
+    def site_distances(self) -> NDArray[np.float64]:
+        """Shortest distances (metres) from each site (rows) to every node (columns: the
+        corners, then the sites); ``inf`` where none."""
+        if self._site_paths is None:
+            return np.zeros((0, len(self.nodes)))
+        return self._site_paths[0]
+
+    def site_path(self, site: int, node: int) -> NDArray[np.float64]:
+        """Map-frame polyline of the shortest path from site ``site`` to node ``node``."""
+        assert self._site_paths is not None
+        order = [node]
+        root = len(self.corners) + site
+        while order[-1] != root:
+            order.append(int(self._site_paths[1][site, order[-1]]))
+        return self.space.from_lattice(self.nodes[order[::-1]])
+
+    def sight(self, point: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+        """Nodes a free map-frame point sees on a shortest path (corners it is tangent to,
+        every site) and their distances, metres."""
+        return self._sight(self.space.to_lattice(point)[0], self.nodes)
+
+    def _sight(
+        self, end: NDArray[np.float64], nodes: NDArray[np.float64]
+    ) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
+        n = len(self.corners)
+        d = nodes - end
+        candidates = np.flatnonzero(_tangent(d[:n], self._blocked))
+        candidates = np.concatenate([candidates, np.arange(n, len(nodes))])
+        ends = np.repeat(end[None], len(candidates), axis=0)
+        seen = candidates[self.space.lattice_segments_free(ends, nodes[candidates])]
+        return seen, np.hypot(*d[seen].T) * self.space.grid.resolution
 
     def _visible(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.bool_]:
         """Exact straight-sight test of lattice segments, cheap samples first."""
@@ -98,33 +167,29 @@ class VisibilityGraph:
         s, g = space.check(start, "start"), space.check(goal, "goal")
         if space.component_at(s) != space.component_at(g):
             raise NoPathError(f"start {s} and goal {g} lie in different parts of the free space")
-        n = len(self.corners)
-        ends = space.to_lattice([s, g])
-        i, j, length = self._edges
-        rows, cols, weights = [i], [j], [length]
-        for end, node in ((ends[0], n), (ends[1], n + 1)):
-            d = self.corners - end
-            candidates = np.flatnonzero(_tangent(d, self._blocked))
-            a = np.repeat(end[None], len(candidates), axis=0)
-            seen = candidates[space.lattice_segments_free(a, self.corners[candidates])]
-            rows.append(np.full(len(seen), node))
-            cols.append(seen)
-            weights.append(np.hypot(*d[seen].T) * space.grid.resolution)
+        size = self.graph.shape[0]
+        rows, cols, weights = [], [], []
+        for point, node in ((s, size), (g, size + 1)):
+            seen, length = self.sight(point)
+            rows += [np.full(len(seen), node), seen]
+            cols += [seen, np.full(len(seen), node)]
+            weights += [length, length]
         if space.segment_free(s, g):
-            rows.append(np.array([n]))
-            cols.append(np.array([n + 1]))
+            rows.append(np.array([size]))
+            cols.append(np.array([size + 1]))
             weights.append(np.array([np.hypot(s[0] - g[0], s[1] - g[1])]))
-        graph = sparse.coo_matrix(
+        extra = sparse.coo_matrix(
             (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
-            shape=(n + 2, n + 2),
-        ).tocsr()
-        dist, parent = dijkstra(graph, directed=False, indices=n, return_predecessors=True)
-        if not np.isfinite(dist[n + 1]):
+            shape=(size + 2, size + 2),
+        )
+        graph = sparse.bmat([[self.graph, None], [None, sparse.csr_matrix((2, 2))]]) + extra
+        dist, parent = dijkstra(graph.tocsr(), indices=size, return_predecessors=True)
+        if not np.isfinite(dist[size + 1]):
             raise NoPathError(f"no path found from {s} to {g}")
-        order = [n + 1]
-        while order[-1] != n:
+        order = [size + 1]
+        while order[-1] != size:
             order.append(int(parent[order[-1]]))
-        nodes = np.vstack([self.corners, ends])
+        nodes = np.vstack([self.nodes, space.to_lattice([s, g])])
         waypoints = space.from_lattice(nodes[order[::-1]])
         waypoints[0], waypoints[-1] = s, g
         return Path(waypoints, self.name, seconds={"search": time.perf_counter() - clock})

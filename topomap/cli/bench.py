@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import time
 from collections.abc import Callable, Iterator
@@ -14,13 +15,15 @@ from numpy.typing import NDArray
 from maps.errors import MapFileNotFoundError
 from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
-from maps.laser_sim import LaserModel, RayCaster, simulate_scans
-from maps.scan import Keyframe, select_keyframes
+from maps.laser_sim import LaserModel, RayCaster, simulate_keyframes, simulate_scans
+from maps.scan import Keyframe
 from maps.wander import wander
 from planners.benchmark import Planner, far_queries, run_queries, summarise, write_report
 from planners.flat import FlatPlanner
 from planners.grid_astar import GridAStar
+from planners.grid_mcp import GridMCP
 from planners.visibility import VisibilityGraph
+from planners.workspace import Point, Workspace
 from segmentation.errors import ParameterError
 from segmentation.naive import naive_segment
 from segmentation.spectral import SpectralSegmenter
@@ -80,8 +83,9 @@ def robot_keyframes(size: str, count: int, seed: int = 0) -> list[Keyframe]:
     generated building of ``size``."""
     plan = generate_floor_plan(size, furniture=0.3, random_state=seed)
     route = wander(plan.grid, plan.labels, random_state=seed)
-    scans = simulate_scans(plan.grid, route.poses, LaserModel(noise=0.01), random_state=seed)
-    keyframes = select_keyframes(scans)
+    keyframes = simulate_keyframes(
+        plan.grid, route.poses, LaserModel(noise=0.01), random_state=seed
+    )
     if len(keyframes) < count:
         raise ParameterError(
             f"the {size} building gives {len(keyframes)} keyframes, not {count}: "
@@ -154,6 +158,14 @@ def plan_maps(
             yield yaml.stem, OccupancyGrid.load(yaml)
 
 
+#: Seconds of query time each planner may spend per map before skipping its other queries.
+PLAN_BUDGET = 30.0
+#: Fixed time budget of the asymptotically optimal OMPL planner, seconds per query.
+OPTIMAL_BUDGET = 1.0
+#: Longest PRM roadmap growth, seconds (it matches the hierarchical preprocessing up to this).
+PRM_MAX_GROWTH = 60.0
+
+
 def bench_plan(
     out: str | Path,
     *,
@@ -162,43 +174,81 @@ def bench_plan(
     queries: int = 30,
     robot_radius: float = 0.2,
     time_limit: float = 20.0,
+    budget: float = PLAN_BUDGET,
+    python_astar: bool = False,
+    cache: str | Path | None = "out/cache/exact",
     seed: int = 0,
     progress: Callable[[Any], Any] = iter,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """Hierarchical planning against flat OMPL RRTConnect, flat PRM (roadmap kept across
-    queries) and grid A*, on the same far-apart queries of every map of :func:`plan_maps`.
+    """Hierarchical planning against fair baselines on the same far-apart queries of every
+    map of :func:`plan_maps`: the compiled grid search (scikit-image ``MCP_Geometric``),
+    flat OMPL RRTConnect, PRM (roadmap kept, grown for as long as the hierarchical
+    preprocessing took, at most :data:`PRM_MAX_GROWTH` s) and BIT* with a fixed
+    :data:`OPTIMAL_BUDGET` s; the pure-Python grid A* only as a reference when asked.
 
-    Preprocessing is timed apart per map: segmentation, submaps, door-to-door legs, PRM's
-    roadmap (grown for one second per 1000 m^2 of free space, 2 to 30 s) and the exact
-    reference (visibility graph). Writes the files of
+    Preprocessing is timed apart per map (segmentation, submaps, door graph, PRM's roadmap,
+    the grid search's set-up, the exact reference). A planner stops after ``budget``
+    seconds of queries per map; ``preprocessing.json`` lists what it skipped. The exact
+    shortest paths (visibility graph) are cached per map and query set in ``cache`` (None:
+    no cache), so a rerun does not rebuild them. Writes the files of
     :func:`planners.benchmark.write_report` to ``out``; returns the records and the summary.
     """
     records: list[dict[str, Any]] = []
-    preprocessing: dict[str, dict[str, float]] = {}
+    preprocessing: dict[str, dict[str, Any]] = {}
     for name, grid in plan_maps(sizes, maps_dir, seed):
         clock = time.perf_counter()
         topo = TopoMap.from_grid(grid, random_state=seed)
-        pre = {"segmentation": time.perf_counter() - clock}
-        hierarchical = topo.planner(robot_radius, random_state=seed)
+        pre: dict[str, Any] = {"segmentation": time.perf_counter() - clock}
+        hierarchical = topo.planner(robot_radius)
         space = hierarchical.space
         pre["submaps"] = hierarchical.build_seconds
-        pre["legs"] = hierarchical.prepare()
+        pre["door_graph"] = hierarchical.prepare()
+        mcp = GridMCP(space)
+        pre["grid_mcp"] = mcp.build_seconds
         rrt = FlatPlanner(space, "RRTConnect", time_limit=time_limit, random_state=seed)
         prm = FlatPlanner(space, "PRM", time_limit=time_limit, random_state=seed)
-        free_area = float(space.free.sum()) * grid.resolution**2
-        pre["prm_roadmap"] = min(30.0, max(2.0, free_area / 1000))
+        pre["prm_roadmap"] = min(PRM_MAX_GROWTH, pre["submaps"] + pre["door_graph"])
         prm.grow_roadmap(pre["prm_roadmap"])
-        clock = time.perf_counter()
-        astar = GridAStar(space)
-        pre["grid_astar"] = time.perf_counter() - clock
-        reference = VisibilityGraph(space)
-        pre["exact_reference"] = reference.build_seconds
-        preprocessing[name] = {k: round(v, 3) for k, v in pre.items()}
+        bit = FlatPlanner(space, "BITstar", time_limit=OPTIMAL_BUDGET, random_state=seed)
+        planners: list[Planner] = [hierarchical, mcp, rrt, prm, bit]
+        if python_astar:
+            planners.append(GridAStar(space))
+        pairs = far_queries(space, queries, random_state=seed)
+        optimal, pre["exact_reference"], pre["exact_cached"] = exact_lengths(space, pairs, cache)
+        found, skipped = run_queries(
+            name, space, planners, optimal, pairs, budget=budget, progress=progress
+        )
+        records += found
+        preprocessing[name] = {
+            k: round(v, 3) if isinstance(v, float) else v for k, v in pre.items()
+        }
         preprocessing[name]["regions"] = topo.graph.number_of_nodes()
         preprocessing[name]["submaps_count"] = len(hierarchical.region_of)
-        pairs = far_queries(space, queries, random_state=seed)
-        planners: list[Planner] = [hierarchical, rrt, prm, astar]
-        records += run_queries(name, space, planners, reference, pairs, progress=progress)
+        preprocessing[name]["doors"] = len(hierarchical.doors)
+        preprocessing[name]["skipped_queries"] = {k: v for k, v in skipped.items() if v}
     summary = summarise(records)
-    write_report(out, records, summary, preprocessing)
+    write_report(out, records, summary, preprocessing, time_limit)
     return records, summary
+
+
+def exact_lengths(
+    space: Workspace, pairs: list[tuple[Point, Point]], cache: str | Path | None
+) -> tuple[list[float], float, bool]:
+    """Exact shortest path lengths of ``pairs`` (visibility graph), read from ``cache`` when
+    this map, robot radius and query set were solved before; returns the lengths, the
+    seconds it took to compute them (when they were computed) and whether they were cached."""
+    key = hashlib.sha1(space.free.tobytes())
+    key.update(json.dumps([space.free.shape, space.grid.resolution, space.grid.origin]).encode())
+    key.update(json.dumps(pairs).encode())
+    path = None if cache is None else Path(cache) / f"{key.hexdigest()}.json"
+    if path is not None and path.exists():
+        stored = json.loads(path.read_text())
+        return stored["lengths"], stored["seconds"], True
+    clock = time.perf_counter()
+    reference = VisibilityGraph(space)
+    lengths = [reference.plan(s, g).length for s, g in pairs]
+    seconds = time.perf_counter() - clock
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps({"lengths": lengths, "seconds": seconds}))
+    return lengths, seconds, False

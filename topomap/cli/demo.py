@@ -20,9 +20,9 @@ from numpy.typing import NDArray
 
 from maps.floorplan import FloorPlan, generate_floor_plan
 from maps.grid import OccupancyGrid
-from maps.laser_sim import LaserModel, simulate_scans
+from maps.laser_sim import LaserModel, simulate_keyframes
 from maps.mapping import grid_from_keyframes
-from maps.scan import Keyframe, poses_array, select_keyframes
+from maps.scan import Keyframe, poses_array
 from maps.wander import Route, wander
 from planners.benchmark import far_queries
 from planners.flat import FlatPlanner
@@ -30,6 +30,7 @@ from planners.path import Path as PlannedPath
 from planners.visibility import VisibilityGraph
 from segmentation.metrics import score
 from topomap.cli.drawing import draw_map, draw_paths, draw_regions
+from topomap.cli.online import agreement, dense_regions, offline_segmenter, run_online, write_gif
 from topomap.topomap import TopoMap
 
 log = logging.getLogger(__name__)
@@ -44,7 +45,6 @@ class DemoRun:
     seed: int = 0
     plan: FloorPlan | None = None
     route: Route | None = None
-    scans: list[Keyframe] = field(default_factory=list)
     keyframes: list[Keyframe] = field(default_factory=list)
     grid: OccupancyGrid | None = None
     topo: TopoMap | None = None
@@ -68,18 +68,17 @@ def generate(run: DemoRun) -> None:
 
 
 def drive(run: DemoRun) -> None:
-    """Wander through every room, take a scan at every pose, keep the keyframes."""
+    """Wander through every room, keep a keyframe every 0.5 m or 30 degrees; the laser (a scan
+    at every pose) is simulated at the keyframes, the only scans used."""
     assert run.plan is not None
     run.route = wander(run.plan.grid, run.plan.labels, random_state=run.seed)
-    run.scans = simulate_scans(
-        run.plan.grid, run.route.poses, LaserModel(noise=0.01, dropout=0.01), random_state=run.seed
-    )
-    run.keyframes = select_keyframes(run.scans)
+    laser = LaserModel(noise=0.01, dropout=0.01)
+    run.keyframes = simulate_keyframes(run.plan.grid, run.route.poses, laser, random_state=run.seed)
     run.summary["robot"] = {
         "route_m": round(run.route.length, 1),
         "rooms_visited": len(run.route.visited),
         "rooms_unreachable": len(run.route.unreachable),
-        "scans": len(run.scans),
+        "scans": len(run.route.poses),
         "keyframes": len(run.keyframes),
     }
 
@@ -163,7 +162,7 @@ def plan_paths(run: DemoRun, queries: int = 10) -> None:
     """Plan far-apart queries on the segmented plan, hierarchically and with flat OMPL
     RRTConnect; draw the first pair of paths, report both planners' times side by side."""
     assert run.plan_topo is not None
-    hierarchical = run.plan_topo.planner(random_state=run.seed)
+    hierarchical = run.plan_topo.planner()
     prepare = hierarchical.prepare()
     flat = FlatPlanner(hierarchical.space, "RRTConnect", random_state=run.seed)
     reference = VisibilityGraph(hierarchical.space)
@@ -193,11 +192,45 @@ def plan_paths(run: DemoRun, queries: int = 10) -> None:
     run.summary["plan"] = summary
 
 
+def segment_online(run: DemoRun, seed_fraction: float = 0.5) -> None:
+    """Segment the run online (a spectral seed on its first half, then one keyframe at a time);
+    score it against the plan beside the offline partition; draw the regions growing (GIF)."""
+    assert run.plan is not None and run.grid is not None
+    keyframes = run.keyframes
+    folder = run.out / "segment_online"
+    online = run_online(
+        keyframes,
+        seed_keyframes=max(2, round(seed_fraction * len(keyframes))),
+        random_state=run.seed,
+        frames_every=max(1, len(keyframes) // 40),
+        frames_dir=folder / "frames",
+    )
+    write_gif(online.frames, folder / "regions.gif")
+    offline = offline_segmenter(keyframes, run.seed).fit(keyframes)
+    truth = _truth_on(run.grid, run.plan)
+    scores = {}
+    for name, labels in (("online", online.online.labels_), ("offline", offline.labels_)):
+        regions = dense_regions(run.grid, keyframes, labels, named=False)[0]
+        scores[name] = _rounded(score(regions.labels, truth).as_dict())
+    run.summary["segment_online"] = {
+        "seed_keyframes": online.online.n_seed_,
+        "theta": online.online.theta,
+        "threshold_T": round(online.online.threshold_, 4),
+        "online_regions": online.online.n_regions_,
+        "offline_clusters": offline.n_regions_,
+        "ari_online_vs_offline": agreement(online.online.labels_, offline.labels_),
+        "online": scores["online"],
+        "offline": scores["offline"],
+        "latency": online.latency_ms(),
+    }
+
+
 STAGES: list[Callable[[DemoRun], None]] = [
     generate,
     drive,
     build_map,
     segment_log,
+    segment_online,
     segment_plan,
     plan_paths,
 ]
@@ -250,6 +283,12 @@ def summary_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
             f"{found['regions']} regions ({refined['rooms']} true): MCC {refined['mcc']:.2f}, "
             f"recall {refined['recall']:.2f}, precision {refined['precision']:.2f}"
         )
+    online = summary["segment_online"]
+    results["segment_online"] = (
+        f"{online['online_regions']} regions, ARI {online['ari_online_vs_offline']:.2f} vs "
+        f"offline, MCC {online['online']['mcc']:.2f} (offline {online['offline']['mcc']:.2f}), "
+        f"p95 {online['latency']['p95_ms']:g} ms per keyframe"
+    )
     plan = summary["plan"]
     results["plan_paths"] = (
         f"{plan['queries']} queries, median hierarchical {plan['hierarchical']['median_ms']:g} "
