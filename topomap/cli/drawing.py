@@ -20,15 +20,25 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 
-def show_grid(ax: Axes, grid: OccupancyGrid) -> None:
-    """Draw ``grid`` in map-frame metres: free white, occupied black, unknown grey."""
-    shade = np.full(grid.shape, 0.75)
-    shade[grid.free] = 1.0
-    shade[grid.occupied] = 0.0
+def show_grid(
+    ax: Axes, grid: OccupancyGrid, labels: NDArray[np.integer] | None = None, alpha: float = 0.8
+) -> None:
+    """Draw ``grid`` in map-frame metres: free white, occupied black, unknown grey, and the
+    regions of ``labels`` over it in colour (opacity ``alpha``), as one RGBA image of bytes
+    looked up in a table of every (cell class, region) colour."""
+    kind = np.zeros(grid.shape, np.intp)  # 0 unknown, 1 free, 2 occupied
+    kind[grid.free] = 1
+    kind[grid.occupied] = 2
+    shades = np.array([0.75, 1.0, 0.0])[:, None, None]
+    if labels is None:
+        labels = np.zeros(grid.shape, np.intp)
+    colours = region_colours(int(labels.max(initial=0)))
+    weight = alpha * colours[None, :, 3:]
+    table = shades * (1 - weight) + colours[None, :, :3] * weight  # (class, region, rgb)
+    table = np.concatenate((table, np.ones((*table.shape[:2], 1))), axis=2)
+    image = np.rint(255 * table).astype(np.uint8)[kind, labels]
     xmin, ymin, xmax, ymax = grid.bounds()
-    ax.imshow(
-        shade, cmap="gray", vmin=0, vmax=1, extent=(xmin, xmax, ymin, ymax), interpolation="nearest"
-    )
+    ax.imshow(image, extent=(xmin, xmax, ymin, ymax), interpolation="nearest")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_aspect("equal")
@@ -44,11 +54,7 @@ def _map_figure(
     width = 12.0
     fig = Figure(figsize=(width, max(3.0, width * (ymax - ymin) / (xmax - xmin))))
     ax = fig.subplots()
-    show_grid(ax, grid)
-    if labels is not None:
-        colours = region_colours(int(labels.max(initial=0)))
-        extent = (xmin, xmax, ymin, ymax)
-        ax.imshow(colours[labels], extent=extent, interpolation="nearest", alpha=alpha)
+    show_grid(ax, grid, labels, alpha)
     return fig, ax
 
 
