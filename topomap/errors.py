@@ -11,3 +11,8 @@ from maps.errors import TopomapError
 
 class LabelError(TopomapError, ValueError):
     """A classifier's output that cannot be used, or a name that is unknown or taken."""
+
+
+class UsageError(TopomapError, ValueError):
+    """Command-line options that do not go together or lie out of their range (the command
+    line reports it like argparse does: one line, exit status 2)."""
