@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 from sklearn.metrics import adjusted_rand_score
 
+from maps.errors import OutputExistsError
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array
@@ -30,6 +31,7 @@ from segmentation.refine import basins, count_basins
 from segmentation.regions import Regions, dense_labels
 from segmentation.spectral import SpectralSegmenter
 from topomap.cli.drawing import region_colours
+from topomap.errors import UsageError
 from topomap.labels import classify, name_regions, region_features
 
 
@@ -85,12 +87,12 @@ def run_online(
     ``k``), then assign the others one by one, timing each; every ``frames_every`` keyframes
     draw the regions so far into ``frames_dir``."""
     if not 2 <= seed_keyframes <= len(keyframes):
-        raise ValueError(
+        raise UsageError(
             f"--seed-keyframes must lie in 2..{len(keyframes)} (the keyframes), "
             f"got {seed_keyframes}"
         )
     if frames_every is not None and frames_every < 1:
-        raise ValueError(f"--frames must be a number of keyframes >= 1, got {frames_every}")
+        raise UsageError(f"--frames must be a number of keyframes >= 1, got {frames_every}")
     seed = keyframes[:seed_keyframes]
     start = time.perf_counter()
     online = OnlineSegmenter(offline_segmenter(seed, random_state, **options), theta=theta)
@@ -110,11 +112,15 @@ def run_online(
 
 
 def dense_regions(
-    grid: OccupancyGrid, keyframes: Sequence[Keyframe], labels: NDArray[np.integer]
+    grid: OccupancyGrid,
+    keyframes: Sequence[Keyframe],
+    labels: NDArray[np.integer],
+    *,
+    named: bool = True,
 ) -> tuple[Regions, nx.Graph, NDArray[np.int64]]:
     """Keyframe labels made dense on ``grid`` as the offline pipeline does (each free cell
-    takes the label of its geodesically nearest keyframe), the region graph with labels and
-    names, and the region of each keyframe's cell."""
+    takes the label of its geodesically nearest keyframe), the region graph (with place
+    labels and names when ``named``), and the region of each keyframe's cell."""
     poses = poses_array(keyframes)
     rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])
     regions = Regions(grid, dense_labels(grid, rows, cols, np.asarray(labels, np.int64)))
@@ -122,6 +128,8 @@ def dense_regions(
     keyframe_regions = np.zeros(len(keyframes), np.int64)
     keyframe_regions[inside] = regions.labels[rows[inside], cols[inside]]
     graph = region_graph(regions, keyframe_regions)
+    if not named:
+        return regions, graph, keyframe_regions
     features = region_features(regions, graph)
     found = dict(zip(features["id"].astype(int).tolist(), classify(None, features), strict=True))
     names = name_regions(graph, found)
@@ -238,7 +246,7 @@ def segment_online(
     names = ["events.jsonl", "keyframes.csv", "summary.json", "segmentation.png", "regions.gif"]
     for name in names:
         if (out / name).exists() and not overwrite:
-            raise FileExistsError(f"{out / name} exists; pass --force to replace it")
+            raise OutputExistsError(out / name, "--force")
     out.mkdir(parents=True, exist_ok=True)
     frames_dir = out / "frames" if frames_every else None
     run = run_online(
