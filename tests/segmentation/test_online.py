@@ -125,8 +125,7 @@ def test_every_event_follows_the_papers_rules(flat_online):
             assert theta * threshold < event.distance < threshold
     assert {e.kind for e in arrivals} >= {"created", "grown"}
     assert online.arrival_labels_.tolist() == (
-        [int(x) for x in online.arrival_labels_[: online.n_seed_]]
-        + [e.region for e in arrivals]
+        [int(x) for x in online.arrival_labels_[: online.n_seed_]] + [e.region for e in arrivals]
     )
 
 

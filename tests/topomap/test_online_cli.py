@@ -1,0 +1,63 @@
+import csv
+import json
+
+import pytest
+from PIL import Image
+
+from topomap.cli.main import main
+
+
+@pytest.fixture(scope="module")
+def intel_online(data_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("online")
+    log = data_dir / "carmen" / "intel-corrected.log.gz"
+    argv = ["-q", "segment", "--scans", str(log), "--online", "--out", str(out)]
+    status = main([*argv, "--seed-keyframes", "250", "--frames", "150"])
+    return status, out
+
+
+@pytest.mark.slow
+def test_segment_online_writes_the_offline_files_events_and_a_gif(intel_online):
+    status, out = intel_online
+    assert status == 0
+    for name in ("regions.png", "graph.graphml", "graph.json", "regions.geojson", "map.yaml"):
+        assert (out / name).is_file(), name
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["seed_keyframes"] == 250
+    with Image.open(out / "regions.gif") as gif:
+        # a frame at the seed and one every 150 keyframes after it
+        assert gif.n_frames == 1 + (summary["keyframes"] - 250) // 150
+    events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
+    assert {e["kind"] for e in events} <= {"created", "grown", "merged"}
+    with (out / "keyframes.csv").open() as stream:
+        rows = list(csv.DictReader(stream))
+    assert len(rows) == summary["keyframes"]
+    # the region a keyframe got on arrival is the one its event names
+    arrivals = {e["keyframe"]: e["region"] for e in events if e["kind"] != "merged"}
+    for index, row in enumerate(rows[250:], start=250):
+        assert int(row["region_on_arrival"]) == arrivals[index]
+    # final regions: arrival regions followed through the merges, never an absorbed id
+    survivor = {}
+    for event in events:
+        if event["kind"] == "merged":
+            survivor[event["absorbed"]] = event["region"]
+    for row in rows:
+        region = int(row["region_on_arrival"])
+        while region in survivor:
+            region = survivor[region]
+        assert int(row["region_final"]) == region
+
+
+@pytest.mark.slow
+def test_segment_online_refuses_to_overwrite_and_bad_options(intel_online, data_dir, capsys):
+    _, out = intel_online
+    log = str(data_dir / "carmen" / "intel-corrected.log.gz")
+    assert main(["-q", "segment", "--scans", log, "--online", "--out", str(out)]) == 2
+    assert "exists" in capsys.readouterr().err
+    fresh = str(out / "again")
+    assert (
+        main(["-q", "segment", "--scans", log, "--online", "--out", fresh, "--theta", "1.5"]) == 2
+    )
+    assert "theta must lie in [0, 1], got 1.5" in capsys.readouterr().err
+    assert main(["-q", "segment", "--scans", log, "--online", "--out", fresh, "--frames", "0"]) == 2
+    assert "--frames must be" in capsys.readouterr().err
