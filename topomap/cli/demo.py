@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -252,7 +253,7 @@ def run_demo(
     seconds: dict[str, float] = {}
     for number, stage in enumerate(STAGES, start=1):
         if on_stage is not None:
-            doc = " ".join((stage.__doc__ or "").split(";")[0].split(".")[0].split())
+            doc = " ".join(re.split(r"[.;]\s", stage.__doc__ or "")[0].split()).rstrip(".")
             on_stage(f"[{number}/{len(STAGES)}] {stage.__name__}: {doc}")
         start = time.perf_counter()
         stage(run)
