@@ -60,9 +60,9 @@ def test_a_centre_of_one_scan_is_compared_by_eq_12_exactly(flat_run):
     online = blank(OnlineSegmenter())
     for i, keyframe in enumerate(keyframes[:40]):
         online.centres_[i + 1] = Centre({}, 0, 0, set(), [], 0)
-        online._join(i + 1, i, *hits(online, keyframe), move=True)
+        online._join(i + 1, i, *hits(online, keyframe), True)
     for i in (0, 7, 21, 39):
-        keys, tiles = hits(online, keyframes[i])
+        keys, _ = hits(online, keyframes[i])
         regions, similarity = online._nn_similarities(keys, np.ones(len(keys), np.int64), i + 1)
         expected = {j + 1: offline[i, j] for j in range(40) if offline[i, j] > 0}
         assert dict(zip(regions, similarity.tolist(), strict=True)) == pytest.approx(expected)
@@ -98,7 +98,7 @@ def test_eq_15_the_centre_is_the_mean_hit_histogram_in_any_order(scans, random):
     random.shuffle(order)
     online.centres_[1] = Centre({}, 0, 0, set(), [], 0)
     for i in order:
-        online._join(1, i, *hits(online, keyframes[i]), move=True)
+        online._join(1, i, *hits(online, keyframes[i]), True)
     centre = online.centres_[1]
     # the mean of the scans' indicator vectors, counted here cell by cell
     expected: dict[int, float] = {}
@@ -149,7 +149,7 @@ def test_ids_are_stable_and_merges_name_the_survivor(flat_run):
     assert not gone & set(online.labels_.tolist())
     assert set(online.centres_) == set(online.labels_.tolist())
     # every keyframe ends where its arrival region's chain of merges leads
-    final = {}
+    final: dict[int, int] = {}
     for event in merges:
         for region, target in list(final.items()):
             if target == event.absorbed:
@@ -186,6 +186,7 @@ def _empty_scan_keyframe() -> Keyframe:
 
 
 def _state(online: OnlineSegmenter):
+    assert online.regions_ is not None
     return (
         online.labels_.tolist(),
         list(online.events_),
@@ -199,7 +200,7 @@ def test_refused_keyframes_leave_the_state_unchanged(flat_run):
     keyframes = flat_run[1]
     online = OnlineSegmenter(SpectralSegmenter(random_state=0)).fit(keyframes[:60])
     before = _state(online)
-    with pytest.raises(SegmentationError, match="keyframe 60 .*no valid beam"):
+    with pytest.raises(SegmentationError, match=r"keyframe 60 .*no valid beam"):
         online.partial_fit(_empty_scan_keyframe())
     far = dataclasses.replace(keyframes[70], pose=(500.0, 500.0, 0.0))
     with pytest.raises(SegmentationError, match=r"\(500.00, 500.00\) is .* outside the map"):
@@ -226,7 +227,7 @@ def test_bad_parameters_and_order_are_typed_errors(flat_run):
         OnlineSegmenter().region_at(0.0, 0.0)
     with pytest.raises(SegmentationError, match="no keyframes"):
         OnlineSegmenter().fit([])
-    with pytest.raises(SegmentationError, match="keyframe 1 .*no valid beam"):
+    with pytest.raises(SegmentationError, match=r"keyframe 1 .*no valid beam"):
         OnlineSegmenter().fit([flat_run[1][0], _empty_scan_keyframe()])
 
 

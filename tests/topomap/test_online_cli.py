@@ -26,7 +26,7 @@ def test_segment_online_writes_the_offline_files_events_and_a_gif(intel_online):
     assert summary["seed_keyframes"] == 250
     with Image.open(out / "regions.gif") as gif:
         # a frame at the seed and one every 150 keyframes after it
-        assert gif.n_frames == 1 + (summary["keyframes"] - 250) // 150
+        assert getattr(gif, "n_frames", 1) == 1 + (summary["keyframes"] - 250) // 150
     events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
     assert {e["kind"] for e in events} <= {"created", "grown", "merged"}
     with (out / "keyframes.csv").open() as stream:
