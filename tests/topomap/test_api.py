@@ -2,6 +2,7 @@
 
 import ast
 import importlib
+import pickle
 import subprocess
 import sys
 from pathlib import Path
@@ -118,3 +119,17 @@ def test_the_package_roots_are_distinct_branches():
 def test_typed_packages_ship_py_typed():
     for package in PACKAGES:
         assert (Path(package.__file__).parent / "py.typed").is_file()
+
+
+def test_file_errors_print_their_message_and_survive_pickling():
+    # a batch run ships errors between processes
+    missing = maps.MapFileNotFoundError("maps/lab.yaml", "map YAML")
+    taken = OutputExistsError("out/map.yaml", "--force")
+    assert (
+        str(missing) == "map YAML not found: maps/lab.yaml" and missing.filename == "maps/lab.yaml"
+    )
+    assert str(taken) == "out/map.yaml exists; pass --force to replace it"
+    for error in (missing, taken):
+        again = pickle.loads(pickle.dumps(error))
+        assert type(again) is type(error) and str(again) == str(error)
+        assert again.errno == error.errno and again.filename == error.filename

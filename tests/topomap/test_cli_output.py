@@ -1,0 +1,122 @@
+"""What the command line shows: progress on stderr (or none with -q), one line and status 2
+for bad input, a traceback for a bug, no file overwritten without --force."""
+
+import importlib
+import logging
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from topomap.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _generate(out: Path, *extra: str) -> int:
+    return main(["generate", "--size", "flat", "--seed", "1", "--out", str(out), *extra])
+
+
+def test_progress_goes_to_stderr_and_quiet_silences_it(tmp_path, capsys):
+    assert _generate(tmp_path / "a") == 0
+    shown = capsys.readouterr()
+    assert "generating a flat building ..." in shown.err
+    assert "spaces" in shown.out and "generating" not in shown.out
+    for quiet in (["-q", "generate"], ["generate", "--quiet"]):
+        argv = [*quiet, "--size", "flat", "--out", str(tmp_path / quiet[0].strip("-"))]
+        assert main(argv) == 0
+        assert capsys.readouterr().err == ""
+
+
+def test_verbose_before_or_after_the_command_turns_on_debug_logging(tmp_path):
+    logger = logging.getLogger("maps")
+    try:
+        for place in ("before", "after"):
+            logger.setLevel(logging.NOTSET)
+            argv = ["generate", "--size", "flat", "--out", str(tmp_path / place)]
+            argv = ["-v", *argv] if place == "before" else [*argv, "-v"]
+            assert main(argv) == 0
+            assert logger.level == logging.DEBUG
+    finally:
+        logger.setLevel(logging.NOTSET)
+
+
+def test_generate_refuses_to_overwrite_without_force(tmp_path, capsys):
+    assert _generate(tmp_path) == 0
+    before = (tmp_path / "rooms.json").stat().st_mtime_ns
+    for written in ("map.yaml", "map.pgm"):
+        (tmp_path / written).unlink()  # rooms.png and rooms.json are still there
+    capsys.readouterr()
+    assert _generate(tmp_path) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"topomap: error: {tmp_path / 'rooms.png'} exists; pass --force to replace it"]
+    assert not (tmp_path / "map.yaml").exists()  # nothing written before refusing
+    assert (tmp_path / "rooms.json").stat().st_mtime_ns == before
+    assert _generate(tmp_path, "--force") == 0
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["bench", "sim", "--scans", "20", "--beams", "31"],
+        ["eval", "labels", "DATA"],
+        ["eval", "segment", "DATA"],
+        ["bench", "segment", "--sizes", "10", "--building", "flat"],
+    ],
+)
+def test_results_are_never_overwritten_without_force(tmp_path, capsys, command):
+    (tmp_path / "results.json").write_text("{}")
+    argv = [str(tmp_path / "nowhere") if a == "DATA" else a for a in command]
+    assert main([*argv, "--out", str(tmp_path)]) == 2
+    assert "results.json exists; pass --force" in capsys.readouterr().err
+    assert (tmp_path / "results.json").read_text() == "{}"
+
+
+def test_a_bug_keeps_its_traceback(tmp_path, monkeypatch):
+    def broken(args):
+        raise RuntimeError("a bug, not bad input")
+
+    # the module, not the function ``topomap.cli.main`` that the package re-exports
+    monkeypatch.setattr(importlib.import_module("topomap.cli.main"), "cmd_generate", broken)
+    with pytest.raises(RuntimeError, match="a bug"):
+        _generate(tmp_path)
+
+
+def test_usage_errors_return_two(capsys):
+    assert main(["plan", "map.yaml", "--start", "1", "--goal", "2,2"]) == 2
+    assert "argument --start: expected X,Y in metres, got '1'" in capsys.readouterr().err
+    assert main(["--help"]) == 0
+
+
+def test_the_console_command_prints_one_line_for_bad_input_and_nothing_at_exit(tmp_path):
+    def topomap(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            [sys.executable, "-m", "topomap", *args],
+            capture_output=True,
+            text=True,
+            cwd=ROOT,
+            timeout=300,
+            check=False,
+        )
+
+    done = topomap("generate", "--size", "flat", "--out", str(tmp_path))
+    assert done.returncode == 0, done.stderr
+    again = topomap("generate", "--size", "flat", "--out", str(tmp_path))
+    assert again.returncode == 2
+    assert again.stderr.strip().splitlines() == [
+        f"topomap: error: {tmp_path / 'map.yaml'} exists; pass --force to replace it"
+    ]
+    # planning loads OMPL; its bindings must have nothing left to report at exit
+    planned = topomap(
+        "-q",
+        "plan",
+        str(tmp_path / "map.yaml"),
+        "--start=2,2",
+        "--goal=10,8",
+        "--compare",
+        "--draw",
+        str(tmp_path / "path.png"),
+    )
+    assert planned.returncode == 0, planned.stderr
+    assert planned.stderr == ""
