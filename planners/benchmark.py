@@ -180,6 +180,7 @@ def write_report(
     summary: Sequence[dict[str, Any]],
     preprocessing: dict[str, dict[str, Any]],
     time_limit: float = 20.0,
+    seed: int = 0,
 ) -> list[Path]:
     """Write ``results.json`` (the records), ``preprocessing.json``, ``summary.json``,
     ``results.md`` (the table), ``times.png`` (query times per planner and map) and
@@ -195,7 +196,8 @@ def write_report(
     written.append(_plot(out / "times.png", records))
     for name in dict.fromkeys(r["map"] for r in records):
         mine = [r for r in records if r["map"] == name]
-        written.append(write_ompl_log(out / "ompl" / f"{name}.log", name, mine, time_limit))
+        log = write_ompl_log(out / "ompl" / f"{name}.log", name, mine, time_limit, seed=seed)
+        written.append(log)
     return written
 
 
@@ -212,7 +214,12 @@ _OMPL_PROPERTIES = (
 
 
 def write_ompl_log(
-    path: str | Path, experiment: str, records: Sequence[dict[str, Any]], time_limit: float
+    path: str | Path,
+    experiment: str,
+    records: Sequence[dict[str, Any]],
+    time_limit: float,
+    *,
+    seed: int = 0,
 ) -> Path:
     """Write one map's records as an OMPL benchmark log (the format of
     ``ompl::tools::Benchmark::saveResultsToFile``), readable by ``ompl_benchmark_statistics``
@@ -233,7 +240,7 @@ def write_ompl_log(
         "<<<|",
         f"{platform.processor() or platform.machine()}",
         "|>>>",
-        "0 is the random seed",
+        f"{seed} is the random seed",
         f"{time_limit:g} seconds per run",
         "0 MB per run",
         f"{max(sum(r['planner'] == p for r in records) for p in planners)} runs per planner",

@@ -42,6 +42,8 @@ Goal = ArrayLike | int
 DOOR_SPACING = 1.0
 #: Metres a submap reaches beyond its part, so legs can pass the doorways they end in.
 SUBMAP_MARGIN = 0.5
+#: Moves the final tightening tries per point and pass (the full move, then its halves).
+TIGHTEN_TRIES = 2
 
 
 @dataclass(frozen=True)
@@ -108,7 +110,8 @@ class HierarchicalPlanner:
             )
         self.space, self.graph = space, graph
         self.labels = _fill_unlabelled(labels, space.grid.free)
-        self.parts, self.region_of = convex_parts(self.labels)
+        # cut where the robot's free space (not the map's) is concave: thin walls count
+        self.parts, self.region_of = convex_parts(np.where(space.free, self.labels, 0))
         self.doors = _find_doors(space, self.parts, find_transitions(space.grid, self.parts))
         self._doors_of: dict[int, list[int]] = {part: [] for part in self.region_of}
         for index, door in enumerate(self.doors):
@@ -265,7 +268,11 @@ class HierarchicalPlanner:
             raise NoPathError(f"no route from {s} to {g} through open doors")
         kept = shortcut(self.space, waypoints)
         portals = {i: self.doors[crossings[k]].portal for i, k in enumerate(kept) if k in crossings}
-        waypoints = tighten(self.space, waypoints[kept], portals)
+        # legs are shortest paths: only door crossings and points whose neighbours changed
+        # (a skipped point between them) can move at first
+        skipped = np.flatnonzero(np.diff(kept) > 1)
+        first = {*portals, *skipped, *(skipped + 1)}
+        waypoints = tighten(self.space, waypoints[kept], portals, first=first, tries=TIGHTEN_TRIES)
         waypoints = waypoints[shortcut(self.space, waypoints)]
         seconds = {
             "local_planning": local - clock,

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -81,6 +81,8 @@ def tighten(
     portals: Mapping[int, tuple[PointLike, PointLike]] | None = None,
     *,
     passes: int = 20,
+    first: Iterable[int] | None = None,
+    tries: int = 4,
 ) -> NDArray[np.float64]:
     """Shorten a valid polyline by moving its inner points, keeping every segment valid.
 
@@ -88,7 +90,8 @@ def tighten(
     is shortest: a point with a portal (a door line it crosses) slides along it (to the
     straight line between the neighbours, or towards the neighbour mirrored in the portal,
     clamped to the segment); any other point is pulled towards the straight line between
-    its neighbours. A move that would make a segment invalid is halved, up to three times.
+    its neighbours. A move that would make a segment invalid is halved, up to ``tries - 1``
+    times.
     A pass only tries the points next to one that moved in the pass before; passes stop when
     no point moves by more than a hundredth of a cell.
 
@@ -102,11 +105,18 @@ def tighten(
         Waypoint index -> ``(end, end)`` of the segment that point may slide on.
     passes
         Most passes.
+    first
+        Inner points the first pass tries (all by default): points known to be taut (e.g.
+        the corners of shortest legs) can be left to later passes, which try the
+        neighbours of every point that moved.
+    tries
+        Moves tried per point and pass (the full move, then halves of it).
     """
     p = np.asarray(waypoints, float).reshape(-1, 2).copy()
     portals = {} if portals is None else portals
     tolerance = space.grid.resolution * 1e-2
-    todo = set(range(1, len(p) - 1))  # points whose neighbours moved since they were tried
+    inner = range(1, len(p) - 1)
+    todo = set(inner) if first is None else set(first) & set(inner)
     for _ in range(passes):
         moved: set[int] = set()
         for i in sorted(todo):
@@ -117,7 +127,7 @@ def tighten(
                 best = _closest_on_segment(p[i], p[i - 1], p[i + 1])
             if np.hypot(*(best - p[i])) < tolerance:
                 continue
-            for _halving in range(4):
+            for _halving in range(tries):
                 if space.segment_free(p[i - 1], best) and space.segment_free(best, p[i + 1]):
                     p[i] = best
                     moved.add(i)

@@ -71,3 +71,20 @@ def test_check_names_the_problem():
         space.check((1.9, 1.0))
     with pytest.raises(InvalidQueryError, match="two finite numbers"):
         space.check((np.nan, 1.0))
+
+
+@given(
+    seed=st.integers(0, 50),
+    yaw=st.sampled_from([0.0, 0.4, 1.3]),
+    ends=st.lists(st.integers(0, 4 * 150), min_size=4, max_size=4),
+)
+def test_long_motions_checked_band_by_band_agree_with_the_cell_walk(seed, yaw, ends):
+    """Motions crossing many grid lines take the banded numpy test; on a sparse map (most
+    are free) and through lattice vertices (quarter-cell ends) it must agree with the batch
+    cell walk."""
+    rng = np.random.default_rng(seed)
+    cells = np.where(rng.random((120, 150)) < 0.002, OCCUPIED, 0).astype(np.int8)
+    space = Workspace(OccupancyGrid(cells, 0.05, (1.0, -2.0, yaw)), robot_radius=0.0)
+    lattice = np.array(ends, float).reshape(2, 2) / 4 * [1, 0.8]
+    a, b = space.from_lattice(lattice)
+    assert space.segment_free(a, b) == bool(space.segments_free([a], [b])[0])

@@ -227,7 +227,7 @@ def bench_plan(
         preprocessing[name]["doors"] = len(hierarchical.doors)
         preprocessing[name]["skipped_queries"] = {k: v for k, v in skipped.items() if v}
     summary = summarise(records)
-    write_report(out, records, summary, preprocessing, time_limit)
+    write_report(out, records, summary, preprocessing, time_limit, seed)
     return records, summary
 
 
