@@ -25,6 +25,7 @@ def test_demo_writes_picture_map_and_summary(tmp_path):
         "drive",
         "build_map",
         "segment_log",
+        "segment_online",
         "segment_plan",
         "plan_paths",
     }
@@ -199,7 +200,9 @@ def test_segment_bad_input(tmp_path, capsys):
     assert main(["segment", str(walls), "--out", str(tmp_path / "o")]) == 2
     assert "no free cell" in capsys.readouterr().err
     assert main(["segment", "--out", str(tmp_path / "o")]) == 2
-    assert "either a map YAML or --scans" in capsys.readouterr().err
+    assert "one of the arguments map --scans is required" in capsys.readouterr().err
+    assert main(["segment", str(walls), "--scans", "x.log", "--out", str(tmp_path / "o")]) == 2
+    assert "not allowed with argument" in capsys.readouterr().err
     assert main(["segment", str(walls), "--out", str(tmp_path / "o"), "--p", "2"]) == 2
     assert "p must lie" in capsys.readouterr().err
 
@@ -215,6 +218,7 @@ def _flat_map(folder: Path) -> Path:
 
 
 def test_plan_prints_a_valid_path_and_draws_it(tmp_path, capsys):
+    from planners.visibility import VisibilityGraph
     from planners.workspace import Workspace
 
     yaml = _flat_map(tmp_path / "flat")
@@ -231,7 +235,9 @@ def test_plan_prints_a_valid_path_and_draws_it(tmp_path, capsys):
     waypoints = np.array(result["waypoints"])
     assert np.allclose(waypoints[[0, -1]], [start, goal], atol=1e-3)
     assert space.collisions(waypoints) == 0
-    assert result["length_m"] >= np.hypot(goal[0] - start[0], goal[1] - start[1]) - 1e-3
+    # not longer than 10% over the exact shortest path (the visibility graph, another planner)
+    shortest = VisibilityGraph(space).plan(start, goal).length
+    assert shortest - 1e-6 <= result["length_m"] <= 1.1 * shortest
     assert result["regions"] and len(result["region_names"]) == len(result["regions"])
     assert cv2.imread(str(picture)) is not None
 
@@ -260,7 +266,7 @@ def test_plan_rejects_a_start_in_a_wall(tmp_path, capsys):
     assert main(["plan", str(yaml), "--start=-0.05,-0.05", "--goal", "3,3"]) == 2
     assert "start (-0.05, -0.05) lies in an unknown cell" in capsys.readouterr().err
     assert main(["plan", str(yaml), "--start", "1;2", "--goal", "3,3"]) == 2
-    assert "--start must be X,Y" in capsys.readouterr().err
+    assert "argument --start: expected X,Y in metres, got '1;2'" in capsys.readouterr().err
 
 
 def test_plan_on_a_real_floor_plan(data_dir, capsys):
@@ -279,14 +285,16 @@ def test_plan_on_a_real_floor_plan(data_dir, capsys):
 def test_bench_plan_writes_one_record_per_planner_and_query(tmp_path):
     out = tmp_path / "bench"
     arguments = ["bench", "plan", "--sizes", "flat", "--queries", "3", "--out", str(out)]
-    assert main([*arguments, "--time-limit", "5"]) == 0
+    cache = ["--cache", str(tmp_path / "cache")]
+    assert main([*arguments, "--time-limit", "5", *cache]) == 0
     records = json.loads((out / "results.json").read_text())
-    assert len(records) == 12
+    assert len(records) == 15
     assert {r["planner"] for r in records} == {
         "hierarchical",
+        "grid_mcp",
         "flat_rrtconnect",
         "flat_prm",
-        "grid_astar",
+        "flat_bitstar",
     }
     for record in records:
         assert record["map"] == "generated-flat" and record["success"]
@@ -296,6 +304,7 @@ def test_bench_plan_writes_one_record_per_planner_and_query(tmp_path):
     assert preprocessing["generated-flat"]["segmentation"] > 0
     assert "| generated-flat | hierarchical | 1.0 |" in (out / "results.md").read_text()
     assert cv2.imread(str(out / "times.png")) is not None
+    assert (out / "ompl" / "generated-flat.log").read_text().startswith("topomap version")
 
 
 def test_eval_labels_on_the_place_labelled_plans(tmp_path, data_dir):

@@ -5,14 +5,17 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from maps.errors import MapsError
-from planners.errors import PlanningError
+from maps.errors import OutputExistsError, TopomapError
+from topomap.cli.progress import Progress
+from topomap.errors import UsageError
+
+#: The packages whose loggers ``-v`` turns to DEBUG (third-party loggers stay at WARNING).
+PACKAGES = ("maps", "segmentation", "planners", "topomap")
 
 
 def _table(rows: list[dict[str, object]], columns: list[str]) -> str:
@@ -57,23 +60,25 @@ def _add_bag_options(parser: argparse.ArgumentParser, *, map_topic: bool) -> Non
         )
 
 
-def cmd_demo(args: argparse.Namespace) -> int:
-    from topomap.cli.demo import run_demo
+def _refuse_existing(out: Path, names: Iterable[str], force: bool) -> None:
+    """Stop before any work when a file the command would write exists and ``--force`` is
+    not given."""
+    for name in names:
+        if (out / name).exists() and not force:
+            raise OutputExistsError(out / name, "--force")
 
-    summary = run_demo(args.out, size=args.size, seed=args.seed)
-    print(json.dumps(summary, indent=2))
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from topomap.cli.demo import run_demo, summary_rows
+
+    summary = run_demo(args.out, size=args.size, seed=args.seed, on_stage=args.progress.stage)
+    print(_table(summary_rows(summary), ["stage", "seconds", "result"]))
     names = summary["segment_plan"]["names"].values()
     print(
-        f"regions of the plan: {summary['segment_plan']['labels']}; not rooms: "
+        "regions of the plan that are not rooms: "
         + ", ".join(n for n in names if not n.startswith("room "))
     )
-    plan = summary["plan"]
-    print(
-        f"planning, median of {plan['queries']} far-apart queries: hierarchical "
-        f"{plan['hierarchical']['median_ms']} ms, flat OMPL RRTConnect "
-        f"{plan['flat_rrtconnect']['median_ms']} ms ({plan['speedup']}x)"
-    )
-    print(f"wrote {args.out}/summary.json and pictures")
+    print(f"wrote {args.out}/summary.json (every number) and pictures")
     return 0
 
 
@@ -82,12 +87,15 @@ def cmd_map(args: argparse.Namespace) -> int:
     from maps.scan import poses_array, select_keyframes
     from topomap.cli.drawing import draw_map
 
+    out = Path(args.out)
+    _refuse_existing(out, ["map.yaml", "map.pgm", "map.png"], args.force)
+    args.progress.stage(f"reading {args.log}")
     frames = _read_keyframes(Path(args.log), args)
     keyframes = select_keyframes(frames, distance=args.distance)
+    args.progress.stage(f"building the map from {len(keyframes)} keyframes")
     grid = grid_from_keyframes(keyframes, args.resolution, max_range=args.max_range)
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    grid.save(out / "map.yaml", overwrite=args.force)
+    grid.save(out / "map.yaml", overwrite=True)
     draw_map(out / "map.png", grid, keyframes=poses_array(keyframes), title=Path(args.log).name)
     print(
         f"{len(frames)} scans, {len(keyframes)} keyframes -> {out / 'map.yaml'} "
@@ -101,12 +109,14 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
     from maps.floorplan import generate_floor_plan
 
+    out = Path(args.out)
+    _refuse_existing(out, ["map.yaml", "map.pgm", "rooms.png", "rooms.json"], args.force)
+    args.progress.stage(f"generating a {args.size} building")
     plan = generate_floor_plan(
         args.size, resolution=args.resolution, furniture=args.furniture, random_state=args.seed
     )
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    plan.grid.save(out / "map.yaml", overwrite=args.force)
+    plan.grid.save(out / "map.yaml", overwrite=True)
     cv2.imwrite(str(out / "rooms.png"), plan.labels.astype("uint16"))
     (out / "rooms.json").write_text(
         json.dumps([{"id": i, "type": t} for i, t in enumerate(plan.types, start=1)], indent=1)
@@ -118,7 +128,10 @@ def cmd_generate(args: argparse.Namespace) -> int:
 def cmd_bench_sim(args: argparse.Namespace) -> int:
     from topomap.cli.bench import bench_sim
 
-    records = bench_sim(args.out, scans=tuple(args.scans), beams=tuple(args.beams))
+    _refuse_existing(Path(args.out), ["results.json"], args.force)
+    records = bench_sim(
+        args.out, scans=tuple(args.scans), beams=tuple(args.beams), progress=args.progress
+    )
     print(_table(records, ["scans", "beams", "seconds", "scans_per_s", "rays_per_s"]))
     print(
         f"set-up (distance transform of {records[0]['map_cells']} cells): "
@@ -128,7 +141,43 @@ def cmd_bench_sim(args: argparse.Namespace) -> int:
 
 
 def _segmenter_options(args: argparse.Namespace) -> dict[str, Any]:
-    return {"criterion": args.criterion, "k": args.k, "p": args.p}
+    """The segmentation options of ``topomap segment``, ``eval segment`` and ``batch``."""
+    return {
+        "criterion": args.criterion,
+        "k": args.k,
+        "p": args.p,
+        "spacing": args.spacing,
+        "robot_radius": args.robot_radius,
+        "clutter_size": args.clutter_size,
+    }
+
+
+def _segment_online(args: argparse.Namespace, out: Path) -> int:
+    """``topomap segment --scans LOG --online``."""
+    from maps.scan import select_keyframes
+    from topomap.cli.online import segment_online
+
+    if args.scans is None:
+        raise UsageError("--online needs --scans LOG: keyframes arrive one by one from a log")
+    args.progress.stage(f"reading {args.scans}")
+    keyframes = select_keyframes(_read_keyframes(Path(args.scans), args), distance=args.distance)
+    args.progress.stage(f"online segmentation of {len(keyframes)} keyframes")
+    summary = segment_online(
+        keyframes,
+        out,
+        source=args.scans,
+        seed_keyframes=min(args.seed_keyframes, len(keyframes)),
+        theta=args.theta,
+        frames_every=args.frames,
+        overwrite=args.force,
+        progress=lambda items: args.progress(items, "keyframes"),
+        criterion=args.criterion,
+        k=args.k,
+        p=args.p,
+    )
+    print(json.dumps(summary, indent=2))
+    print(f"wrote {', '.join(summary['written'])}, summary.json to {out}")
+    return 0
 
 
 def cmd_segment(args: argparse.Namespace) -> int:
@@ -138,12 +187,14 @@ def cmd_segment(args: argparse.Namespace) -> int:
     from topomap.topomap import TopoMap
 
     out = Path(args.out)
-    if (args.map is None) == (args.scans is None):
-        raise ValueError("give either a map YAML or --scans LOG, not both")
+    if args.online:
+        return _segment_online(args, out)
     if args.scans is not None:
         frames = _read_keyframes(Path(args.scans), args)
         keyframes = select_keyframes(frames, distance=args.distance)
-        topo = TopoMap.from_keyframes(keyframes, **_segmenter_options(args))
+        topo = TopoMap.from_keyframes(
+            keyframes, on_stage=args.progress.stage, **_segmenter_options(args)
+        )
         source = args.scans
     else:
         if args.map_topic is not None or _is_bag(Path(args.map)):
@@ -152,7 +203,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
             grid = read_rosbag_map(args.map, topic=args.map_topic, stamp=args.stamp)
         else:
             grid = OccupancyGrid.load(args.map)
-        topo = TopoMap.from_grid(grid, spacing=args.spacing, **_segmenter_options(args))
+        topo = TopoMap.from_grid(grid, on_stage=args.progress.stage, **_segmenter_options(args))
         source = args.map
     written = topo.save(out, overwrite=args.force)
     if args.scans is not None:
@@ -173,6 +224,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
         "regions": count,
         "spectral_clusters": topo.segmenter.n_regions_,
         "keyframes": len(topo.keyframes),
+        "conditioning": topo.conditioned.summary(),
         "doors": sum(len(d) for _, _, d in topo.graph.edges(data="doors")),
         "names": {int(r): name for r, name in sorted(topo.graph.nodes(data="name"))},
         "silhouette_by_k": {
@@ -181,8 +233,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
         "seconds": {k: round(v, 3) for k, v in topo.seconds.items()},
     }
     path = out / "summary.json"
-    if path.exists() and not args.force:
-        raise FileExistsError(f"{path} exists; pass --force to replace it")
+    _refuse_existing(out, [path.name], args.force)
     path.write_text(json.dumps(summary, indent=2))
     print(json.dumps(summary, indent=2))
     print(f"wrote {', '.join(p.name for p in written)}, summary.json to {out}")
@@ -192,8 +243,10 @@ def cmd_segment(args: argparse.Namespace) -> int:
 def cmd_eval_segment(args: argparse.Namespace) -> int:
     from topomap.cli.evaluate import evaluate_all, means, read_anchors
 
+    out = Path(args.out)
+    _refuse_existing(out, ["results.json"], args.force)
     records = evaluate_all(
-        args.data, progress=_progress, spacing=args.spacing, **_segmenter_options(args)
+        args.data, progress=args.progress, **_segmenter_options(args)
     )
     columns = ["map", "furnished", "variant", "keyframes", "segments", "rooms"]
     print(_table(records, [*columns, "recall", "precision", "mcc", "ari", "seconds"]))
@@ -205,7 +258,6 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
             ["method", "furnished", "maps", "recall", "precision", "mcc", "ari", "mean_s", "max_s"],
         )
     )
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps({"maps": records, "means": summary}, indent=2))
     print(f"wrote {out / 'results.json'}")
@@ -216,9 +268,11 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
     from topomap.cli.evaluate_labels import evaluate_labels, generated_regions, ipa_places_regions
     from topomap.labels import PLACE_TYPES
 
-    datasets = {"ipa_places": ipa_places_regions(args.data, progress=_progress)}
+    out = Path(args.out)
+    _refuse_existing(out, ["results.json"], args.force)
+    datasets = {"ipa_places": ipa_places_regions(args.data, progress=args.progress)}
     if args.generated:
-        datasets["generated"] = generated_regions()
+        datasets["generated"] = generated_regions(progress=args.progress)
     results: dict[str, Any] = {}
     for dataset, maps in datasets.items():
         results[dataset] = evaluate_labels(maps)
@@ -242,7 +296,6 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
             )
         )
         print()
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps(results, indent=2))
     print(f"wrote {out / 'results.json'}")
@@ -252,8 +305,13 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
 def cmd_bench_segment(args: argparse.Namespace) -> int:
     from topomap.cli.bench import bench_segment
 
+    _refuse_existing(Path(args.out), ["results.json"], args.force)
     records = bench_segment(
-        args.out, sizes=tuple(args.sizes), naive_up_to=args.naive_up_to, building=args.building
+        args.out,
+        sizes=tuple(args.sizes),
+        naive_up_to=args.naive_up_to,
+        building=args.building,
+        progress=args.progress,
     )
     rows = []
     for n in sorted({r["keyframes"] for r in records}):
@@ -273,10 +331,42 @@ def cmd_bench_segment(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench_online(args: argparse.Namespace) -> int:
+    from topomap.cli.bench_online import bench_online
+
+    results = bench_online(
+        args.out,
+        parts=tuple(args.parts),
+        progress=args.progress,
+        keyframes=args.keyframes,
+        seed_keyframes=args.seed_keyframes,
+        building=args.building,
+        offline_up_to=args.offline_up_to,
+        logs_dir=args.logs,
+        seed_fraction=args.seed_fraction,
+        theta=args.theta,
+    )
+    if "latency" in results:
+        columns = ["keyframes_seen", "median_ms", "p95_ms", "max_ms", "offline_rerun_s", "regions"]
+        batches = results["latency"]["batches"]
+        step = max(1, len(batches) // 20)
+        print(_table(batches[::step] + batches[-1:] if len(batches) > 1 else batches, columns))
+        print(json.dumps(results["latency"]["summary"], indent=2))
+    if "quality" in results:
+        columns = ["run", "keyframes", "seed_keyframes", "offline_clusters", "online_clusters"]
+        rows = [{"mcc_offline": "-", "mcc_online": "-", **r} for r in results["quality"]]
+        scores = ["ari", "seed_ari", "mcc_offline", "mcc_online", "p95_ms", "max_ms"]
+        print(_table(rows, [*columns, *scores]))
+    print(f"wrote {args.out}/results.json" + (", latency.png" if "latency" in results else ""))
+    return 0
+
+
 def cmd_bench_plan(args: argparse.Namespace) -> int:
     from planners.benchmark import markdown_table
     from topomap.cli.bench import bench_plan
 
+    written = ["results.json", "results.md", "summary.json", "preprocessing.json", "times.png"]
+    _refuse_existing(Path(args.out), written, args.force)
     _, summary = bench_plan(
         args.out,
         sizes=tuple(args.sizes),
@@ -284,10 +374,18 @@ def cmd_bench_plan(args: argparse.Namespace) -> int:
         queries=args.queries,
         robot_radius=args.robot_radius,
         time_limit=args.time_limit,
-        progress=_progress,
+        budget=args.budget,
+        python_astar=args.python_astar,
+        cache=None if args.no_cache else args.cache,
+        progress=args.progress,
     )
     print(markdown_table(summary))
+    skipped = json.loads((Path(args.out) / "preprocessing.json").read_text())
+    for name, pre in skipped.items():
+        if pre["skipped_queries"]:
+            print(f"{name}: skipped after the {args.budget:g} s budget: {pre['skipped_queries']}")
     print(f"wrote {args.out}/results.json, results.md, summary.json, preprocessing.json, times.png")
+    print(f"wrote {args.out}/ompl/*.log (OMPL benchmark logs, for Planner Arena)")
     return 0
 
 
@@ -338,43 +436,59 @@ def cmd_bench_batch(args: argparse.Namespace) -> int:
     return 0
 
 
-def _point(text: str, what: str) -> tuple[float, float]:
-    """``"X,Y"`` as two floats, or a ValueError naming the option."""
-    parts = text.split(",")
+def _point(text: str) -> tuple[float, float]:
+    """``"X,Y"`` as two floats (an argparse type: a bad value is a usage error, exit 2)."""
     try:
-        x, y = (float(p) for p in parts)
+        x, y = (float(p) for p in text.split(","))
     except ValueError:
-        raise ValueError(f"{what} must be X,Y in metres, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected X,Y in metres, got {text!r}") from None
     return x, y
 
 
 def _goal(text: str) -> tuple[float, float] | int | str:
     """``--goal``: ``X,Y`` is a point, a whole number a region id, anything else a name."""
     if "," in text:
-        return _point(text, "--goal")
+        return _point(text)
     return int(text) if text.strip().isdigit() else text
 
 
-def cmd_plan(args: argparse.Namespace) -> int:
+def _map_planner(args: argparse.Namespace) -> Any:
+    """The hierarchical planner of ``args.map``, on the regions in ``args.regions`` (a folder
+    written by ``topomap segment``) or on a segmentation made now."""
     from maps.grid import OccupancyGrid
-    from planners.flat import FlatPlanner
     from planners.hierarchical import HierarchicalPlanner
     from planners.workspace import Workspace
     from segmentation.export import read_graphml, read_label_image
-    from topomap.cli.drawing import draw_paths
-    from topomap.labels import find_region
     from topomap.topomap import TopoMap
 
     grid = OccupancyGrid.load(args.map)
-    start = _point(args.start, "--start")
-    goal = _goal(args.goal)
     if args.regions is not None:
         folder = Path(args.regions)
         labels = read_label_image(folder / "regions.png")
         graph = read_graphml(folder / "graph.graphml")
-        planner = HierarchicalPlanner(Workspace(grid, args.robot_radius), labels, graph)
-    else:
-        planner = TopoMap.from_grid(grid).planner(args.robot_radius)
+        return HierarchicalPlanner(Workspace(grid, args.robot_radius), labels, graph)
+    args.progress.stage(f"segmenting {args.map}")
+    return TopoMap.from_grid(grid).planner(args.robot_radius)
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from planners.nav2_route import write_nav2_route
+
+    planner = _map_planner(args)
+    written = write_nav2_route(planner, args.nav2_route, overwrite=args.force)
+    doors, edges = len(planner.doors), 2 * len(planner.door_edges())
+    print(f"wrote {written}: {doors} door nodes, {edges} door-to-door edges (one per direction)")
+    return 0
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    from planners.flat import FlatPlanner
+    from topomap.cli.drawing import draw_paths
+    from topomap.labels import find_region
+
+    planner = _map_planner(args)
+    grid = planner.space.grid
+    start, goal = args.start, args.goal
     if not isinstance(goal, tuple):
         goal = find_region(planner.graph, goal)
     path = planner.plan(start, goal)
@@ -389,15 +503,6 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
-def _progress(items: Iterator[Any]) -> Iterator[Any]:
-    """A tqdm progress bar on stderr when tqdm is installed."""
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return items
-    return iter(tqdm(list(items), file=sys.stderr, leave=False))
-
-
 def _add_segmenter_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--criterion", default="nn", choices=["nn", "hausdorff", "features"])
     parser.add_argument(
@@ -405,14 +510,25 @@ def _add_segmenter_options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--p", type=float, default=0.3, help="sparsification parameter in [0, 1)")
     parser.add_argument(
-        "--spacing", type=float, default=0.8, help="virtual keyframe spacing on a map, metres"
+        "--spacing", type=float, default=2.0, help="virtual keyframe lattice on a map, metres"
+    )
+    parser.add_argument(
+        "--robot-radius",
+        type=float,
+        default=0.2,
+        help="free space thinner than the robot is dropped, metres",
+    )
+    parser.add_argument(
+        "--clutter-size",
+        type=float,
+        default=2.0,
+        help="free-standing obstacles smaller than this are clutter, not walls, metres",
     )
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every subcommand."""
     parser = argparse.ArgumentParser(prog="topomap", description=__doc__)
-    parser.add_argument("-v", "--verbose", action="store_true", help="log progress")
     sub = parser.add_subparsers(dest="command", required=True)
 
     demo = sub.add_parser("demo", help="run the whole pipeline on a generated building")
@@ -443,8 +559,9 @@ def build_parser() -> argparse.ArgumentParser:
     gen.set_defaults(func=cmd_generate)
 
     seg = sub.add_parser("segment", help="segment a map or a laser log into regions")
-    seg.add_argument("map", nargs="?", help="map_server YAML")
-    seg.add_argument("--scans", help="CARMEN log or ROS bag instead of a map")
+    source = seg.add_mutually_exclusive_group(required=True)
+    source.add_argument("map", nargs="?", help="map_server YAML")
+    source.add_argument("--scans", help="CARMEN log or ROS bag instead of a map")
     seg.add_argument("--out", required=True)
     seg.add_argument("--distance", type=float, default=0.5, help="keyframe spacing in a log, m")
     seg.add_argument("--scan-topic")
@@ -452,6 +569,12 @@ def build_parser() -> argparse.ArgumentParser:
     _add_bag_options(seg, map_topic=True)
     seg.add_argument("--force", action="store_true", help="overwrite existing files")
     _add_segmenter_options(seg)
+    seg.add_argument(
+        "--online", action="store_true", help="with --scans: assign keyframes as they come"
+    )
+    seg.add_argument("--seed-keyframes", type=int, default=300, help="offline seed (--online)")
+    seg.add_argument("--theta", type=float, default=0.5, help="online acceptance, in [0, 1]")
+    seg.add_argument("--frames", type=int, help="a picture every N keyframes and regions.gif")
     seg.set_defaults(func=cmd_segment)
 
     evaluation = sub.add_parser("eval", help="evaluations against ground truth")
@@ -459,12 +582,14 @@ def build_parser() -> argparse.ArgumentParser:
     eval_seg = eval_sub.add_parser("segment", help="room segmentation on the ipa floor plans")
     eval_seg.add_argument("data", help="folder of map YAMLs with *_gt_labels.png")
     eval_seg.add_argument("--out", default="out/eval-segment")
+    eval_seg.add_argument("--force", action="store_true", help="overwrite existing results")
     _add_segmenter_options(eval_seg)
     eval_seg.set_defaults(func=cmd_eval_segment)
 
     eval_labels = eval_sub.add_parser("labels", help="region labels on place-typed plans")
     eval_labels.add_argument("data", help="folder of NAME.png with NAME_places.png")
     eval_labels.add_argument("--out", default="out/eval-labels")
+    eval_labels.add_argument("--force", action="store_true", help="overwrite existing results")
     eval_labels.add_argument(
         "--generated", action="store_true", help="also on generated buildings' room types"
     )
@@ -474,17 +599,37 @@ def build_parser() -> argparse.ArgumentParser:
     bench_sub = bench.add_subparsers(dest="bench", required=True)
     sim = bench_sub.add_parser("sim", help="laser simulator speed")
     sim.add_argument("--out", default="out/bench-sim")
+    sim.add_argument("--force", action="store_true", help="overwrite existing results")
     sim.add_argument("--scans", type=int, nargs="+", default=[1_000, 10_000])
     sim.add_argument("--beams", type=int, nargs="+", default=[181, 361])
     sim.set_defaults(func=cmd_bench_sim)
     seg_bench = bench_sub.add_parser("segment", help="spectral partition speed against naive")
     seg_bench.add_argument("--out", default="out/bench-segment")
+    seg_bench.add_argument("--force", action="store_true", help="overwrite existing results")
     seg_bench.add_argument("--sizes", type=int, nargs="+", default=[1_000, 2_000, 5_000, 10_000])
     seg_bench.add_argument("--naive-up-to", type=int, default=2_000)
     seg_bench.add_argument("--building", default="campus", choices=["flat", "office", "campus"])
     seg_bench.set_defaults(func=cmd_bench_segment)
+    online_bench = bench_sub.add_parser("online", help="online segmentation: latency, agreement")
+    online_bench.add_argument("--out", default="out/bench-online")
+    online_bench.add_argument(
+        "--parts", nargs="+", default=["latency", "quality"], choices=["latency", "quality"]
+    )
+    online_bench.add_argument("--keyframes", type=int, default=10_000, help="of the long run")
+    online_bench.add_argument("--seed-keyframes", type=int, default=500, help="long run's seed")
+    online_bench.add_argument("--building", default="campus", choices=["flat", "office", "campus"])
+    online_bench.add_argument(
+        "--offline-up-to", type=int, default=3_000, help="re-run offline every 100 up to this"
+    )
+    online_bench.add_argument("--logs", default="../shared/data/carmen", help="CARMEN logs")
+    online_bench.add_argument(
+        "--seed-fraction", type=float, default=0.5, help="quality runs: share of keyframes seeded"
+    )
+    online_bench.add_argument("--theta", type=float, default=0.5, help="in [0, 1]")
+    online_bench.set_defaults(func=cmd_bench_online)
     plan_bench = bench_sub.add_parser("plan", help="hierarchical against flat planning")
     plan_bench.add_argument("--out", default="out/bench-plan")
+    plan_bench.add_argument("--force", action="store_true", help="overwrite existing results")
     plan_bench.add_argument("--maps", help="also every map YAML in this folder")
     plan_bench.add_argument(
         "--sizes", nargs="*", default=["flat", "office", "campus"], help="generated buildings"
@@ -492,6 +637,14 @@ def build_parser() -> argparse.ArgumentParser:
     plan_bench.add_argument("--queries", type=int, default=30, help="per map")
     plan_bench.add_argument("--robot-radius", type=float, default=0.2, help="metres")
     plan_bench.add_argument("--time-limit", type=float, default=20.0, help="flat planners, s")
+    plan_bench.add_argument(
+        "--budget", type=float, default=30.0, help="query seconds per planner and map, then skip"
+    )
+    plan_bench.add_argument(
+        "--python-astar", action="store_true", help="also the pure-Python grid A* (reference)"
+    )
+    plan_bench.add_argument("--cache", default="out/cache/exact", help="exact-reference cache")
+    plan_bench.add_argument("--no-cache", action="store_true", help="recompute the reference")
     plan_bench.set_defaults(func=cmd_bench_plan)
 
     from topomap.cli.batch import worker_count
@@ -510,7 +663,7 @@ def build_parser() -> argparse.ArgumentParser:
     batch.set_defaults(func=cmd_batch)
     batch_bench = bench_sub.add_parser("batch", help="topomap batch: maps per minute, 1-2 workers")
     batch_bench.add_argument("--out", default="out/bench-batch")
-    batch_bench.add_argument("--maps", type=int, default=12, help="generated buildings")
+    batch_bench.add_argument("--maps", type=int, default=24, help="generated buildings")
     batch_bench.add_argument("--size", default="flat", choices=["flat", "office"])
     batch_bench.add_argument("--workers", type=worker_count, nargs="+", default=[1, 2])
     batch_bench.add_argument("--rounds", type=worker_count, default=2, help="turns per count")
@@ -521,8 +674,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     plan = sub.add_parser("plan", help="plan a path on a map, print it as JSON")
     plan.add_argument("map", help="map_server YAML")
-    plan.add_argument("--start", required=True, help="X,Y in metres")
-    plan.add_argument("--goal", required=True, help="X,Y in metres, a region id or a name")
+    plan.add_argument("--start", required=True, type=_point, help="X,Y in metres")
+    plan.add_argument(
+        "--goal", required=True, type=_goal, help="X,Y in metres, a region id or a name"
+    )
     plan.add_argument("--regions", help="folder written by `topomap segment` (else segment now)")
     plan.add_argument("--robot-radius", type=float, default=0.2, help="metres")
     plan.add_argument("--draw", help="write a PNG of the path")
@@ -530,27 +685,59 @@ def build_parser() -> argparse.ArgumentParser:
         "--compare", action="store_true", help="also draw a flat RRTConnect path (with --draw)"
     )
     plan.set_defaults(func=cmd_plan)
+
+    export = sub.add_parser("export", help="export a map's route graph (Nav2 route server)")
+    export.add_argument("map", help="map_server YAML")
+    export.add_argument(
+        "--nav2-route", required=True, help="OUT.geojson: the door graph for nav2_route"
+    )
+    export.add_argument("--regions", help="folder written by `topomap segment` (else segment now)")
+    export.add_argument("--robot-radius", type=float, default=0.2, help="metres")
+    export.add_argument("--force", action="store_true", help="overwrite an existing file")
+    export.set_defaults(func=cmd_export)
+    _add_output_options(parser)
+    parser.set_defaults(verbose=False, quiet=False)
     return parser
 
 
+def _add_output_options(parser: argparse.ArgumentParser) -> None:
+    """``-v`` and ``-q`` on ``parser`` and every subcommand, so they work before and after
+    it (SUPPRESS: a subcommand's default does not undo what was given before it)."""
+    parser.add_argument(
+        "-v", "--verbose", action="store_true", default=argparse.SUPPRESS, help="debug logging"
+    )
+    parser.add_argument(
+        "-q", "--quiet", action="store_true", default=argparse.SUPPRESS, help="no progress"
+    )
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for subcommand in action.choices.values():
+                _add_output_options(subcommand)
+
+
 def run() -> None:
-    """The console script: :func:`main`, then exit without the interpreter's teardown, where
-    OMPL's bindings would report leaked objects."""
-    status = main()
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(status)
+    """The console script: :func:`main`'s status is the exit status."""
+    sys.exit(main())
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit status (2 for bad input)."""
-    args = build_parser().parse_args(argv)
-    logging.basicConfig(
-        level=logging.INFO if args.verbose else logging.WARNING,
-        format="%(levelname)s %(name)s: %(message)s",
-    )
+    """Run the command line; returns the exit status.
+
+    Bad input (any :class:`~maps.errors.TopomapError`: a missing or malformed file, a value
+    out of range, a file that would be overwritten) ends with one line on stderr and status
+    2, as do usage errors; anything else is a bug and keeps its traceback.
+    """
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as done:  # a usage error (2) or --help (0), already printed
+        return int(done.code or 0)
+    logging.basicConfig(format="%(levelname)s %(name)s: %(message)s")
+    if args.verbose:
+        for package in PACKAGES:
+            logging.getLogger(package).setLevel(logging.DEBUG)
+    args.progress = Progress(quiet=args.quiet)
     try:
         return int(args.func(args))
-    except (MapsError, PlanningError, FileNotFoundError, FileExistsError, ValueError) as err:
+    except TopomapError as err:
         print(f"topomap: error: {err}", file=sys.stderr)
         return 2
