@@ -13,6 +13,10 @@ furniture, never in cells, so it holds at any resolution:
 2. **Robot space.** A free cell belongs to the building when a disc of ``robot_radius`` that
    covers it fits in the free space (a morphological opening): free rays thinner than the robot
    go. Connected pieces of that space under ``min_area`` square metres (islands) go too.
+3. **Outside** (:func:`drop_outside`, once the space is cut into places): in a map that draws
+   its walls as occupied cells, a place whose edge is less than ``min_wall_share`` wall and the
+   rest unknown space is not a room but the fan of rays that beams leave through a window, a
+   glass wall or an open door into space nobody mapped; it goes too.
 
 Nothing is dropped silently: :attr:`ConditionedMap.dropped` counts the cells of each kind.
 """
@@ -67,7 +71,8 @@ class ConditionedMap:
         Occupied or unknown cells taken for furniture, specks and small unknown patches.
     dropped
         Free cells left out, by reason: ``thin`` (no robot disc fits), ``islands`` (pieces
-        under ``min_area``).
+        under ``min_area``), ``outside`` (places bounded by unknown space, see
+        :func:`drop_outside`).
     """
 
     grid: OccupancyGrid
@@ -165,5 +170,67 @@ def condition(
     dropped = {
         "thin": int((free & ~opened).sum()),
         "islands": int((free & opened & ~space).sum()),
+        "outside": 0,
     }
     return ConditionedMap(grid, space, kept, clutter & space, dropped)
+
+
+def wall_share(grid: OccupancyGrid, labels: NDArray[np.integer]) -> NDArray[np.float64]:
+    """For each label of ``labels`` (index = label), the share of its edge that is wall
+    (occupied cells) rather than unknown space; edges with other labels do not count.
+    Index 0 holds the share over all labels together.
+
+    Examples
+    --------
+    >>> cells = np.full((5, 5), -1, np.int8)
+    >>> cells[:, 0] = 100
+    >>> cells[1:4, 1:4] = 0
+    >>> labels = np.zeros((5, 5), np.int32)
+    >>> labels[1:4, 1:4] = 1
+    >>> wall_share(OccupancyGrid(cells, 0.1), labels).round(2).tolist()
+    [0.25, 0.25]
+    """
+    count = int(labels.max(initial=0)) + 1
+    wall, unknown = np.zeros(count), np.zeros(count)
+    occupied, unseen = grid.occupied, grid.unknown
+    for inner, outer in (
+        (np.s_[1:, :], np.s_[:-1, :]),
+        (np.s_[:-1, :], np.s_[1:, :]),
+        (np.s_[:, 1:], np.s_[:, :-1]),
+        (np.s_[:, :-1], np.s_[:, 1:]),
+    ):
+        own = labels[inner]
+        edge = (own > 0) & (labels[outer] == 0)
+        wall += np.bincount(own[edge & occupied[outer]], minlength=count)
+        unknown += np.bincount(own[edge & unseen[outer]], minlength=count)
+    wall[0], unknown[0] = wall.sum(), unknown.sum()
+    return np.divide(wall, wall + unknown, out=np.ones(count), where=wall + unknown > 0)
+
+
+def drop_outside(
+    conditioned: ConditionedMap, places: NDArray[np.integer], min_wall_share: float = 0.25
+) -> ConditionedMap:
+    """``conditioned`` without the places (labels of the map's shape) whose edge is less than
+    ``min_wall_share`` wall (see the module docstring).
+
+    Only in maps that draw walls as occupied cells (at least 60 % of all the places'
+    edges): where walls are drawn grey, as unknown (floor plans read with thresholds that make
+    them so), an unknown edge says nothing about the outside, and nothing is dropped.
+    """
+    share = wall_share(conditioned.grid, places)
+    if share[0] < 0.6:
+        return conditioned
+    low = share < min_wall_share
+    low[0] = False
+    outside = low[places]
+    if not outside.any():
+        return conditioned
+    dropped = dict(conditioned.dropped)
+    dropped["outside"] = dropped.get("outside", 0) + int((conditioned.free & outside).sum())
+    return ConditionedMap(
+        conditioned.grid,
+        conditioned.space & ~outside,
+        conditioned.free & ~outside,
+        conditioned.clutter & ~outside,
+        dropped,
+    )

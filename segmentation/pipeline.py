@@ -4,7 +4,9 @@ Stages, each timed in :attr:`Segmentation.seconds`:
 
 1. ``condition``: the map's building space and its clutter (:mod:`segmentation.conditioning`).
 2. ``places``: watershed basins of the clearance (:func:`segmentation.refine.basins`) measured
-   in the conditioned space, where furniture does not count as wall.
+   in the conditioned space, where furniture does not count as wall; places bounded by
+   unknown space rather than walls are dropped
+   (:func:`~segmentation.conditioning.drop_outside`).
 3. ``keyframes``: for a map alone, virtual 360 degree scans at the most open point of every
    place and on a lattice of ``spacing`` metres, simulated in the conditioned space; a robot's
    keyframes are used as they are.
@@ -13,8 +15,12 @@ Stages, each timed in :attr:`Segmentation.seconds`:
    places, block by block on maps of more than ``block_places`` places.
 5. ``regions``: every cell of the building gets the cluster of its geodesically nearest
    keyframe: the spectral partition alone, made dense.
-6. ``refine`` (optional): boundaries snapped to the places' boundaries (doors and narrow
-   passages), cuts where nothing narrows merged away (:mod:`segmentation.refine`).
+6. ``refine`` (optional): the regions people draw. The places are joined wherever the opening
+   between them is not a door (:func:`~segmentation.refine.merge_open_boundaries`): a room
+   ends at its doors, a corridor system that no door separates is one region. This rule
+   follows from the geometry alone; on the ipa floor plans it agrees with people more than the
+   spectral clusters snapped to the places did (MCC 0.88 against 0.82), so the spectral
+   partition is kept beside it (:attr:`Segmentation.spectral`), not under it.
 
 Clutter and dropped cells carry no region (label 0).
 """
@@ -34,10 +40,10 @@ from maps.laser_sim import LaserModel
 from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
 from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
-from segmentation.conditioning import ConditionedMap, condition
+from segmentation.conditioning import ConditionedMap, condition, drop_outside
 from segmentation.errors import ParameterError, SegmentationError
-from segmentation.refine import basins, count_basins, merge_open_boundaries, snap_to_basins
-from segmentation.regions import Regions, dense_labels
+from segmentation.refine import basins, count_basins, merge_open_boundaries
+from segmentation.regions import Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter
 from segmentation.virtual import VIRTUAL_LASER, virtual_keyframes
 from segmentation.working import pool, pool_factor, unpool
@@ -103,7 +109,7 @@ class MapSegmenter:
         Finer maps are segmented on cells of about this size (metres), then labelled cell by
         cell.
     refine
-        Snap boundaries to doors and merge open cuts.
+        Regions from the places and their doors (else the spectral partition).
     block_places
         Maps with more places are partitioned block by block.
     laser
@@ -179,6 +185,11 @@ class MapSegmenter:
         lap("condition")
         stage("places")
         places = basins(space, self.place_depth)
+        outside = drop_outside(conditioned, unpool(places, factor, conditioned.space))
+        if outside is not conditioned:
+            conditioned = outside
+            space = pool(conditioned.space, grid, factor)
+            places = consecutive(np.where(space.free, places, 0))
         lap("places")
         if keyframes is None:
             stage("keyframes")
@@ -204,8 +215,7 @@ class MapSegmenter:
         regions = spectral_regions
         if self.refine:
             stage("refine")
-            snapped = snap_to_basins(space, dense, places, self.min_area)
-            merged = merge_open_boundaries(space, snapped)
+            merged = pieces(space, merge_open_boundaries(space, places, places), self.min_area)
             regions = Regions(grid, unpool(merged, factor, conditioned.free))
             lap("refine")
         return Segmentation(

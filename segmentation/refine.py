@@ -6,11 +6,8 @@ Two steps, each a function:
   nearest wall): a watershed from the open spaces meets at the narrowest passages, the doors.
   Each basin takes the region that covers most of it, so region boundaries move to doors.
 - :func:`merge_open_boundaries`: spectral clusters also split long corridors and large rooms
-  where nothing narrows the space. Two touching regions are merged when an opening between them
-  is about as wide as each of them (between ``ratio`` and ``2 - ratio`` times its width, twice
-  its largest clearance): a door is much narrower than the spaces it joins, and a bay opening
-  onto the side of a corridor is much wider than the corridor, but a cut across a corridor or a
-  room is neither. The most open pair is merged first.
+  where nothing narrows the space. Two touching regions stay apart only where the opening
+  between them is a door: narrower than the open spaces on both sides of it.
 """
 
 from __future__ import annotations
@@ -18,7 +15,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
+from scipy import ndimage, sparse
+from scipy.sparse.csgraph import connected_components
 from skimage.segmentation import watershed
 
 from maps.grid import OccupancyGrid
@@ -103,34 +101,55 @@ def snap_to_basins(
 
 
 def merge_open_boundaries(
-    grid: OccupancyGrid, labels: NDArray[np.int32], ratio: float = 0.7
+    grid: OccupancyGrid,
+    labels: NDArray[np.int32],
+    basin: NDArray[np.int32] | None = None,
+    ratio: float = 0.8,
+    max_door: float = 2.5,
 ) -> NDArray[np.int32]:
-    """Merge regions of ``labels`` joined by an opening between ``ratio`` and ``2 - ratio``
-    times the width of each of the two (a cut across both), most open first."""
-    if not ratio > 0:
-        raise ParameterError(f"ratio must be > 0, got {ratio!r}")
-    count = int(labels.max(initial=0))
-    if count < 2:
+    """Merge regions of ``labels`` that touch where nothing narrows the space.
+
+    The opening between two regions is a door when its clearance (half its width, at its most
+    open cell) is below ``ratio`` times the clearance of the open spaces on *both* sides (the
+    peaks of the basins of :func:`basins` that touch the opening) and at most ``max_door``
+    metres wide (double doors included; a wider constriction is where a corridor narrows, not a
+    door). Anything else (a cut across a corridor or a room, a corridor widening into a hall)
+    is merged away.
+
+    Examples
+    --------
+    >>> free = np.zeros((10, 33), bool)
+    >>> free[1:9, 1:32] = True  # a corridor cut in three
+    >>> labels = np.where(free, 1 + np.arange(33) // 11, 0).astype(np.int32)
+    >>> grid = OccupancyGrid.from_masks(free, resolution=0.1)
+    >>> np.unique(merge_open_boundaries(grid, labels)).tolist()
+    [0, 1]
+    """
+    if not 0 < ratio <= 1:
+        raise ParameterError(f"ratio must lie in (0, 1], got {ratio!r}")
+    if int(labels.max(initial=0)) < 2:
         return labels
-    ids = np.arange(count + 1)
-    width = 2 * np.asarray(ndimage.maximum(grid.clearance(), labels, ids), float)
-    openings = find_transitions(grid, labels)
-    a = np.array([t.a for t in openings], np.int64)
-    b = np.array([t.b for t in openings], np.int64)
-    span = np.array([t.width for t in openings])
-    parent = ids.copy()
-    while len(span):
-        ga, gb = parent[a], parent[b]
-        fit_a, fit_b = span / width[ga], span / width[gb]
-        across = (
-            (ga != gb)
-            & (np.minimum(fit_a, fit_b) >= ratio)
-            & (np.maximum(fit_a, fit_b) <= 2 - ratio)
-        )
-        if not across.any():
-            break
-        best = int(np.argmax(np.where(across, np.minimum(fit_a, fit_b), -np.inf)))
-        keep, gone = int(ga[best]), int(gb[best])
-        parent[parent == gone] = keep
-        width[keep] = max(width[keep], width[gone])
-    return consecutive(parent[labels])
+    basin = basins(grid) if basin is None else basin
+    clearance = clearance_of(grid.free, grid.resolution)
+    peak = np.zeros(int(basin.max(initial=0)) + 1)
+    inside = basin > 0
+    np.maximum.at(peak, basin[inside], clearance[inside])
+    ra, ca, rb, cb = boundary_pairs(labels)
+    a, b = labels[ra, ca].astype(np.int64), labels[rb, cb].astype(np.int64)
+    passage = np.minimum(clearance[ra, ca], clearance[rb, cb])
+    side_a, side_b = peak[basin[ra, ca]], peak[basin[rb, cb]]
+    pair = a * (int(labels.max()) + 1) + b
+    pairs, index = np.unique(pair, return_inverse=True)
+    count = len(pairs)
+    widest = np.zeros(count)
+    open_a, open_b = np.zeros(count), np.zeros(count)
+    np.maximum.at(widest, index, passage)
+    np.maximum.at(open_a, index, side_a)
+    np.maximum.at(open_b, index, side_b)
+    merge = (widest >= ratio * np.minimum(open_a, open_b)) | (2 * widest > max_door)
+    first, second = np.divmod(pairs[merge], int(labels.max()) + 1)
+    links = sparse.coo_matrix(
+        (np.ones(len(first)), (first, second)), shape=(int(labels.max()) + 1,) * 2
+    )
+    _, component = connected_components(links, directed=False)
+    return consecutive(np.where(labels > 0, component[labels] + 1, 0))

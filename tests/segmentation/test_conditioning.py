@@ -1,0 +1,178 @@
+"""Map conditioning and the pipeline on constructed cases, real maps and odd inputs."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+import maps
+from maps.grid import OCCUPIED, UNKNOWN, OccupancyGrid
+from segmentation.conditioning import condition, find_clutter
+from segmentation.errors import ParameterError, SegmentationError
+from segmentation.export import read_label_image
+from segmentation.metrics import score
+from segmentation.pipeline import MapSegmenter
+from segmentation.spectral import SpectralSegmenter
+from segmentation.working import pool, unpool
+
+
+def segment(grid: OccupancyGrid, **options) -> np.ndarray:
+    pipeline = MapSegmenter(spectral=SpectralSegmenter(random_state=0), **options)
+    return pipeline.segment(grid).regions.labels
+
+
+def region_count(labels: np.ndarray) -> int:
+    return len(np.unique(labels[labels > 0]))
+
+
+def walled(
+    width_m: float, height_m: float, resolution: float = 0.05, pad: float = 0.5
+) -> np.ndarray:
+    """Cells of a walled rectangle (0.1 m walls), ``pad`` metres of unknown around it."""
+    pad = round(pad / resolution)
+    wall = max(1, round(0.1 / resolution))
+    h, w = round(height_m / resolution), round(width_m / resolution)
+    cells = np.full((h + 2 * pad, w + 2 * pad), UNKNOWN, np.int8)
+    cells[pad - wall : pad + h + wall, pad - wall : pad + w + wall] = OCCUPIED
+    cells[pad : pad + h, pad : pad + w] = 0
+    return cells
+
+
+def test_a_ray_through_a_wall_gap_into_unknown_space_is_dropped():
+    cells = walled(4.0, 4.0)
+    middle = cells.shape[0] // 2
+    cells[middle, 8:] = 0  # a one-cell free ray out through the east wall, 2 m into the unknown
+    conditioned = condition(OccupancyGrid(cells, 0.05))
+    ray = np.zeros_like(conditioned.free)
+    ray[middle, 92:] = True  # the part beyond the wall
+    assert not (conditioned.free & ray).any()
+    assert conditioned.dropped["thin"] >= ray.sum()
+    labels = segment(OccupancyGrid(cells, 0.05))
+    assert region_count(labels) == 1 and not (labels[ray] > 0).any()
+
+
+def test_a_fan_of_rays_through_a_window_is_dropped_as_outside():
+    cells = walled(6.0, 5.0, pad=3.0)
+    rows, cols = np.mgrid[0 : cells.shape[0], 0 : cells.shape[1]]
+    # rays through a 1 m window in the north wall fan out 3 m into space nobody mapped
+    height = 60 - rows  # cells above the room's first row (row 60)
+    fan = (height > 0) & (np.abs(cols - 120) < 10 + 0.6 * height)
+    cells[fan] = 0
+    grid = OccupancyGrid(cells, 0.05)
+    found = MapSegmenter(spectral=SpectralSegmenter(random_state=0)).segment(grid)
+    assert found.conditioned.dropped["outside"] > 0
+    assert not (found.regions.labels[fan & (height > 10)] > 0).any()
+    assert region_count(found.regions.labels) == 1
+
+
+def test_a_room_full_of_tables_stays_one_room():
+    cells = walled(8.0, 6.0)
+    rng = np.random.default_rng(3)
+    for row in range(20, 110, 24):
+        for col in range(20, 140, 40):  # 1.2 x 0.6 m tables, 0.4 m or more apart
+            r, c = row + rng.integers(-2, 3), col + rng.integers(-2, 3)
+            cells[r : r + 12, c : c + 24] = OCCUPIED
+    grid = OccupancyGrid(cells, 0.05)
+    clutter = find_clutter(grid)
+    walls = OccupancyGrid(walled(8.0, 6.0), 0.05).occupied
+    assert np.array_equal(clutter, grid.occupied & ~walls)
+    assert region_count(segment(grid)) == 1
+
+
+def test_a_dotted_wall_stays_a_wall():
+    """A SLAM wall drawn as specks 0.1 m apart still divides two rooms; a speck alone is clutter."""
+    cells = walled(8.0, 4.0)
+    middle = cells.shape[1] // 2
+    cells[:, middle - 1 : middle + 1] = 0
+    cells[::2, middle - 1 : middle + 1] = OCCUPIED  # specks every other cell
+    cells[40:60, middle - 1 : middle + 1] = 0  # a 1 m door
+    cells[30, 30] = OCCUPIED  # one speck in the left room
+    grid = OccupancyGrid(cells, 0.05)
+    clutter = find_clutter(grid)
+    assert clutter[30, 30] and not clutter[20, middle]
+    labels = segment(grid)
+    assert region_count(labels) == 2
+    assert labels[50, 30] != labels[50, cells.shape[1] - 30]
+
+
+def test_a_corridor_with_side_doors_and_a_junction_is_one_region():
+    resolution = 0.05
+    cells = np.full((400, 400), OCCUPIED, np.int8)
+    cells[180:220, 20:380] = 0  # a 2 m x 18 m corridor
+    cells[20:180, 180:220] = 0  # a corridor branching north: a T junction
+    for col in (60, 250, 340):  # rooms south of the corridor, each behind a 0.9 m door
+        cells[230:330, col - 40 : col + 40] = 0
+        cells[220:230, col - 9 : col + 9] = 0
+    grid = OccupancyGrid(cells, resolution)
+    labels = segment(grid)
+    corridor = labels[200, 100]
+    assert labels[200, 370] == corridor and labels[30, 200] == corridor
+    rooms = {int(labels[300, col]) for col in (60, 250, 340)}
+    assert len(rooms) == 3 and corridor not in rooms
+    assert region_count(labels) == 4
+
+
+def test_furnished_floor_plan_agrees_with_people(data_dir):
+    grid = maps.OccupancyGrid.load(data_dir / "ipa" / "office_b_furnitures.yaml")
+    truth = read_label_image(data_dir / "ipa" / "office_b_gt_labels.png")
+    assert score(segment(grid), truth).mcc > 0.9
+
+
+@pytest.mark.parametrize("resolution", [0.02, 0.05, 0.1])
+def test_the_same_building_at_any_resolution(resolution, two_rooms):
+    grid = two_rooms(door=0.9, resolution=resolution)
+    labels = segment(grid)
+    assert region_count(labels) == 2
+    left, right = grid.world_to_cell(np.array([1.0, 7.0]), np.array([2.0, 2.0]))
+    assert labels[left[0], right[0]] != labels[left[1], right[1]]
+
+
+def test_a_rotated_origin_changes_nothing_but_the_frame(two_rooms):
+    grid = two_rooms()
+    turned = OccupancyGrid(grid.cells, grid.resolution, (-3.0, 5.0, math.radians(45)))
+    assert np.array_equal(segment(grid), segment(turned))
+
+
+def test_free_space_touching_the_map_edge_is_segmented():
+    cells = np.zeros((80, 120), np.int8)  # all free: the edge is the only wall
+    labels = segment(OccupancyGrid(cells, 0.05))
+    assert region_count(labels) == 1
+    assert (labels > 0).sum() > 0.95 * labels.size
+
+
+def test_no_free_space_is_a_clear_error():
+    with pytest.raises(SegmentationError, match="no free space"):
+        segment(OccupancyGrid(np.full((50, 50), OCCUPIED, np.int8), 0.05))
+    with pytest.raises(ParameterError, match="robot_radius"):
+        condition(OccupancyGrid(np.zeros((5, 5), np.int8), 0.05), robot_radius=-1)
+
+
+def test_same_seed_same_regions():
+    plan = maps.generate_floor_plan("flat", furniture=0.3, random_state=1)
+    assert np.array_equal(segment(plan.grid), segment(plan.grid))
+
+
+def blocks(mask: np.ndarray, factor: int, shape: tuple[int, int]) -> np.ndarray:
+    """Coarse ``mask`` blown up to fine cells, cut to ``shape``."""
+    return np.kron(mask, np.ones((factor, factor), bool))[: shape[0], : shape[1]]
+
+
+@given(arrays(bool, st.tuples(st.integers(1, 30), st.integers(1, 30))), st.integers(1, 4))
+def test_pooling_never_opens_a_wall_and_unpooling_labels_every_cell(fine_mask, factor):
+    grid = OccupancyGrid.from_masks(fine_mask, 0.05)
+    coarse = pool(fine_mask, grid, factor)
+    assert not (blocks(coarse.free, factor, fine_mask.shape) & ~fine_mask).any()
+    labels = np.where(coarse.free, np.arange(coarse.free.size).reshape(coarse.shape) + 1, 0)
+    fine = unpool(labels, factor, fine_mask)
+    assert np.array_equal(fine > 0, fine_mask & bool(labels.any()))
+    rows, cols = np.nonzero(blocks(coarse.free, factor, fine_mask.shape))
+    assert np.array_equal(fine[rows, cols], labels[rows // factor, cols // factor])
+    # a coarse cell keeps its place in the map frame
+    if coarse.free.any():
+        r, c = np.argwhere(coarse.free)[0]
+        x, y = coarse.cell_to_world(r, c)
+        fr, fc = grid.world_to_cell(x, y)
+        assert (fr // factor, fc // factor) == (r, c)
