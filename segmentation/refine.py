@@ -1,13 +1,10 @@
-"""Refinement of a spectral partition: boundaries moved to doors, open cuts merged away.
+"""Places and doors: the regions people draw, from the geometry of the free space.
 
-Two steps, each a function:
-
-- :func:`snap_to_basins`: the free space is cut into basins of its clearance (distance to the
+- :func:`basins`: the free space is cut into basins of its clearance (distance to the
   nearest wall): a watershed from the open spaces meets at the narrowest passages, the doors.
-  Each basin takes the region that covers most of it, so region boundaries move to doors.
-- :func:`merge_open_boundaries`: spectral clusters also split long corridors and large rooms
-  where nothing narrows the space. Two touching regions stay apart only where the opening
-  between them is a door: narrower than the open spaces on both sides of it.
+- :func:`merge_open_boundaries`: places (or spectral clusters) also split long corridors and
+  large rooms where nothing much narrows the space. Two touching regions stay apart only where
+  the opening between them is a door: narrower than the open spaces on both sides of it.
 """
 
 from __future__ import annotations
@@ -22,8 +19,7 @@ from skimage.segmentation import watershed
 from maps.grid import OccupancyGrid
 from segmentation.conditioning import clearance_of
 from segmentation.errors import ParameterError
-from segmentation.regions import boundary_pairs, consecutive, pieces
-from segmentation.transitions import find_transitions
+from segmentation.regions import boundary_pairs, consecutive
 
 
 def basins(grid: OccupancyGrid, depth: float = 0.3) -> NDArray[np.int32]:
@@ -81,23 +77,6 @@ def count_basins(grid: OccupancyGrid, basin: NDArray[np.int32], min_area: float 
     a guess of the number of places (rooms, corridor pieces) for the spectral ``k``."""
     sizes = np.bincount(basin.ravel())[1:]
     return max(1, int((sizes * grid.resolution**2 >= min_area).sum()))
-
-
-def snap_to_basins(
-    grid: OccupancyGrid,
-    labels: NDArray[np.int32],
-    basin: NDArray[np.int32] | None = None,
-    min_area: float = 1.0,
-) -> NDArray[np.int32]:
-    """Give each basin (of :func:`basins`, unless given) the region covering most of its cells."""
-    basin = basins(grid) if basin is None else basin
-    both = (basin > 0) & (labels > 0)
-    pair, count = np.unique(np.stack([basin[both], labels[both]]), axis=1, return_counts=True)
-    winner = np.zeros(int(basin.max(initial=0)) + 1, np.int32)
-    order = np.lexsort((count, pair[0]))  # per basin, the largest count last
-    winner[pair[0, order]] = pair[1, order]
-    snapped = np.where(basin > 0, winner[basin], labels)
-    return pieces(grid, snapped, min_area)
 
 
 def merge_open_boundaries(

@@ -7,7 +7,7 @@ from skimage.measure import label as connected
 
 import maps
 from segmentation.errors import SegmentationError
-from segmentation.refine import merge_open_boundaries, snap_to_basins
+from segmentation.refine import basins, merge_open_boundaries
 from segmentation.regions import Regions, dense_labels
 from segmentation.transitions import find_transitions
 from segmentation.virtual import virtual_poses
@@ -44,16 +44,13 @@ def test_regions_partition_the_free_space_into_connected_pieces(case, min_area):
         assert polygon.area == pytest.approx(regions.area(region))
 
 
-def test_a_door_is_found_and_snapped_to(two_rooms):
+def test_the_places_meet_at_the_door(two_rooms):
     grid = two_rooms(door=1.0)
-    xs = np.array([1.0, 2.0, 3.0, 3.9, 4.8, 6.0, 7.0])  # keyframe at 4.8 m is in the right room
-    rows, cols = grid.world_to_cell(xs, np.full(len(xs), 2.0))
-    labels = dense_labels(grid, rows, cols, np.array([0, 0, 0, 0, 0, 1, 1]))
-    snapped = snap_to_basins(grid, labels)
-    left = snapped[grid.world_to_cell(2.0, 2.0)]
-    right = snapped[grid.world_to_cell(6.0, 2.0)]
-    assert left != right and len(np.unique(snapped[snapped > 0])) == 2
-    door = find_transitions(grid, snapped)
+    places = basins(grid)
+    left = places[grid.world_to_cell(2.0, 2.0)]
+    right = places[grid.world_to_cell(6.0, 2.0)]
+    assert left != right and len(np.unique(places[places > 0])) == 2
+    door = find_transitions(grid, places)
     assert len(door) == 1
     assert door[0].width == pytest.approx(1.0, abs=0.06)
     assert abs(door[0].centre[0] - 4.15) < 0.2  # in the wall, not in a room
