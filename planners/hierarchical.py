@@ -138,6 +138,7 @@ class HierarchicalPlanner:
         if self.prepare_seconds is not None:
             return self.prepare_seconds
         clock = time.perf_counter()
+        self.space.precompute()
         a, b, cost, part_of = [], [], [], []
         for part, doors in self._doors_of.items():
             sub = self._crop(self.parts, self._part_boxes, part)

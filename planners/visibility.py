@@ -70,10 +70,16 @@ class VisibilityGraph:
             cols.append(j[seen])
         self.n_corner_edges = sum(len(r) for r in rows)
         nodes = self.nodes
-        for k, site in enumerate(self.sites):  # site -> corners and earlier sites
-            sighted, _ = self._sight(site, nodes[: n + k])
-            rows.append(sighted)
-            cols.append(np.full(len(sighted), n + k))
+        m = len(self.sites)
+        if m:  # site -> corner pairs the corner is tangent to, and site -> site pairs
+            k, j = np.repeat(np.arange(m), n), np.tile(np.arange(n), m)
+            keep = _tangent(self.corners[j] - self.sites[k], self._blocked[j])
+            si, sj = _pairs(0, m, m)
+            i = np.concatenate([n + k[keep], n + si])
+            j = np.concatenate([j[keep], n + sj])
+            seen = self._visible(nodes[i], nodes[j])
+            rows.append(i[seen])
+            cols.append(j[seen])
         i, j = np.concatenate([*rows, []]).astype(int), np.concatenate([*cols, []]).astype(int)
         length = np.hypot(*(nodes[j] - nodes[i]).T) * space.grid.resolution
         size = len(nodes)

@@ -211,6 +211,11 @@ class Workspace:
             if cross_v:
                 cv, t_v, nv = cv + sv, t_v + step_v, nv - 1
 
+    def precompute(self) -> None:
+        """Build the lookup tables of the fast motion tests now, not at the first long
+        motion (part of a planner's preprocessing)."""
+        _ = self._blocked_prefix
+
     @cached_property
     def _blocked_prefix(self) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
         """Running counts of blocked cells along each lattice row ``[v, u]`` and each
