@@ -239,7 +239,7 @@ class OnlineSegmenter:
     tile: float = 3.2
     max_gap: float = 10.0
     dense: bool = True
-    region_resolution: float = 0.1
+    region_resolution: float = 0.2
     reach: float = 4.0
     centres_: dict[int, Centre] = field(init=False, repr=False)
     threshold_: float = field(init=False, repr=False)
@@ -298,12 +298,7 @@ class OnlineSegmenter:
         labels = segmenter.labels_.astype(np.int64) + 1
         n = len(keyframes)
         self.similarity_scale_ = float(segmenter.affinity_.data.max(initial=0.0)) or 1.0
-        self.centres_ = {}
-        self._cell_index: dict[int, dict[int, int]] = {}
-        self._tile_index: dict[int, set[int]] = {}
-        self._seen_tiles: set[int] = set()
-        self._cached: dict[int, CentreKeyframe] = {}
-        self._heap: list[tuple[int, int]] = []
+        self._empty_store()
         for i, ((keys, tiles, _), region) in enumerate(zip(scans, labels.tolist(), strict=True)):
             if region not in self.centres_:
                 self.centres_[region] = Centre({}, 0, 0, set(), [], n - 1)
@@ -328,6 +323,49 @@ class OnlineSegmenter:
             "seed: %d keyframes, %d clusters, T = %.3f", n, len(self.centres_), self.threshold_
         )
         return self
+
+    def _empty_store(self) -> None:
+        """No centre yet: the centres, the cell index and the tile index."""
+        self.centres_ = {}
+        # the cell index: cell key -> row; per row up to `width` (region, hits) of the centres
+        # that hit the cell (region 0 = free entry), so lookups are vectorised
+        self._rows: dict[int, int] = {}
+        self._row_region = np.zeros((1024, 4), np.int32)
+        self._row_hits = np.zeros((1024, 4), np.int32)
+        self._tile_index: dict[int, set[int]] = {}
+        self._seen_tiles: set[int] = set()
+        self._cached: dict[int, CentreKeyframe] = {}
+        self._heap: list[tuple[int, int]] = []
+
+    def _index_rows(self, keys: NDArray[np.int64], create: bool) -> NDArray[np.int64]:
+        """Rows of the cell index for ``keys`` (-1 for a cell no centre hit unless ``create``)."""
+        if not create:
+            get = self._rows.get
+            return np.fromiter((get(k, -1) for k in keys.tolist()), np.int64, len(keys))
+        rows = self._rows
+        found = np.fromiter((rows.setdefault(k, len(rows)) for k in keys.tolist()), np.int64)
+        if len(rows) > len(self._row_region):
+            extra = ((0, max(len(rows), 2 * len(self._row_region)) - len(self._row_region)), (0, 0))
+            self._row_region = np.pad(self._row_region, extra)
+            self._row_hits = np.pad(self._row_hits, extra)
+        return found
+
+    def _index_add(self, region: int, keys: NDArray[np.int64], hits: NDArray[np.int64]) -> None:
+        """``region``'s centre hit the cells ``keys`` (unique) ``hits`` more times."""
+        rows = self._index_rows(keys, create=True)
+        while True:
+            table = self._row_region[rows]
+            match = table == region
+            has = match.any(axis=1)
+            free = table == 0
+            if np.all(has | free.any(axis=1)):
+                break
+            # a cell hit by more centres than a row holds: widen the rows
+            self._row_region = np.hstack([self._row_region, np.zeros_like(self._row_region)])
+            self._row_hits = np.hstack([self._row_hits, np.zeros_like(self._row_hits)])
+        column = np.where(has, match.argmax(axis=1), free.argmax(axis=1))
+        self._row_region[rows, column] = region
+        self._row_hits[rows, column] += hits
 
     def _seed_threshold(self, keyframes: Sequence[Keyframe], scans: list[Any]) -> float:
         """``T``: over pairs of seed clusters ``(a, b)`` that are near each other, the smallest
@@ -479,11 +517,10 @@ class OnlineSegmenter:
         self._seen_tiles.update(tiles.tolist())
         if not move:
             return
-        counts, index_ = centre.counts, self._cell_index
+        counts = centre.counts
         for key in keys.tolist():
             counts[key] = counts.get(key, 0) + 1
-            cell = index_.setdefault(key, {})
-            cell[region] = cell.get(region, 0) + 1
+        self._index_add(region, keys, np.ones(len(keys), np.int64))
         centre.members += 1
         centre.mass += len(keys)
         for tile in tiles.tolist():
@@ -523,8 +560,12 @@ class OnlineSegmenter:
         kept, gone = self.centres_[a], self.centres_.pop(b)
         for key, count in gone.counts.items():
             kept.counts[key] = kept.counts.get(key, 0) + count
-            cell = self._cell_index[key]
-            cell[a] = cell.get(a, 0) + cell.pop(b)
+        keys, hits = gone.arrays()
+        rows = self._index_rows(keys, create=False)
+        column = (self._row_region[rows] == b).argmax(axis=1)
+        self._row_region[rows, column] = 0
+        self._row_hits[rows, column] = 0
+        self._index_add(a, keys, hits)
         kept.members += gone.members
         kept.mass += gone.mass
         kept.keyframes.extend(gone.keyframes)
@@ -584,21 +625,16 @@ class OnlineSegmenter:
         cells = _decode(keys)
         around = cell_keys((cells[:, None, :] + self._offsets[None, :, :]).reshape(-1, 2))
         unique, inverse = np.unique(around, return_inverse=True)
-        get = self._cell_index.get
-        rows, columns, values = [], [], []
-        column: dict[int, int] = {}
-        for row, key in enumerate(unique.tolist()):
-            hits = get(key)
-            if hits:
-                for region, count in hits.items():
-                    if region != own:
-                        rows.append(row)
-                        columns.append(column.setdefault(region, len(column)))
-                        values.append(count)
-        if not column:
+        rows = self._index_rows(unique, create=False)
+        near = np.flatnonzero(rows >= 0)
+        table, hits = self._row_region[rows[near]], self._row_hits[rows[near]]
+        entry = (table > 0) & (table != (own or 0))
+        at, slot = np.nonzero(entry)
+        if len(at) == 0:
             return [], np.zeros(0)
-        found = np.zeros((len(unique), len(column)))
-        found[rows, columns] = values
+        regions, column = np.unique(table[at, slot], return_inverse=True)
+        found = np.zeros((len(unique), len(regions)))
+        found[near[at], column] = hits[at, slot]
         closeness = np.tile(self._closeness, len(keys))
         # F_A around A's cells: the best closeness of A's hits
         field_a = np.zeros(len(unique))
@@ -606,11 +642,10 @@ class OnlineSegmenter:
         # F_B at A's cells: the best closeness of B's hits around each of them
         close = np.where(found[inverse] > 0, closeness[:, None], 0.0)
         near_b = close.reshape(len(keys), len(self._offsets), -1).max(axis=1)
-        regions = list(column)
-        mass = np.array([self.centres_[r].mass for r in regions], np.float64)
+        mass = np.array([self.centres_[r].mass for r in regions.tolist()], np.float64)
         first = weights @ near_b / float(weights.sum())
         second = field_a @ found / mass
-        return regions, (first + second) / (2 * self._nn.tolerance)
+        return regions.tolist(), (first + second) / (2 * self._nn.tolerance)
 
     def _centre_keyframe(self, region: int) -> CentreKeyframe:
         """The centre's most hit cells (as many as a member hits on average) as a keyframe."""

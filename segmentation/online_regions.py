@@ -60,13 +60,14 @@ class OnlineRegions:
         self.resolution = float(resolution)
         self.reach = float(reach)
         self._low = np.zeros(2, np.int64)  # cell (i, j) of array index [0, 0]
-        self._owner = np.full((0, 0), -1, np.int64)
+        self._owner = np.full((0, 0), -1, np.int32)
         self._distance = np.full((0, 0), np.inf, np.float32)
         self._region_of = np.zeros(64, np.int64)  # region of each keyframe index
         self._members: dict[int, list[int]] = {}
         self._pose_sum: dict[int, NDArray[np.float64]] = {}
         self._cells: dict[int, int] = {}
         self._boundary: dict[tuple[int, int], int] = {}
+        self._neighbours: dict[int, set[int]] = {}  # regions with a boundary entry
         self.graph = nx.Graph(resolution=self.resolution)
 
     # --------------------------------------------------------------------------- queries
@@ -126,21 +127,19 @@ class OnlineRegions:
             absorbed, np.zeros(2)
         )
         self._cells[survivor] = self._cells.get(survivor, 0) + self._cells.pop(absorbed, 0)
-        for (a, b), count in list(self._boundary.items()):
-            if absorbed in (a, b):
-                del self._boundary[(a, b)]
-                other = b if a == absorbed else a
-                if other != survivor:
-                    self._count_boundary(survivor, other, count)
+        for other in self._neighbours.pop(absorbed, set()):
+            count = self._boundary.pop((min(absorbed, other), max(absorbed, other)))
+            self._neighbours[other].discard(absorbed)
+            if other != survivor:
+                self._count_boundary(survivor, other, count)
         if absorbed in self.graph:
             self.graph.remove_node(absorbed)
         self._update_node(survivor)
-        for pair in list(self._boundary):
-            if survivor in pair:
-                self._update_edge(*pair)
+        for other in self._neighbours.get(survivor, set()) | set(self.graph.adj.get(survivor, ())):
+            self._update_edge(survivor, other)
 
     # --------------------------------------------------------------------------- internals
-    def _labels(self, owner: NDArray[np.int64]) -> NDArray[np.int64]:
+    def _labels(self, owner: NDArray[np.integer]) -> NDArray[np.int64]:
         return np.where(owner >= 0, self._region_of[np.maximum(owner, 0)], 0)
 
     def _seen(
@@ -184,7 +183,7 @@ class OnlineRegions:
             end = self._low + shape
             new_high = np.where(high > end, high + np.maximum(_MARGIN, shape // 2), end)
         size = tuple((new_high - new_low).tolist())
-        owner = np.full(size, -1, np.int64)
+        owner = np.full(size, -1, np.int32)
         distance = np.full(size, np.inf, np.float32)
         if self._owner.size:
             a, b = self._low - new_low
@@ -220,8 +219,9 @@ class OnlineRegions:
         for (a, b), sign in ((before, -1), (after, 1)):
             keep = (a != b) & (a > 0) & (b > 0)
             low, high = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
-            pairs, counts = np.unique(np.column_stack([low, high]), axis=0, return_counts=True)
-            for (p, q), count in zip(pairs.tolist(), counts.tolist(), strict=True):
+            pairs, counts = np.unique((low << 32) + high, return_counts=True)
+            for pair, count in zip(pairs.tolist(), counts.tolist(), strict=True):
+                p, q = pair >> 32, pair & 0xFFFFFFFF
                 self._count_boundary(p, q, sign * count)
                 touched.add((p, q))
         for region in np.unique(old[old > 0]).tolist():
@@ -232,6 +232,8 @@ class OnlineRegions:
     def _count_boundary(self, a: int, b: int, count: int) -> None:
         pair = (min(a, b), max(a, b))
         self._boundary[pair] = self._boundary.get(pair, 0) + count
+        self._neighbours.setdefault(a, set()).add(b)
+        self._neighbours.setdefault(b, set()).add(a)
 
     def _update_node(self, region: int) -> None:
         members = self._members.get(region)

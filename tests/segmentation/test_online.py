@@ -38,17 +38,12 @@ def flat_online(flat_run):
 
 def blank(segmenter: OnlineSegmenter, similarity_scale: float = 1.0) -> OnlineSegmenter:
     """An unfitted segmenter's empty centre store, to place centres by hand."""
-    segmenter.centres_ = {}
-    segmenter._cell_index = {}
-    segmenter._tile_index = {}
-    segmenter._seen_tiles = set()
-    segmenter._cached = {}
-    segmenter._heap = []
+    segmenter._empty_store()
     segmenter.similarity_scale_ = similarity_scale
     return segmenter
 
 
-def hits(segmenter: OnlineSegmenter, keyframe: Keyframe):
+def hits(segmenter: OnlineSegmenter, keyframe: Keyframe) -> tuple[np.ndarray, np.ndarray]:
     keys, tiles, _ = segmenter._scan(keyframe, 0)
     return keys, tiles
 
@@ -60,7 +55,7 @@ def test_a_centre_of_one_scan_is_compared_by_eq_12_exactly(flat_run):
     online = blank(OnlineSegmenter())
     for i, keyframe in enumerate(keyframes[:40]):
         online.centres_[i + 1] = Centre({}, 0, 0, set(), [], 0)
-        online._join(i + 1, i, *hits(online, keyframe), True)
+        online._join(i + 1, i, *hits(online, keyframe), move=True)
     for i in (0, 7, 21, 39):
         keys, _ = hits(online, keyframes[i])
         regions, similarity = online._nn_similarities(keys, np.ones(len(keys), np.int64), i + 1)
@@ -98,7 +93,8 @@ def test_eq_15_the_centre_is_the_mean_hit_histogram_in_any_order(scans, random):
     random.shuffle(order)
     online.centres_[1] = Centre({}, 0, 0, set(), [], 0)
     for i in order:
-        online._join(1, i, *hits(online, keyframes[i]), True)
+        keys, tiles = hits(online, keyframes[i])
+        online._join(1, i, keys, tiles, move=True)
     centre = online.centres_[1]
     # the mean of the scans' indicator vectors, counted here cell by cell
     expected: dict[int, float] = {}
