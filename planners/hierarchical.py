@@ -112,6 +112,8 @@ class HierarchicalPlanner:
         self.labels = _fill_unlabelled(labels, space.grid.free)
         # cut where the robot's free space (not the map's) is concave: thin walls count
         self.parts, self.region_of = convex_parts(np.where(space.free, self.labels, 0))
+        if space.free.any() and not self.region_of:
+            raise PlannerParameterError("the labels give no region to any free cell of the map")
         self.doors = _find_doors(space, self.parts, find_transitions(space.grid, self.parts))
         self._doors_of: dict[int, list[int]] = {part: [] for part in self.region_of}
         for index, door in enumerate(self.doors):

@@ -1,5 +1,6 @@
 """The hierarchical planner: paths, doors, goals by region, bad queries, and a property test."""
 
+import networkx as nx
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -8,7 +9,7 @@ from hypothesis import strategies as st
 from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
 from planners.benchmark import far_queries
-from planners.errors import InvalidQueryError, NoPathError
+from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
 from planners.hierarchical import HierarchicalPlanner
 from planners.visibility import VisibilityGraph
 from planners.workspace import Workspace
@@ -140,3 +141,11 @@ def test_one_region_maze_plans_through_its_own_submaps():
     assert len(planner.region_of) > 1
     assert planner.space.collisions(path.waypoints) == 0
     assert exact.length - 1e-9 <= path.length <= 1.02 * exact.length
+
+
+def test_labels_that_cover_nothing_are_refused(two_rooms):
+    grid = two_rooms()
+    with pytest.raises(PlannerParameterError, match="no region"):
+        HierarchicalPlanner(Workspace(grid, 0.2), np.zeros(grid.shape, np.int32), nx.Graph())
+    with pytest.raises(PlannerParameterError, match="shape"):
+        HierarchicalPlanner(Workspace(grid, 0.2), np.ones((3, 3), np.int32), nx.Graph())
