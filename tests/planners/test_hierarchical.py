@@ -61,6 +61,7 @@ def test_goal_by_region_id_and_region_at(two_rooms):
         planner.plan((100.0, 1.0), 2)
 
 
+@pytest.mark.slow
 @settings(max_examples=25)
 @given(seed=st.integers(0, 10_000))
 def test_paths_on_random_buildings_are_valid_and_near_optimal(seed):
@@ -80,6 +81,7 @@ def test_paths_on_random_buildings_are_valid_and_near_optimal(seed):
         assert exact - 1e-6 <= path.length <= 1.08 * exact
 
 
+@pytest.mark.slow
 def test_office_paths_are_within_the_length_targets():
     """On the generated office: median within 2 % of the exact shortest path, none over 8 %."""
     plan = generate_floor_plan("office", random_state=0)

@@ -13,6 +13,7 @@ from topomap.cli import main
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow
 def test_demo_writes_picture_map_and_summary(tmp_path):
     assert main(["demo", "--out", str(tmp_path), "--size", "flat", "--seed", "1"]) == 0
     summary = json.loads((tmp_path / "summary.json").read_text())
@@ -80,6 +81,7 @@ def test_bad_input_gives_a_clear_error(tmp_path, capsys):
         ("plan_to_a_named_region.py", []),
     ],
 )
+@pytest.mark.slow
 def test_examples_run(tmp_path, data_dir, script, args):
     args = [
         str(data_dir / "carmen" / "aces-corrected.log.gz")
@@ -141,6 +143,7 @@ def test_segment_a_map(tmp_path):
     assert main(["segment", str(tmp_path / "g" / "map.yaml"), "--out", str(out)]) == 2
 
 
+@pytest.mark.slow
 def test_segment_a_real_log(tmp_path, data_dir):
     log = data_dir / "carmen" / "intel-corrected.log.gz"
     assert main(["segment", "--scans", str(log), "--out", str(tmp_path)]) == 0
@@ -282,6 +285,7 @@ def test_plan_on_a_real_floor_plan(data_dir, capsys):
     assert space.collisions(waypoints) == 0 and space.path_free(waypoints)
 
 
+@pytest.mark.slow
 def test_bench_plan_writes_one_record_per_planner_and_query(tmp_path):
     out = tmp_path / "bench"
     arguments = ["bench", "plan", "--sizes", "flat", "--queries", "3", "--out", str(out)]
@@ -307,6 +311,7 @@ def test_bench_plan_writes_one_record_per_planner_and_query(tmp_path):
     assert (out / "ompl" / "generated-flat.log").read_text().startswith("topomap version")
 
 
+@pytest.mark.slow
 def test_eval_labels_on_the_place_labelled_plans(tmp_path, data_dir):
     out = tmp_path / "labels"
     assert main(["eval", "labels", str(data_dir / "ipa_places"), "--out", str(out)]) == 0

@@ -89,6 +89,7 @@ def test_usage_errors_return_two(capsys):
     assert main(["--help"]) == 0
 
 
+@pytest.mark.slow
 def test_the_console_command_prints_one_line_for_bad_input_and_nothing_at_exit(tmp_path):
     def topomap(*args: str) -> subprocess.CompletedProcess:
         return subprocess.run(
