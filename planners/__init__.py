@@ -19,22 +19,32 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from planners.errors import PlanningError as PlanningError
     from planners.flat import FlatPlanner as FlatPlanner
     from planners.grid_astar import GridAStar as GridAStar
+    from planners.grid_mcp import GridMCP as GridMCP
     from planners.hierarchical import HierarchicalPlanner as HierarchicalPlanner
+    from planners.nav2_route import RouteGraphError as RouteGraphError
+    from planners.nav2_route import read_nav2_route as read_nav2_route
+    from planners.nav2_route import write_nav2_route as write_nav2_route
     from planners.path import Path as Path
+    from planners.region_route import RegionRoute as RegionRoute
     from planners.visibility import VisibilityGraph as VisibilityGraph
     from planners.workspace import Workspace as Workspace
 
 _EXPORTS = {
     "FlatPlanner": "planners.flat",
     "GridAStar": "planners.grid_astar",
+    "GridMCP": "planners.grid_mcp",
     "HierarchicalPlanner": "planners.hierarchical",
     "InvalidQueryError": "planners.errors",
     "NoPathError": "planners.errors",
     "Path": "planners.path",
     "PlannerParameterError": "planners.errors",
     "PlanningError": "planners.errors",
+    "RegionRoute": "planners.region_route",
+    "RouteGraphError": "planners.nav2_route",
     "VisibilityGraph": "planners.visibility",
     "Workspace": "planners.workspace",
+    "read_nav2_route": "planners.nav2_route",
+    "write_nav2_route": "planners.nav2_route",
 }
 __all__ = sorted(_EXPORTS)
 

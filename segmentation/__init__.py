@@ -1,10 +1,13 @@
 """Spectral segmentation of keyframes or a map into regions, and the region adjacency graph.
 
-The similarity criteria (:mod:`segmentation.similarity`), the spectral partition
-(:class:`SpectralSegmenter`, block by block on large maps: :class:`BlockSpectralSegmenter`),
-virtual keyframes for a map alone, regions (:class:`Regions`) with their refinement, doors
-(:class:`Transition`), the region graph (:func:`region_graph`), its exports and the
-benchmark metrics (:func:`score`). Names are imported lazily, the first time they are used.
+The whole map -> regions pipeline is :class:`MapSegmenter` (its result a
+:class:`Segmentation`); its parts: map conditioning (:func:`condition`), the similarity
+criteria (:mod:`segmentation.similarity`), the spectral partition (:class:`SpectralSegmenter`,
+block by block on large maps: :class:`BlockSpectralSegmenter`), virtual keyframes for a map
+alone, regions (:class:`Regions`) with their refinement, doors (:class:`Transition`), the
+region graph (:func:`region_graph`), its exports and the benchmark metrics (:func:`score`);
+keyframes arriving one by one go to :class:`OnlineSegmenter`. Names are imported lazily, the
+first time they are used.
 """
 
 from __future__ import annotations
@@ -15,6 +18,8 @@ from maps import _exports
 
 if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from segmentation.blocks import BlockSpectralSegmenter as BlockSpectralSegmenter
+    from segmentation.conditioning import ConditionedMap as ConditionedMap
+    from segmentation.conditioning import condition as condition
     from segmentation.errors import ExportFormatError as ExportFormatError
     from segmentation.errors import ParameterError as ParameterError
     from segmentation.errors import SegmentationError as SegmentationError
@@ -29,6 +34,11 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from segmentation.graph import region_graph as region_graph
     from segmentation.metrics import Scores as Scores
     from segmentation.metrics import score as score
+    from segmentation.online import OnlineSegmenter as OnlineSegmenter
+    from segmentation.online import OnlineStateError as OnlineStateError
+    from segmentation.online_regions import OnlineRegions as OnlineRegions
+    from segmentation.pipeline import MapSegmenter as MapSegmenter
+    from segmentation.pipeline import Segmentation as Segmentation
     from segmentation.regions import Regions as Regions
     from segmentation.spectral import SpectralSegmenter as SpectralSegmenter
     from segmentation.transitions import Transition as Transition
@@ -37,13 +47,20 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
 
 _EXPORTS = {
     "BlockSpectralSegmenter": "segmentation.blocks",
+    "ConditionedMap": "segmentation.conditioning",
     "ExportFormatError": "segmentation.errors",
+    "MapSegmenter": "segmentation.pipeline",
+    "OnlineRegions": "segmentation.online_regions",
+    "OnlineSegmenter": "segmentation.online",
+    "OnlineStateError": "segmentation.online",
     "ParameterError": "segmentation.errors",
     "Regions": "segmentation.regions",
     "Scores": "segmentation.metrics",
+    "Segmentation": "segmentation.pipeline",
     "SegmentationError": "segmentation.errors",
     "SpectralSegmenter": "segmentation.spectral",
     "Transition": "segmentation.transitions",
+    "condition": "segmentation.conditioning",
     "find_transitions": "segmentation.transitions",
     "read_geojson": "segmentation.export",
     "read_graphml": "segmentation.export",

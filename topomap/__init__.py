@@ -36,6 +36,7 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from planners.hierarchical import HierarchicalPlanner as HierarchicalPlanner
     from planners.path import Path as Path
     from segmentation.errors import SegmentationError as SegmentationError
+    from segmentation.pipeline import MapSegmenter as MapSegmenter
     from segmentation.regions import Regions as Regions
     from segmentation.spectral import SpectralSegmenter as SpectralSegmenter
     from topomap.errors import LabelError as LabelError
@@ -51,6 +52,7 @@ _EXPORTS = {
     "LabelError": "topomap.errors",
     "LaserScan": "maps.scan",
     "MapError": "maps.errors",
+    "MapSegmenter": "segmentation.pipeline",
     "NoPathError": "planners.errors",
     "OccupancyGrid": "maps.grid",
     "OutputExistsError": "maps.errors",
