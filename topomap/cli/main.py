@@ -245,9 +245,7 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     _refuse_existing(out, ["results.json"], args.force)
-    records = evaluate_all(
-        args.data, progress=args.progress, **_segmenter_options(args)
-    )
+    records = evaluate_all(args.data, progress=args.progress, **_segmenter_options(args))
     columns = ["map", "furnished", "variant", "keyframes", "segments", "rooms"]
     print(_table(records, [*columns, "recall", "precision", "mcc", "ari", "seconds"]))
     print()
