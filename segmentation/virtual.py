@@ -59,11 +59,34 @@ def virtual_poses(
         pieces = np.where(open_space, places, 0)
         wanted = np.unique(pieces[pieces > 0])
     if len(wanted):
-        best = np.array(ndimage.maximum_position(clearance, pieces, wanted)).reshape(-1, 2)
-        chosen[best[:, 0], best[:, 1]] = True
+        rows, cols = most_open_cells(clearance, pieces, wanted)
+        chosen[rows, cols] = True
     rows, cols = np.nonzero(chosen)
     x, y = grid.cell_to_world(rows, cols)
     return np.column_stack([x, y, np.zeros(len(rows))])
+
+
+def most_open_cells(
+    clearance: NDArray[np.floating], labels: NDArray[np.integer], wanted: NDArray[np.integer]
+) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """``(rows, cols)`` of the cell of largest ``clearance`` of each label in ``wanted``, the
+    first in row-major order on ties.
+
+    Examples
+    --------
+    >>> labels = np.array([[1, 1, 2], [1, 2, 2]])
+    >>> clearance = np.array([[0.1, 0.3, 0.2], [0.3, 0.5, 0.1]])
+    >>> [v.tolist() for v in most_open_cells(clearance, labels, np.array([1, 2]))]
+    [[0, 1], [1, 1]]
+    """
+    peak = np.full(int(labels.max(initial=0)) + 1, -np.inf)
+    inside = labels > 0
+    np.maximum.at(peak, labels[inside], clearance[inside])
+    at_peak = inside & (clearance == peak[labels])
+    flat = np.flatnonzero(at_peak)
+    owners, first = np.unique(labels.ravel()[flat], return_index=True)
+    chosen = flat[first[np.isin(owners, wanted)]]
+    return np.unravel_index(chosen, labels.shape)
 
 
 def virtual_keyframes(

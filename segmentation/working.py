@@ -4,7 +4,7 @@ Places and doors are metres wide; cells of a few centimetres only make the segme
 :func:`pool` merges ``factor x factor`` blocks of cells into one cell that is free only when
 all of them are (walls stay closed, passages narrow by at most one coarse cell), and
 :func:`unpool` brings labels back, every fine cell of the mask taking the label of its coarse
-cell, or of the nearest labelled cell when its coarse cell has none.
+cell, or of a labelled cell nearby when its coarse cell has none.
 """
 
 from __future__ import annotations
@@ -60,12 +60,18 @@ def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) ->
     --------
     >>> keep = np.ones((3, 4), bool)
     >>> unpool(np.array([[1, 2], [0, 0]]), 2, keep).tolist()
-    [[1, 1, 2, 2], [1, 1, 2, 2], [1, 1, 2, 2]]
+    [[1, 1, 2, 2], [1, 1, 2, 2], [1, 2, 2, 2]]
     """
     height, width = keep.shape
     fine = np.repeat(np.repeat(labels.astype(np.int32), factor, 0), factor, 1)[:height, :width]
     fine = np.where(keep, fine, 0)
     missing = keep & (fine == 0)
+    for _ in range(factor):  # most gaps are a coarse cell wide: grow labels into them
+        if not missing.any():
+            return fine
+        grown = cv2.dilate(fine.astype(np.float32), np.ones((3, 3), np.uint8)).astype(np.int32)
+        fine = np.where(missing, grown, fine)
+        missing = keep & (fine == 0)
     if missing.any() and (fine > 0).any():
         _, nearest = cv2.distanceTransformWithLabels(
             (fine == 0).astype(np.uint8), cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL
