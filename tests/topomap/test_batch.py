@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from maps.errors import MapFileNotFoundError
+from maps.errors import FormatError, MapFileNotFoundError
 from maps.floorplan import generate_floor_plan
 from tests.maps.bags import Robot, tf_bag
 from topomap.cli.batch import dask_client, find_inputs, fit_blocks, run_batch
@@ -109,6 +109,8 @@ def test_find_inputs_names_and_errors(tmp_path, plans):
         find_inputs([str(tmp_path / "missing")])
     with pytest.raises(MapFileNotFoundError, match=r"\*\.nothing"):
         find_inputs([str(tmp_path / "*.nothing")])
+    with pytest.raises(FormatError, match=r"notes\.yaml.*not a map_server YAML"):
+        find_inputs([str(other / "notes.yaml")])
 
 
 @pytest.mark.slow
@@ -131,7 +133,7 @@ def test_parallel_blocks_equal_the_sequential_run(client):
 
 
 @pytest.mark.slow
-def test_batch_command(tmp_path, plans, capsys):
+def test_batch_command(tmp_path, plans, client, capsys):
     folder, _ = plans
     out = tmp_path / "out"
     bag = tf_bag(tmp_path, "sqlite3", Robot())  # a ROS 2 bag: scans placed by tf
@@ -147,3 +149,12 @@ def test_batch_command(tmp_path, plans, capsys):
     assert "0 done, 3 skipped (done before), 1 failed" in capsys.readouterr().out
     assert len(_index(out)) == 5  # the bag's record is kept
     assert main(["batch", str(tmp_path / "none*.yaml"), "--out", str(out)]) == 2
+    # an existing cluster, by its scheduler's address
+    remote = tmp_path / "remote"
+    address = client.scheduler.address
+    assert (
+        main(["batch", str(folder / "flat-1.yaml"), "--out", str(remote), "--scheduler", address])
+        == 0
+    )
+    summary = json.loads((remote / "summary.json").read_text())
+    assert summary["run"]["scheduler"] == address and summary["counts"]["ok"] == 1

@@ -30,7 +30,7 @@ from typing import Any, Protocol
 import numpy as np
 import yaml
 
-from maps.errors import MapFileNotFoundError
+from maps.errors import FormatError, MapFileNotFoundError
 
 log = logging.getLogger(__name__)
 
@@ -101,6 +101,12 @@ def _expand(pattern: str) -> list[Path]:
             found.append(path)
         elif path.is_dir():
             found += _walk(path)
+        elif not glob.has_magic(pattern):  # named on its own: say what it is not
+            raise FormatError(
+                "not a map_server YAML (with 'image'), a CARMEN log (.log, .clf, .gz), "
+                "a ROS 1 .bag or a ROS 2 bag folder",
+                path=path,
+            )
     return found
 
 
@@ -134,10 +140,16 @@ def find_inputs(patterns: Sequence[str]) -> list[Job]:
     MapFileNotFoundError
         If a named path does not exist, a glob matches nothing, or nothing at all can be
         segmented.
+    FormatError
+        If a file named on its own is none of these.
     """
     paths: list[Path] = []
+    seen: set[Path] = set()
     for pattern in patterns:
-        paths += [p for p in _expand(pattern) if p.resolve() not in {q.resolve() for q in paths}]
+        for path in _expand(pattern):
+            if path.resolve() not in seen:
+                seen.add(path.resolve())
+                paths.append(path)
     if not paths:
         raise MapFileNotFoundError(", ".join(patterns), "map YAML, log or bag")
     names = [_stem(p) for p in paths]
@@ -287,16 +299,23 @@ class Progress(Protocol):
     def close(self) -> object: ...
 
 
+def warm_up() -> None:
+    """Import the pipeline in a worker (seconds of imports its first input would pay)."""
+    import topomap.topomap  # noqa: F401
+
+
 @contextmanager
 def dask_client(workers: int = 2, scheduler: str | None = None) -> Iterator[Any]:
     """A ``distributed.Client``: on the cluster at ``scheduler``, or on a new local cluster of
-    ``workers`` single-threaded processes (closed on exit)."""
+    ``workers`` single-threaded processes (closed on exit). Every worker has imported the
+    pipeline when it is returned."""
     from distributed import Client, LocalCluster
 
     # the scheduler and nannies log every start and stop at INFO in this process
     logging.getLogger("distributed").setLevel(logging.WARNING)
     if scheduler is not None:
         with Client(scheduler) as client:
+            client.run(warm_up)
             yield client
         return
     with (
@@ -304,11 +323,12 @@ def dask_client(workers: int = 2, scheduler: str | None = None) -> Iterator[Any]
             n_workers=workers,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            dashboard_address=":0",  # any free port: several clusters may run at once
             silence_logs=logging.ERROR,
         ) as cluster,
         Client(cluster) as client,
     ):
+        client.run(warm_up)
         yield client
 
 
@@ -429,20 +449,23 @@ def fit_blocks(model: Any, keyframes: Sequence[Any], client: Any) -> Any:
     the sequential run), and the labels are offset in block order as the sequential run does.
     """
     from segmentation.blocks import BlockSpectralSegmenter
+    from segmentation.errors import ParameterError
 
     if len(model.blocks) != len(keyframes):
-        raise ValueError(f"{len(model.blocks)} block ids for {len(keyframes)} keyframes")
+        raise ParameterError(f"{len(model.blocks)} block ids for {len(keyframes)} keyframes")
     order = np.unique(model.blocks)
     members = [np.flatnonzero(model.blocks == block) for block in order]
+    # each block's keyframes go to the cluster once, as data, not inside the task graph
+    data = client.scatter([[keyframes[int(i)] for i in m] for m in members], hash=False)
     parts = [
         client.submit(
             BlockSpectralSegmenter(
                 model.segmenter, np.zeros(len(m), np.int64), model.places[[block]]
             ).fit,
-            [keyframes[int(i)] for i in m],
+            frames,
             pure=False,
         )
-        for block, m in zip(order, members, strict=True)
+        for block, m, frames in zip(order, members, data, strict=True)
     ]
     model.labels_ = np.zeros(len(keyframes), np.int64)
     model.segmenters_ = []

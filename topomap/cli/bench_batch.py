@@ -38,7 +38,7 @@ def generated_maps(folder: Path, count: int, size: str = "flat") -> list[str]:
 def bench_batch_maps(
     out: Path,
     *,
-    maps: int = 12,
+    maps: int = 24,
     workers: Sequence[int] = (1, 2),
     size: str = "flat",
     rounds: int = 2,
@@ -115,7 +115,7 @@ def bench_campus_blocks(workers: int = 2, *, random_state: int = 0) -> dict[str,
 def bench_batch(
     out: str | Path,
     *,
-    maps: int = 12,
+    maps: int = 24,
     workers: Sequence[int] = (1, 2),
     size: str = "flat",
     rounds: int = 2,
