@@ -35,20 +35,18 @@ from topomap.errors import UsageError
 from topomap.labels import classify, name_regions, region_features
 
 
-def places(keyframes: Sequence[Keyframe], resolution: float = 0.05) -> int:
-    """The guess ``k'`` that :class:`~topomap.topomap.TopoMap` uses: the clearance basins of the
-    map built from ``keyframes`` (at most one per keyframe)."""
-    grid = grid_from_keyframes(keyframes, resolution)
-    return min(len(keyframes), count_basins(grid, basins(grid)))
-
-
 def offline_segmenter(
-    keyframes: Sequence[Keyframe], random_state: int = 0, **options: Any
+    keyframes: Sequence[Keyframe],
+    random_state: int = 0,
+    grid: OccupancyGrid | None = None,
+    **options: Any,
 ) -> SpectralSegmenter:
-    """A :class:`SpectralSegmenter` with ``options``; without ``k``, ``k'`` from
-    :func:`places` of ``keyframes``."""
+    """A :class:`SpectralSegmenter` with ``options``; without ``k``, the guess ``k'`` as
+    :class:`~topomap.topomap.TopoMap` makes it: the clearance basins of ``grid`` (by default
+    the map built from ``keyframes``), at most one per keyframe."""
     if options.get("k") is None:
-        options["k"] = places(keyframes)
+        grid = grid_from_keyframes(keyframes, 0.05) if grid is None else grid
+        options["k"] = min(len(keyframes), count_basins(grid, basins(grid)))
     return SpectralSegmenter(random_state=random_state, **options)
 
 
@@ -151,7 +149,7 @@ def draw_online(path: Path, online: OnlineSegmenter, title: str | None = None) -
 
     assert online.regions_ is not None
     labels, extent = online.regions_.label_image()
-    fig = Figure(figsize=(8, 6), dpi=100)
+    fig = Figure(figsize=(6.4, 4.8), dpi=80)
     ax = fig.subplots()
     ax.set_facecolor("0.85")
     ax.imshow(region_colours(int(labels.max(initial=0)))[labels], extent=extent)
