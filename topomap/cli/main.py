@@ -345,7 +345,8 @@ def cmd_bench_online(args: argparse.Namespace) -> int:
         theta=args.theta,
     )
     if "latency" in results:
-        columns = ["keyframes_seen", "median_ms", "p95_ms", "max_ms", "offline_rerun_s", "regions"]
+        columns = ["keyframes_seen", "median_ms", "p95_ms", "max_ms", "cpu_median_ms"]
+        columns += ["cpu_p95_ms", "cpu_max_ms", "offline_rerun_s", "regions"]
         batches = results["latency"]["batches"]
         step = max(1, len(batches) // 20)
         print(_table(batches[::step] + batches[-1:] if len(batches) > 1 else batches, columns))
