@@ -31,6 +31,9 @@ def test_demo_writes_picture_map_and_summary(tmp_path):
         "plan_paths",
     }
     assert summary["segment_plan"]["refined"]["mcc"] > 0.8
+    online = summary["segment_online"]
+    assert 0 < online["threshold_T"] <= 1 and online["regions"] >= 2
+    assert (tmp_path / "segment_online" / "regions.gif").stat().st_size > 0
     for planner in ("hierarchical", "flat_rrtconnect"):
         assert 1.0 <= summary["plan"][planner]["length_over_shortest_median"] < 1.5
     assert cv2.imread(str(tmp_path / "paths.png")) is not None
