@@ -226,6 +226,8 @@ def read_bag_scans(
                 poses.append((_stamp(message), _pose_of(message)))
             else:
                 _add_transforms(tree, message, static=connection.topic.endswith("tf_static"))
+    if not scans:
+        raise LogFormatError("the scan topic has no messages", path=path, field=scan_name)
     if pose_name is not None:
         if fixed_frame is not None:
             raise LogFormatError(

@@ -158,3 +158,17 @@ def test_batch_command(tmp_path, plans, client, capsys):
     )
     summary = json.loads((remote / "summary.json").read_text())
     assert summary["run"]["scheduler"] == address and summary["counts"]["ok"] == 1
+
+
+@pytest.mark.slow
+def test_batch_on_real_data(tmp_path, client, data_dir):
+    log = data_dir / "carmen" / "aces-corrected.log.gz"
+    plan = data_dir / "ipa" / "Freiburg52_scan.yaml"
+    records = run_batch([str(log), str(plan)], tmp_path, client=client)
+    assert [(r["name"], r["kind"], r["status"]) for r in records] == [
+        ("aces-corrected", "log", "ok"),
+        ("Freiburg52_scan", "map", "ok"),
+    ]
+    assert all(r["regions"] >= 5 for r in records)
+    written = {p.name for p in (tmp_path / "aces-corrected").iterdir()}
+    assert {"map.yaml", "map.pgm", "keyframes.csv", "regions.geojson"} <= written

@@ -193,7 +193,9 @@ def _topomap(job: Job, options: BatchOptions) -> tuple[Any, bool]:
 
 
 def process(job: Job, out: str, options: BatchOptions) -> dict[str, Any]:
-    """Segment, label and export one input into ``out/<job.name>`` (runs on a worker).
+    """Segment, label and export one input into ``out/<job.name>`` (runs on a worker): what
+    :meth:`TopoMap.save` writes, the map (``map.yaml`` + ``map.pgm``), ``keyframes.csv`` for a
+    log or bag, and ``result.json`` (the input's record).
 
     Everything is written into a hidden folder first and moved into place at the end (an
     earlier result of the same input, kept until then, is replaced only now). Any error is
@@ -206,18 +208,17 @@ def process(job: Job, out: str, options: BatchOptions) -> dict[str, Any]:
     try:
         topo, from_scans = _topomap(job, options)
         work.mkdir(parents=True)
-        written = topo.save(work)
+        topo.save(work)
+        if not (work / "map.yaml").exists():  # the map the regions are aligned with
+            topo.grid.save(work / "map.yaml")
         if from_scans:
-            written += [
-                topo.grid.save(work / "map.yaml"),
-                topo.save_keyframes(work / "keyframes.csv"),
-            ]
+            topo.save_keyframes(work / "keyframes.csv")
         record.update(
             status="ok",
             regions=topo.graph.number_of_nodes(),
             keyframes=len(topo.keyframes),
             names={int(r): n for r, n in sorted(topo.graph.nodes(data="name"))},
-            files=sorted(p.name for p in written),
+            files=sorted(p.name for p in work.iterdir()),
             seconds=round(time.perf_counter() - start, 3),
             error="",
         )
