@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
@@ -13,14 +14,22 @@ import networkx as nx
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from maps.errors import MapFileNotFoundError, OutputExistsError
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe
 from maps.seeding import RandomState
 from segmentation.blocks import BlockSpectralSegmenter
 from segmentation.conditioning import ConditionedMap
-from segmentation.errors import ParameterError
-from segmentation.export import write_geojson, write_graphml, write_label_image, write_node_link
+from segmentation.errors import ExportFormatError, ParameterError, SegmentationError
+from segmentation.export import (
+    read_graphml,
+    read_label_image,
+    write_geojson,
+    write_graphml,
+    write_label_image,
+    write_node_link,
+)
 from segmentation.graph import region_graph
 from segmentation.pipeline import MapSegmenter, Segmentation
 from segmentation.regions import Regions
@@ -38,6 +47,8 @@ if TYPE_CHECKING:
     from planners.hierarchical import HierarchicalPlanner
     from planners.path import Path as PlannedPath
 
+#: The files :meth:`TopoMap.save` writes besides the map's YAML and image.
+SAVED = ["regions.png", "graph.graphml", "graph.json", "regions.geojson", "topomap.json"]
 _PIPELINE = {f.name for f in fields(MapSegmenter) if f.init and f.name != "spectral"}
 _SPECTRAL = {f.name for f in fields(SpectralSegmenter) if f.init}
 
@@ -74,9 +85,12 @@ class TopoMap:
     ----------
     grid
         The occupancy map.
+    regions
+        The regions (refined unless the pipeline ran with ``refine=False``).
     segmentation
         Everything the pipeline found: the conditioned map, places, keyframes, the fitted
-        spectral partition, the spectral and refined regions, seconds per stage.
+        spectral partition, the spectral and refined regions, seconds per stage; None for a
+        map read back with :meth:`load` (only the regions and the graph are saved).
     graph
         Region adjacency graph of :attr:`regions` (see :func:`segmentation.graph.region_graph`).
     seconds
@@ -84,8 +98,9 @@ class TopoMap:
     """
 
     grid: OccupancyGrid
-    segmentation: Segmentation
+    regions: Regions
     graph: nx.Graph
+    segmentation: Segmentation | None = None
     seconds: dict[str, float] = field(default_factory=dict)
     _planners: dict[tuple, HierarchicalPlanner] = field(
         default_factory=dict, init=False, repr=False, compare=False
@@ -137,36 +152,41 @@ class TopoMap:
         start = time.perf_counter()
         graph = region_graph(found.regions, found.keyframe_regions())
         seconds["graph"] = time.perf_counter() - start
-        topo = cls(grid, found, graph, seconds)
+        topo = cls(grid, found.regions, graph, found, seconds)
         start = time.perf_counter()
         topo.label()
         seconds["labels"] = time.perf_counter() - start
         return topo
 
     @property
-    def regions(self) -> Regions:
-        """The regions (refined unless the pipeline ran with ``refine=False``)."""
-        return self.segmentation.regions
+    def found(self) -> Segmentation:
+        """:attr:`segmentation`, or a clear error for a map read back with :meth:`load`."""
+        if self.segmentation is None:
+            raise SegmentationError(
+                "this map was read back from files, which keep the regions and the graph, not "
+                "the keyframes or the spectral partition: segment the map again for those"
+            )
+        return self.segmentation
 
     @property
     def spectral(self) -> Regions:
         """The spectral partition alone, made dense."""
-        return self.segmentation.spectral
+        return self.found.spectral
 
     @property
     def keyframes(self) -> list[Keyframe]:
         """The keyframes that were clustered (virtual ones for a map alone)."""
-        return self.segmentation.keyframes
+        return self.found.keyframes
 
     @property
     def segmenter(self) -> SpectralSegmenter | BlockSpectralSegmenter:
         """The fitted spectral partition."""
-        return self.segmentation.segmenter
+        return self.found.segmenter
 
     @property
     def conditioned(self) -> ConditionedMap:
         """The building space, clutter and dropped cells (see :mod:`segmentation.conditioning`)."""
-        return self.segmentation.conditioned
+        return self.found.conditioned
 
     def region_at(self, x: float, y: float) -> int:
         """The region id at map point ``(x, y)``, 0 if none."""
@@ -229,18 +249,85 @@ class TopoMap:
 
     def keyframe_regions(self) -> NDArray[np.int64]:
         """Region of each keyframe's position (0 if it is not on a labelled cell)."""
-        return self.segmentation.keyframe_regions()
+        return self.found.keyframe_regions()
 
     def save(self, out: str | Path, *, overwrite: bool = False) -> list[Path]:
-        """Write ``regions.png``, ``graph.graphml``, ``graph.json`` and ``regions.geojson``."""
+        """Write everything needed to go on with this map into folder ``out``: ``map.yaml`` +
+        ``map.pgm`` (map_server), ``regions.png`` (16-bit labels), ``graph.graphml`` and
+        ``graph.json`` (labels and names included), ``regions.geojson`` and ``topomap.json``
+        (format, seconds, what conditioning dropped). Read it back with :meth:`load`.
+
+        Raises
+        ------
+        OutputExistsError
+            A file exists and ``overwrite`` is false; nothing is written then.
+        """
         out = Path(out)
+        names = [*SAVED, "map.yaml", "map.pgm"]
+        if not overwrite:
+            for name in names:
+                if (out / name).exists():
+                    raise OutputExistsError(out / name)
         out.mkdir(parents=True, exist_ok=True)
+        about: dict[str, Any] = {
+            "format": "topomap",
+            "version": 1,
+            "regions": len(self.regions.ids),
+            "seconds": {k: round(v, 4) for k, v in self.seconds.items()},
+        }
+        if self.segmentation is not None:
+            about["conditioning"] = self.conditioned.summary()
+        info = out / "topomap.json"
+        info.write_text(json.dumps(about, indent=2))
         return [
-            write_label_image(self.regions.labels, out / "regions.png", overwrite=overwrite),
-            write_graphml(self.graph, out / "graph.graphml", overwrite=overwrite),
-            write_node_link(self.graph, out / "graph.json", overwrite=overwrite),
-            write_geojson(self.graph, out / "regions.geojson", overwrite=overwrite),
+            self.grid.save(out / "map.yaml", overwrite=True),
+            write_label_image(self.regions.labels, out / "regions.png", overwrite=True),
+            write_graphml(self.graph, out / "graph.graphml", overwrite=True),
+            write_node_link(self.graph, out / "graph.json", overwrite=True),
+            write_geojson(self.graph, out / "regions.geojson", overwrite=True),
+            info,
         ]
+
+    @classmethod
+    def load(cls, folder: str | Path) -> TopoMap:
+        """Read a map written by :meth:`save` (data only: nothing in the files is executed).
+
+        Raises
+        ------
+        MapFileNotFoundError
+            A file is missing.
+        ExportFormatError
+            The files do not belong together (label image and map of different sizes, regions
+            on cells the map does not have free, graph nodes that are not the regions).
+        """
+        folder = Path(folder)
+        info = folder / "topomap.json"
+        if not info.is_file():
+            raise MapFileNotFoundError(info, "topomap.json (written by TopoMap.save)")
+        try:
+            about = json.loads(info.read_text())
+            seconds = {str(k): float(v) for k, v in about.get("seconds", {}).items()}
+        except (ValueError, AttributeError, TypeError) as err:
+            raise ExportFormatError(f"{info}: not a topomap.json file: {err}") from err
+        grid = OccupancyGrid.load(folder / "map.yaml")
+        labels = read_label_image(folder / "regions.png")
+        if labels.shape != grid.shape:
+            raise ExportFormatError(
+                f"{folder / 'regions.png'}: {labels.shape} labels for a {grid.shape} map"
+            )
+        walls = int(((labels > 0) & ~grid.free).sum())
+        if walls:
+            raise ExportFormatError(
+                f"{folder / 'regions.png'}: {walls} labelled cells are not free in map.yaml"
+            )
+        graph = read_graphml(folder / "graph.graphml")
+        regions = Regions(grid, labels)
+        if sorted(graph.nodes) != regions.ids:
+            raise ExportFormatError(
+                f"{folder / 'graph.graphml'}: nodes {sorted(graph.nodes)[:10]}... are not the "
+                f"regions of regions.png {regions.ids[:10]}..."
+            )
+        return cls(grid, regions, graph, None, seconds)
 
     def save_keyframes(self, path: str | Path, *, overwrite: bool = False) -> Path:
         """Write ``scan_index,x,y,theta,region``, one row per keyframe."""

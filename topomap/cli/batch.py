@@ -442,6 +442,24 @@ def run_batch(
     return [index.records[job.name] for job in jobs]
 
 
+def dask_map(client: Any) -> Callable[[Callable[[Any], Any], Sequence[Any]], list[Any]]:
+    """``map(function, items)`` on a Dask ``client``: each item sent to the cluster once (as
+    data, not inside the task graph), one task per item, results in item order.
+
+    Examples
+    --------
+    >>> with dask_client(workers=2) as client:  # doctest: +SKIP
+    ...     dask_map(client)(abs, [-1, -2])
+    [1, 2]
+    """
+
+    def run(function: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
+        data = client.scatter(list(items), hash=False)
+        return list(client.gather([client.submit(function, d, pure=False) for d in data]))
+
+    return run
+
+
 def fit_blocks(model: Any, keyframes: Sequence[Any], client: Any) -> Any:
     """Fit a :class:`~segmentation.blocks.BlockSpectralSegmenter` with its blocks run in
     parallel on a Dask ``client``; the result equals ``model.fit(keyframes)``.
@@ -450,28 +468,26 @@ def fit_blocks(model: Any, keyframes: Sequence[Any], client: Any) -> Any:
     the sequential run), and the labels are offset in block order as the sequential run does.
     """
     from segmentation.blocks import BlockSpectralSegmenter
-    from segmentation.errors import ParameterError
 
     if len(model.blocks) != len(keyframes):
-        raise ParameterError(f"{len(model.blocks)} block ids for {len(keyframes)} keyframes")
+        raise ValueError(f"{len(model.blocks)} block ids for {len(keyframes)} keyframes")
     order = np.unique(model.blocks)
     members = [np.flatnonzero(model.blocks == block) for block in order]
-    # each block's keyframes go to the cluster once, as data, not inside the task graph
-    data = client.scatter([[keyframes[int(i)] for i in m] for m in members], hash=False)
-    parts = [
-        client.submit(
-            BlockSpectralSegmenter(
-                model.segmenter, np.zeros(len(m), np.int64), model.places[[block]]
-            ).fit,
-            frames,
-            pure=False,
+
+    def fit_one(block: int, frames: list[Any]) -> Any:
+        places = model.places[[block]]
+        return BlockSpectralSegmenter(model.segmenter, np.zeros(len(frames), np.int64), places).fit(
+            frames
         )
-        for block, m, frames in zip(order, members, data, strict=True)
-    ]
+
+    parts = dask_map(client)(
+        lambda item: fit_one(*item),
+        [(int(b), [keyframes[int(i)] for i in m]) for b, m in zip(order, members, strict=True)],
+    )
     model.labels_ = np.zeros(len(keyframes), np.int64)
     model.segmenters_ = []
     offset = 0
-    for m, part in zip(members, client.gather(parts), strict=True):
+    for m, part in zip(members, parts, strict=True):
         model.labels_[m] = part.labels_ + offset
         offset += part.n_regions_
         model.segmenters_ += part.segmenters_

@@ -207,7 +207,6 @@ def cmd_segment(args: argparse.Namespace) -> int:
         source = args.map
     written = topo.save(out, overwrite=args.force)
     if args.scans is not None:
-        written.append(topo.grid.save(out / "map.yaml", overwrite=args.force))
         written.append(topo.save_keyframes(out / "keyframes.csv", overwrite=args.force))
     count = topo.graph.number_of_nodes()
     written.append(
@@ -246,14 +245,17 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
     out = Path(args.out)
     _refuse_existing(out, ["results.json"], args.force)
     records = evaluate_all(args.data, progress=args.progress, **_segmenter_options(args))
-    columns = ["map", "furnished", "variant", "keyframes", "segments", "rooms"]
-    print(_table(records, [*columns, "recall", "precision", "mcc", "ari", "seconds"]))
+    columns = ["map", "furnished", "variant", "keyframes", "segments", "rooms", "recall"]
+    print(_table(records, [*columns, "precision", "mcc", "ari", "seconds", "cpu_seconds"]))
     print()
     summary = means(records, read_anchors(args.data))
     print(
         _table(
             summary,
-            ["method", "furnished", "maps", "recall", "precision", "mcc", "ari", "mean_s", "max_s"],
+            [
+                *["method", "furnished", "maps", "recall", "precision", "mcc", "ari"],
+                *["mean_s", "max_s", "mean_cpu_s", "max_cpu_s"],
+            ],
         )
     )
     out.mkdir(parents=True, exist_ok=True)
@@ -297,6 +299,21 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps(results, indent=2))
     print(f"wrote {out / 'results.json'}")
+    return 0
+
+
+def cmd_bench_maps(args: argparse.Namespace) -> int:
+    from maps.errors import MapFileNotFoundError
+    from topomap.cli.bench_maps import bench_maps
+
+    _refuse_existing(Path(args.out), ["results.json"], args.force)
+    logs = Path(args.logs) if args.logs else None
+    if logs is not None and not logs.is_dir():
+        raise MapFileNotFoundError(f"no such folder of CARMEN logs: {logs}")
+    records = bench_maps(args.out, sizes=args.sizes, logs=logs, progress=args.progress)
+    columns = ["map", "free_m2", "free_cells", "regions", "keyframes", "seconds", "cpu_seconds"]
+    print(_table(records, [*columns, "s_per_m_free_cells"]))
+    print(f"wrote {args.out}/results.json")
     return 0
 
 
@@ -455,17 +472,14 @@ def _map_planner(args: argparse.Namespace) -> Any:
     """The hierarchical planner of ``args.map``, on the regions in ``args.regions`` (a folder
     written by ``topomap segment``) or on a segmentation made now."""
     from maps.grid import OccupancyGrid
-    from planners.hierarchical import HierarchicalPlanner
-    from planners.workspace import Workspace
-    from segmentation.export import read_graphml, read_label_image
     from topomap.topomap import TopoMap
 
     grid = OccupancyGrid.load(args.map)
     if args.regions is not None:
-        folder = Path(args.regions)
-        labels = read_label_image(folder / "regions.png")
-        graph = read_graphml(folder / "graph.graphml")
-        return HierarchicalPlanner(Workspace(grid, args.robot_radius), labels, graph)
+        topo = TopoMap.load(args.regions)
+        if topo.grid != grid:
+            raise UsageError(f"{args.regions} holds the regions of another map than {args.map}")
+        return topo.planner(args.robot_radius)
     args.progress.stage(f"segmenting {args.map}")
     return TopoMap.from_grid(grid).planner(args.robot_radius)
 
@@ -609,6 +623,14 @@ def build_parser() -> argparse.ArgumentParser:
     seg_bench.add_argument("--naive-up-to", type=int, default=2_000)
     seg_bench.add_argument("--building", default="campus", choices=["flat", "office", "campus"])
     seg_bench.set_defaults(func=cmd_bench_segment)
+    maps_bench = bench_sub.add_parser("maps", help="the whole segmentation over map sizes")
+    maps_bench.add_argument("--out", default="out/bench-maps")
+    maps_bench.add_argument("--force", action="store_true", help="overwrite existing results")
+    maps_bench.add_argument(
+        "--sizes", nargs="*", default=["flat", "office", "campus"], help="generated buildings"
+    )
+    maps_bench.add_argument("--logs", help="a folder of CARMEN *.log.gz: maps built from them")
+    maps_bench.set_defaults(func=cmd_bench_maps)
     online_bench = bench_sub.add_parser("online", help="online segmentation: latency, agreement")
     online_bench.add_argument("--out", default="out/bench-online")
     online_bench.add_argument(

@@ -1,0 +1,81 @@
+"""``topomap bench maps``: the whole map -> regions pipeline over map sizes.
+
+Each map is segmented from the map alone (conditioning, places, virtual keyframes, the spectral
+partition, regions); the table gives wall-clock and CPU seconds and seconds per million free
+cells, so growth with the map's size shows at a glance.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+from typing import Any
+
+from maps.carmen import read_carmen
+from maps.floorplan import generate_floor_plan
+from maps.grid import OccupancyGrid
+from maps.mapping import grid_from_keyframes
+from maps.scan import select_keyframes
+from segmentation.pipeline import MapSegmenter
+from segmentation.spectral import SpectralSegmenter
+
+
+def benchmark_maps(
+    sizes: Iterable[str], logs: Path | None, seed: int = 0
+) -> Iterator[tuple[str, Callable[[], OccupancyGrid]]]:
+    """``(name, make_grid)`` for each generated size (furnished, ``seed``) and each CARMEN
+    log (``*.log.gz``) in ``logs``: the map a robot built from its keyframes every 0.5 m."""
+    for size in sizes:
+        yield (
+            f"generated-{size}",
+            lambda size=size: generate_floor_plan(size, furniture=0.3, random_state=seed).grid,
+        )
+    for log in sorted(logs.glob("*.log.gz")) if logs is not None else []:
+
+        def built(log: Path = log) -> OccupancyGrid:
+            keyframes = select_keyframes(read_carmen(log), distance=0.5)
+            return grid_from_keyframes(keyframes, 0.05)
+
+        yield log.name.removesuffix(".log.gz"), built
+
+
+def time_segmentation(name: str, grid: OccupancyGrid, seed: int = 0) -> dict[str, Any]:
+    """Segment ``grid`` from the map alone; its size, regions and seconds."""
+    pipeline = MapSegmenter(spectral=SpectralSegmenter(random_state=seed))
+    wall, cpu = time.perf_counter(), time.process_time()
+    found = pipeline.segment(grid)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    free = int(grid.free.sum())
+    return {
+        "map": name,
+        "cells": grid.shape[0] * grid.shape[1],
+        "free_cells": free,
+        "free_m2": round(free * grid.resolution**2),
+        "regions": len(found.regions.ids),
+        "keyframes": len(found.keyframes),
+        "seconds": round(wall, 3),
+        "cpu_seconds": round(cpu, 3),
+        "s_per_m_free_cells": round(wall / free * 1e6, 3),
+        "stages": {k: round(v, 3) for k, v in found.seconds.items()},
+    }
+
+
+def bench_maps(
+    out: str | Path,
+    *,
+    sizes: Iterable[str] = ("flat", "office", "campus"),
+    logs: Path | None = None,
+    seed: int = 0,
+    progress: Callable[[Any], Any] = iter,
+) -> list[dict[str, Any]]:
+    """Time the pipeline on every map of :func:`benchmark_maps`; write ``out/results.json``."""
+    out = Path(out)
+    records = [
+        time_segmentation(name, make(), seed)
+        for name, make in progress(list(benchmark_maps(sizes, logs, seed)))
+    ]
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.json").write_text(json.dumps(records, indent=2))
+    return records
