@@ -86,3 +86,28 @@ def test_msg_fields_errors_name_the_field():
     del fields["info"]["resolution"]
     with pytest.raises(InvalidMapError, match="'resolution'"):
         OccupancyGrid.from_msg_fields(fields)
+
+
+poses = st.tuples(st.floats(-50, 50), st.floats(-50, 50), st.floats(-3.1, 3.1))
+
+
+@given(chain=st.lists(poses, min_size=1, max_size=5), stamp=st.floats(0.0, 1.0))
+def test_lookup_composes_the_chain_and_inverts(chain, stamp):
+    """Frames f0 -> f1 -> ... each at a pose in its parent: complex numbers give the truth."""
+    tree = TransformTree()
+    position, heading = 0j, 0.0
+    for k, (x, y, yaw) in enumerate(chain):
+        # every other link is timed, constant in time
+        at = None if k % 2 else 0.0
+        tree.add(f"f{k}", f"f{k + 1}", (x, y, 0.0), quaternion_from_yaw(yaw), stamp=at)
+        if at is not None:
+            tree.add(f"f{k}", f"f{k + 1}", (x, y, 0.0), quaternion_from_yaw(yaw), stamp=1.0)
+        position += complex(x, y) * np.exp(1j * heading)
+        heading += yaw
+    last = f"f{len(chain)}"
+    (pose,), _ = tree.lookup("f0", last, [stamp])
+    assert pose[:2] == pytest.approx([position.real, position.imag], abs=1e-6)
+    assert np.angle(np.exp(1j * (pose[2] - heading))) == pytest.approx(0.0, abs=1e-9)
+    (back,), _ = tree.lookup(last, "f0", [stamp])
+    inverse = -position * np.exp(-1j * heading)
+    assert back[:2] == pytest.approx([inverse.real, inverse.imag], abs=1e-6)
