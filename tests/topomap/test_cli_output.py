@@ -121,3 +121,20 @@ def test_the_console_command_prints_one_line_for_bad_input_and_nothing_at_exit(t
     )
     assert planned.returncode == 0, planned.stderr
     assert planned.stderr == ""
+
+
+def test_pictures_are_drawn_without_pyplot(tmp_path):
+    # the Figure API: no pyplot state, no backend chosen for the user's program
+    code = (
+        "import sys, numpy as np; from maps.grid import OccupancyGrid; "
+        "from topomap.cli.drawing import draw_map; "
+        "grid = OccupancyGrid(np.zeros((20, 30), np.int8), 0.1); "
+        f"draw_map({str(tmp_path / 'map.png')!r}, grid); "
+        "print('matplotlib.pyplot' in sys.modules)"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["False"]
+    assert (tmp_path / "map.png").stat().st_size > 1000
