@@ -142,9 +142,10 @@ def test_batch_command(tmp_path, plans, client, capsys):
     printed = capsys.readouterr()
     assert "4 done, 0 skipped" in printed.out
     assert "inputs" in printed.err  # the progress bar
-    assert {"map.yaml", "keyframes.csv", "graph.json"} <= {
-        p.name for p in (out / bag.name).iterdir()
-    }
+    written = {p.name for p in (out / bag.name).iterdir()}
+    assert {"map.yaml", "keyframes.csv", "graph.json"} <= written
+    result = json.loads((out / bag.name / "result.json").read_text())
+    assert "placed in map by map -> odom -> base_link -> laser" in result["placed"]
     assert main(["batch", str(folder), "--out", str(out), "--workers", "1"]) == 1
     assert "0 done, 3 skipped (done before), 1 failed" in capsys.readouterr().out
     assert len(_index(out)) == 5  # the bag's record is kept
@@ -152,10 +153,8 @@ def test_batch_command(tmp_path, plans, client, capsys):
     # an existing cluster, by its scheduler's address
     remote = tmp_path / "remote"
     address = client.scheduler.address
-    assert (
-        main(["batch", str(folder / "flat-1.yaml"), "--out", str(remote), "--scheduler", address])
-        == 0
-    )
+    command = ["batch", str(folder / "flat-1.yaml"), "--out", str(remote)]
+    assert main([*command, "--scheduler", address]) == 0
     summary = json.loads((remote / "summary.json").read_text())
     assert summary["run"]["scheduler"] == address and summary["counts"]["ok"] == 1
 

@@ -166,11 +166,12 @@ def find_inputs(patterns: Sequence[str]) -> list[Job]:
     return [Job(str(p), str(input_kind(p)), n) for p, n in zip(paths, names, strict=True)]
 
 
-def _topomap(job: Job, options: BatchOptions) -> tuple[Any, bool]:
-    """The segmented :class:`TopoMap` of one input, and whether it came from scans."""
+def _topomap(job: Job, options: BatchOptions) -> tuple[Any, bool, str]:
+    """The segmented :class:`TopoMap` of one input, whether it came from scans, and how a
+    bag's scans were placed."""
     from maps.carmen import read_carmen
     from maps.grid import OccupancyGrid
-    from maps.rosbag import read_rosbag, read_rosbag_map
+    from maps.rosbag import read_bag_scans, read_rosbag_map
     from maps.scan import select_keyframes
     from topomap.topomap import TopoMap
 
@@ -180,16 +181,18 @@ def _topomap(job: Job, options: BatchOptions) -> tuple[Any, bool]:
             grid = OccupancyGrid.load(job.source)
         else:
             grid = read_rosbag_map(job.source, topic=options.map_topic, stamp=options.stamp)
-        return TopoMap.from_grid(grid, **segmenter), False
+        return TopoMap.from_grid(grid, **segmenter), False, ""
+    placed = ""
     if job.kind == "bag":
-        frames = read_rosbag(
+        found = read_bag_scans(
             job.source, scan_topic=options.scan_topic, fixed_frame=options.fixed_frame
         )
+        frames, placed = found.keyframes, found.describe()
     else:
         frames = read_carmen(job.source)
     keyframes = select_keyframes(frames, distance=options.distance)
     topo = TopoMap.from_keyframes(keyframes, resolution=options.resolution, **segmenter)
-    return topo, True
+    return topo, True, placed
 
 
 def process(job: Job, out: str, options: BatchOptions) -> dict[str, Any]:
@@ -206,7 +209,7 @@ def process(job: Job, out: str, options: BatchOptions) -> dict[str, Any]:
     record: dict[str, Any] = {"name": job.name, "source": job.source, "kind": job.kind}
     work = Path(out) / f".{job.name}.{uuid.uuid4().hex[:8]}.partial"
     try:
-        topo, from_scans = _topomap(job, options)
+        topo, from_scans, placed = _topomap(job, options)
         work.mkdir(parents=True)
         topo.save(work)
         if not (work / "map.yaml").exists():  # the map the regions are aligned with
@@ -217,6 +220,7 @@ def process(job: Job, out: str, options: BatchOptions) -> dict[str, Any]:
             status="ok",
             regions=topo.graph.number_of_nodes(),
             keyframes=len(topo.keyframes),
+            placed=placed,
             names={int(r): n for r, n in sorted(topo.graph.nodes(data="name"))},
             files=sorted(p.name for p in work.iterdir()),
             seconds=round(time.perf_counter() - start, 3),
