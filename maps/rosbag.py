@@ -265,33 +265,34 @@ def _place_by_tf(
     if len(lasers) != 1 or not lasers[0]:
         raise TransformError(f"scans must come from one named frame, got {lasers}")
     laser = lasers[0]
-    if fixed_frame is None:
-        known = [f for f in FIXED_FRAMES if f in tree.frames] or [FIXED_FRAMES[-1]]
-        placed = {}
-        for frame in known:
-            try:
-                placed[frame] = int(
-                    np.isfinite(tree.lookup(frame, laser, stamps, partial=True)[0][:, 0]).sum()
-                )
-            except TransformError:
-                placed[frame] = 0
-        fixed_frame = known[0]
-        if len(known) > 1 and 2 * placed[known[0]] < placed[known[1]]:
-            fixed_frame = known[1]
-        if placed[fixed_frame] == 0:  # the error of the strict look-up names the missing link
-            tree.lookup(fixed_frame, laser, stamps)
-    poses, mirrored = tree.lookup(fixed_frame, laser, stamps, partial=True)
-    if not np.isfinite(poses[:, 0]).any():
-        tree.lookup(fixed_frame, laser, stamps)
+    if fixed_frame is not None:
+        candidates = [fixed_frame]
+    else:
+        candidates = [f for f in FIXED_FRAMES if f in tree.frames] or [FIXED_FRAMES[-1]]
+    found: dict[str, tuple[np.ndarray, bool] | None] = {}
+    for frame in candidates:
+        try:
+            found[frame] = tree.lookup(frame, laser, stamps, partial=True)
+        except TransformError:
+            found[frame] = None
+    count = {f: 0 if r is None else int(np.isfinite(r[0][:, 0]).sum()) for f, r in found.items()}
+    chosen = candidates[0]
+    if len(candidates) > 1 and 2 * count[candidates[0]] < count[candidates[1]]:
+        chosen = candidates[1]
+    result = found[chosen]
+    if result is None or count[chosen] == 0:  # the strict look-up's error names the missing link
+        tree.lookup(chosen, laser, stamps)
+    assert result is not None
+    poses, mirrored = result
     frames = []
     for index, ((stamp, _, scan), pose) in enumerate(zip(scans, poses, strict=True)):
         if np.isfinite(pose[0]):
             placed_scan = _mirrored(scan) if mirrored else scan
             at = (float(pose[0]), float(pose[1]), float(pose[2]))
             frames.append(Keyframe(at, placed_scan, scan_index=index, stamp=stamp))
-    found = BagScans(frames, fixed_frame, tree.chain(fixed_frame, laser), len(scans))
-    log.info("%s", found.describe())
-    return found
+    placed = BagScans(frames, chosen, tree.chain(chosen, laser), len(scans))
+    log.info("%s", placed.describe())
+    return placed
 
 
 def _mirrored(scan: LaserScan) -> LaserScan:

@@ -43,7 +43,7 @@ class Robot:
     """A robot wandering through the generated flat: odometry at 20 Hz drifting against the
     map, map -> odom at 10 Hz, the laser's static mount, scans between odometry messages."""
 
-    def __init__(self, with_map_tf=True, with_mount=True):
+    def __init__(self, with_map_tf=True, with_mount=True, map_tf_until=1.0):
         from maps import LaserModel, generate_floor_plan, simulate_scans, wander
 
         self.plan = generate_floor_plan("flat", random_state=0)
@@ -61,6 +61,8 @@ class Robot:
         frames = simulate_scans(self.plan.grid, self.laser, model, random_state=0)
         self.scans = [frame.scan for frame in frames]
         self.with_map_tf, self.with_mount = with_map_tf, with_mount
+        # map -> odom is published over this fraction of the run (SLAM may stop or start late)
+        self.map_tf_until = self.times[0] + map_tf_until * (self.times[-1] - self.times[0])
 
     def write(self, writer, store, ros1):
         t = store.types
@@ -98,7 +100,7 @@ class Robot:
             records.append((10.0, static, mount, tf_type))
         for i, stamp in enumerate(self.times):
             parts = [transform(stamp, "/odom", "base_link", self.odom[i])]
-            if self.with_map_tf and i % 2 == 0:
+            if self.with_map_tf and i % 2 == 0 and stamp <= self.map_tf_until:
                 parts.append(transform(stamp, "map", "odom", drift(stamp)[0]))
             records.append((stamp, tf, t[tf_type](transforms=parts), tf_type))
         for stamp, scan in zip(self.scan_times, self.scans, strict=True):

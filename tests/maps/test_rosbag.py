@@ -196,3 +196,15 @@ def test_map_from_bag(tmp_path, ros1):
         read_rosbag_map(path, stamp=0.5)
     with pytest.raises(LogFormatError, match="/costmap"):
         read_rosbag_map(path, topic="/costmap")
+
+
+@pytest.mark.parametrize(("until", "frame"), [(0.3, "odom"), (0.7, "map")])
+def test_partial_map_chain(tmp_path, until, frame):
+    """map -> odom over part of the run: map while it places at least half as many scans as
+    odom (the rest dropped), else odom."""
+    robot = Robot(map_tf_until=until)
+    found = read_bag_scans(tf_bag(tmp_path, "ros1", robot))
+    assert found.fixed_frame == frame
+    last = max(t for t in robot.times[::2] if t <= robot.map_tf_until)  # its last message
+    placed = sum(t <= last + 0.2 for t in robot.scan_times)  # held 0.2 s past it
+    assert len(found.keyframes) == (placed if frame == "map" else len(robot.scans))
