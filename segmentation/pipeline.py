@@ -13,8 +13,8 @@ Stages, each timed in :attr:`Segmentation.seconds`:
 4. ``spectral``: the paper's spectral partition of the keyframes
    (:class:`~segmentation.spectral.SpectralSegmenter`), with the guess ``k'`` = the number of
    places, block by block on maps of more than ``block_places`` places.
-5. ``regions``: every cell of the building gets the cluster of its geodesically nearest
-   keyframe: the spectral partition alone, made dense.
+5. ``regions``: the spectral partition alone, made dense: every place takes the cluster of
+   most of its keyframes (of the keyframe nearest to it if it has none).
 6. ``refine`` (optional): the regions people draw. The places are joined wherever the opening
    between them is not a door (:func:`~segmentation.refine.merge_open_boundaries`): a room
    ends at its doors, a corridor system that no door separates is one region. This rule
@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from maps.grid import OccupancyGrid
 from maps.laser_sim import LaserModel
@@ -43,9 +44,9 @@ from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
 from segmentation.conditioning import ConditionedMap, condition, drop_outside
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.refine import basins, count_basins, merge_open_boundaries
-from segmentation.regions import Regions, consecutive, dense_labels, pieces
+from segmentation.regions import Regions, consecutive, pieces
 from segmentation.spectral import SpectralSegmenter
-from segmentation.virtual import VIRTUAL_LASER, virtual_keyframes
+from segmentation.virtual import VIRTUAL_LASER, most_open_cells, virtual_keyframes
 from segmentation.working import pool, pool_factor, unpool
 
 log = logging.getLogger(__name__)
@@ -209,7 +210,7 @@ class MapSegmenter:
         stage("regions")
         poses = poses_array(keyframes)
         rows, cols = space.world_to_cell(poses[:, 0], poses[:, 1])
-        dense = dense_labels(space, rows, cols, fitted.labels_, min_area=self.min_area)
+        dense = pieces(space, by_place(places, rows, cols, fitted.labels_), self.min_area)
         spectral_regions = Regions(grid, unpool(dense, factor, conditioned.free))
         lap("regions")
         regions = spectral_regions
@@ -236,3 +237,39 @@ class MapSegmenter:
             blocks, per_block = keyframe_blocks(space, places, keyframes, self.block_places)
             return BlockSpectralSegmenter(spectral, blocks, per_block).fit(keyframes)
         return replace(spectral, k=min(len(keyframes), count)).fit(keyframes)
+
+
+def by_place(
+    places: NDArray[np.integer],
+    rows: NDArray[np.intp],
+    cols: NDArray[np.intp],
+    keyframe_labels: NDArray[np.integer],
+) -> NDArray[np.int32]:
+    """Each place labelled with the cluster (``+ 1``) of most of its keyframes (at cells
+    ``rows, cols``), or of the keyframe nearest to its first cell (row-major) when it has none.
+
+    Examples
+    --------
+    >>> places = np.array([[1, 1, 2, 2, 3]])
+    >>> by_place(places, np.array([0, 0, 0]), np.array([0, 1, 2]), np.array([4, 4, 7])).tolist()
+    [[5, 5, 8, 8, 8]]
+    """
+    count = int(places.max(initial=0)) + 1
+    inside = (rows >= 0) & (rows < places.shape[0]) & (cols >= 0) & (cols < places.shape[1])
+    rows, cols, keyframe_labels = rows[inside], cols[inside], keyframe_labels[inside]
+    place = places[rows, cols]
+    on = place > 0
+    winner = np.zeros(count, np.int64)
+    if on.any():
+        pair, votes = np.unique(
+            np.stack([place[on], keyframe_labels[on] + 1]), axis=1, return_counts=True
+        )
+        order = np.lexsort((votes, pair[0]))  # per place, the most votes last
+        winner[pair[0, order]] = pair[1, order]
+    empty = np.flatnonzero(winner == 0)
+    empty = empty[empty > 0]
+    if len(empty) and len(rows):
+        at_r, at_c = most_open_cells((places > 0).astype(np.float64), places, empty)
+        nearest = cKDTree(np.column_stack([rows, cols])).query(np.column_stack([at_r, at_c]))[1]
+        winner[places[at_r, at_c]] = keyframe_labels[nearest] + 1
+    return winner[places].astype(np.int32)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import heapq
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -42,21 +43,53 @@ def boundary_pairs(labels: NDArray[np.integer]) -> tuple[NDArray[np.int64], ...]
 def merge_small(labels: NDArray[np.int32], min_cells: int) -> NDArray[np.int32]:
     """Merge regions under ``min_cells`` cells into the neighbour they share most boundary with.
 
-    Smallest first; a small region with no neighbour is dropped (set to 0).
+    Smallest first, one at a time, on the region adjacency (boundary lengths updated as regions
+    merge); a small region with no neighbour is dropped (set to 0).
+
+    Examples
+    --------
+    >>> labels = np.array([[1, 1, 1, 2], [1, 1, 1, 3], [4, 0, 0, 0]])
+    >>> merge_small(labels, 2).tolist()
+    [[1, 1, 1, 1], [1, 1, 1, 1], [1, 0, 0, 0]]
     """
-    labels = labels.copy()
-    while True:
-        sizes = np.bincount(labels.ravel())
-        small = np.flatnonzero((sizes > 0) & (sizes < min_cells))
-        small = small[small > 0]
-        if len(small) == 0:
-            return labels
-        region = small[np.argmin(sizes[small])]  # one merge per pass keeps the boundaries right
-        ra, ca, rb, cb = boundary_pairs(labels)
-        a, b = labels[ra, ca], labels[rb, cb]
-        neighbours = np.concatenate([b[a == region], a[b == region]])
-        target = np.bincount(neighbours).argmax() if len(neighbours) else 0
-        labels[labels == region] = target
+    sizes = np.bincount(labels.ravel()).astype(np.int64)
+    small = [int(r) for r in np.flatnonzero((sizes > 0) & (sizes < min_cells)) if r > 0]
+    if not small:
+        return labels
+    ra, ca, rb, cb = boundary_pairs(labels)
+    pairs, shared = np.unique(
+        np.stack([labels[ra, ca], labels[rb, cb]]), axis=1, return_counts=True
+    )
+    around: dict[int, dict[int, int]] = {}
+    for a, b, n in zip(pairs[0].tolist(), pairs[1].tolist(), shared.tolist(), strict=True):
+        around.setdefault(a, {})[b] = n
+        around.setdefault(b, {})[a] = n
+    target = np.arange(len(sizes))
+    queue = [(int(sizes[r]), r) for r in small]
+    heapq.heapify(queue)
+    while queue:
+        size, region = heapq.heappop(queue)
+        if target[region] != region or size != sizes[region] or size >= min_cells:
+            continue  # merged away, or grown since it was queued
+        neighbours = around.pop(region, {})
+        if not neighbours:
+            target[region] = 0
+            continue
+        into = max(neighbours, key=lambda r: (neighbours[r], -r))
+        target[region] = into
+        sizes[into] += size
+        for other, n in neighbours.items():
+            links = around[other]
+            del links[region]
+            if other != into:
+                links[into] = links.get(into, 0) + n
+                around[into][other] = around[into].get(other, 0) + n
+        if sizes[into] < min_cells:
+            heapq.heappush(queue, (int(sizes[into]), into))
+    for region in range(len(target)):  # follow chains of merges to their end
+        while target[target[region]] != target[region]:
+            target[region] = target[target[region]]
+    return target[labels].astype(np.int32)
 
 
 def consecutive(labels: NDArray[np.integer]) -> NDArray[np.int32]:
