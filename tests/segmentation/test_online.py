@@ -276,3 +276,18 @@ def test_a_cell_belongs_to_the_nearest_keyframe_that_saw_it():
     assert regions.region_at(-3.0, 2.0) == 0
     assert set(regions.graph.edges) == {(1, 2)}
     assert regions.graph.edges[1, 2]["boundary_m"] == pytest.approx(3.8, abs=0.25)
+
+
+def test_a_scan_is_compared_only_with_the_centres_near_it(flat_run):
+    keyframes = flat_run[1]
+    online = OnlineSegmenter(SpectralSegmenter(random_state=0), dense=False).fit(keyframes[:80])
+    keys, tiles = hits(online, keyframes[100])
+    near, distances = online._compare(keys, None, tiles, keyframes[100], None)
+    # a cluster per keyframe of the same building 1 km away changes nothing
+    for n, keyframe in enumerate(keyframes):
+        far = dataclasses.replace(keyframe, pose=(keyframe.pose[0] + 1000.0, *keyframe.pose[1:]))
+        online.centres_[10_000 + n] = Centre({}, 0, 0, set(), [], 0)
+        online._join(10_000 + n, 0, *hits(online, far), move=True)
+    again, distances_again = online._compare(keys, None, tiles, keyframes[100], None)
+    assert again == near and distances_again.tolist() == distances.tolist()
+    assert set(near) <= set(range(1, 100))
