@@ -71,7 +71,9 @@ def _refuse_existing(out: Path, names: Iterable[str], force: bool) -> None:
 def cmd_demo(args: argparse.Namespace) -> int:
     from topomap.cli.demo import run_demo, summary_rows
 
-    summary = run_demo(args.out, size=args.size, seed=args.seed, on_stage=args.progress.stage)
+    summary = run_demo(
+        args.out, size=args.size, seed=args.seed, jobs=args.jobs, on_stage=args.progress.stage
+    )
     print(_table(summary_rows(summary), ["stage", "seconds", "result"]))
     names = summary["segment_plan"]["names"].values()
     print(
@@ -548,6 +550,9 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--out", default="out/demo")
     demo.add_argument("--size", default="office", choices=["flat", "office", "campus"])
     demo.add_argument("--seed", type=int, default=0)
+    demo.add_argument(
+        "--jobs", type=int, default=2, help="processes for the stages that run side by side"
+    )
     demo.set_defaults(func=cmd_demo)
 
     build = sub.add_parser("map", help="build an occupancy map from a laser log or bag")
