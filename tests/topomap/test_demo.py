@@ -1,0 +1,37 @@
+"""The demo's stages give the same results side by side in worker processes as in one."""
+
+import pytest
+
+from topomap.cli.demo import CHAINS, STAGES, run_demo, summary_rows
+
+#: Numbers that are times, not results; and flat RRTConnect's paths, since OMPL seeds once per
+#: process (a test process that planned before gives it other random numbers).
+SKIP = {"seconds", "wall_seconds", "latency", "median_ms", "speedup", "preprocessing_s"}
+SKIP |= {"flat_rrtconnect"}
+
+
+def _results(summary):
+    if isinstance(summary, dict):
+        return {k: _results(v) for k, v in summary.items() if k not in SKIP}
+    return summary
+
+
+@pytest.mark.slow
+def test_side_by_side_stages_give_the_results_of_one_process(tmp_path):
+    together = run_demo(tmp_path / "two", size="flat", seed=2, jobs=2)
+    alone = run_demo(tmp_path / "one", size="flat", seed=2, jobs=1)
+    assert _results(together) == _results(alone)
+    assert list(together["seconds"]) == [stage.__name__ for stage in STAGES]
+    rows = summary_rows(together)
+    assert [r["stage"] for r in rows] == [*together["seconds"], "total"]
+    for folder in ("two", "one"):
+        assert (tmp_path / folder / "segment_plan" / "segmentation.png").is_file()
+        assert (tmp_path / folder / "paths.png").is_file()
+
+
+def test_every_stage_after_the_first_ones_is_in_one_chain():
+    chained = [stage for chain in CHAINS for stage in chain]
+    assert len(chained) == len(set(chained))
+    assert set(chained) <= set(STAGES)
+    first = [stage.__name__ for stage in STAGES if stage not in chained]
+    assert first == ["generate", "drive", "build_map"]
