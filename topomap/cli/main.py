@@ -449,7 +449,7 @@ def cmd_bench_batch(args: argparse.Namespace) -> int:
     print(_table(results["batch"], columns))
     if "campus_blocks" in results:
         campus = results["campus_blocks"]
-        print(_table([campus], list(campus)))
+        print(_table(campus, list(campus[0])))
     print(f"wrote {args.out}/results.json")
     return 0
 
