@@ -165,6 +165,11 @@ def draw_online(path: Path, online: OnlineSegmenter, title: str | None = None) -
         ax.annotate(str(node), (data["x"], data["y"]), fontsize=6, ha="center")
     n = len(online.labels_)
     ax.set_title(title or f"keyframe {n}: {online.n_regions_} regions")
+    rows, cols = np.nonzero(labels)
+    if len(rows):  # the claimed area, not the arrays' spare border
+        cell = (extent[1] - extent[0]) / labels.shape[1]
+        ax.set_xlim(extent[0] + cell * (cols.min() - 5), extent[0] + cell * (cols.max() + 5))
+        ax.set_ylim(extent[3] - cell * (rows.max() + 5), extent[3] - cell * (rows.min() - 5))
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
