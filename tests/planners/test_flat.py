@@ -18,8 +18,17 @@ def test_flat_planner_goes_through_the_door(two_rooms, name):
         assert np.allclose(path.waypoints[[0, -1]], [start, goal])
         assert space.path_free(path.waypoints)
         assert space.collisions(path.waypoints) == 0
-        # the door's middle is at x = 4.15 m: every path crosses the wall there
-        assert path.length >= np.hypot(goal[0] - start[0], goal[1] - start[1])
+        # the wall is x in [4.1, 4.2] m, its door y in [1.6, 2.6] m: the path crosses the
+        # wall's middle line once, inside the door
+        assert _crossings(path.waypoints, 4.15) == pytest.approx([2.1], abs=0.5)
+
+
+def _crossings(waypoints, x):
+    """The y of every point where the polyline crosses the vertical line at ``x``."""
+    a, b = waypoints[:-1], waypoints[1:]
+    crossing = (a[:, 0] - x) * (b[:, 0] - x) < 0
+    t = (x - a[crossing, 0]) / (b[crossing, 0] - a[crossing, 0])
+    return list(a[crossing, 1] + t * (b[crossing, 1] - a[crossing, 1]))
 
 
 def test_flat_planner_rejects_bad_names_and_queries(two_rooms):
