@@ -5,7 +5,7 @@ from pathlib import Path
 
 import maps
 from segmentation.metrics import score
-from topomap.topomap import TopoMap
+from topomap import TopoMap
 
 plan = maps.generate_floor_plan("flat", random_state=1)
 topo = TopoMap.from_grid(plan.grid, random_state=0)
