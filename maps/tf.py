@@ -29,6 +29,8 @@ log = logging.getLogger(__name__)
 #: Seconds a timed link's first or last value is held beyond its span (tf2 holds none; bags cut
 #: a link's messages at both ends, and localisation nodes post-date ``map -> odom``).
 TOLERANCE = 0.2
+#: Degrees out of the plane from which a link used in a look-up is reported as tilted.
+TILT = 10.0
 
 
 def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
@@ -76,11 +78,6 @@ def planar_matrix(
             [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
         ]
     )
-    if abs(rotation_3d[2, 2]) < math.cos(math.radians(10)):
-        log.warning(
-            "a link tilted %.0f degrees out of the plane is projected onto it",
-            math.degrees(math.acos(min(1.0, abs(rotation_3d[2, 2])))),
-        )
     matrix = np.eye(3)
     # the x axis is projected as it is; the y axis follows it, mirrored when z points down
     heading = math.atan2(rotation_3d[1, 0], rotation_3d[0, 0])
@@ -109,6 +106,8 @@ class _Link:
     child: str
     static: NDArray[np.float64] | None = None
     samples: list[tuple[float, float, float, float]] = field(default_factory=list)
+    #: The largest angle, degrees, between the child's z axis and the parent's (up or down).
+    tilt: float = 0.0
     _table: NDArray[np.float64] | None = field(default=None, repr=False)
 
     def table(self) -> NDArray[np.float64]:
@@ -198,6 +197,9 @@ class TransformTree:
         if link is None:
             link = self._links[child] = _Link(parent, child)
         matrix = planar_matrix(translation, rotation)
+        qx, qy, qz, qw = rotation
+        up = 1 - 2 * (qx * qx + qy * qy) / (qx * qx + qy * qy + qz * qz + qw * qw)
+        link.tilt = max(link.tilt, math.degrees(math.acos(min(1.0, abs(up)))))
         if (link.static is not None and stamp is not None) or (link.samples and stamp is None):
             raise TransformError(f"link {parent} -> {child} is both static and timed")
         if stamp is None:
@@ -252,6 +254,13 @@ class TransformTree:
         missing = []
         while frame != root:
             link = self._links[frame]
+            if link.tilt > TILT:
+                log.warning(
+                    "link %s -> %s, tilted %.0f degrees out of the plane, is projected onto it",
+                    link.parent,
+                    link.child,
+                    link.tilt,
+                )
             step, ok = link.at(stamps, self.tolerance)
             matrices = step @ matrices
             if not ok.all():

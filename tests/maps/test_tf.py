@@ -39,11 +39,16 @@ def test_interpolated_chain_and_mount():
     assert np.isfinite(partial[0]).all() and np.isnan(partial[1]).all()
 
 
-def test_upside_down_laser_is_mirrored():
+def test_upside_down_laser_is_mirrored(caplog):
     tree = TransformTree()
     tree.add("base_link", "laser", (0.3, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0))  # rolled by pi
+    # a camera's optical frame (z forward) is tilted 90 degrees: said only when looked up
+    tree.add("base_link", "optical", (0.0, 0.0, 0.5), (-0.5, 0.5, -0.5, 0.5))
     poses, mirrored = tree.lookup("base_link", "laser", [0.0])
     assert mirrored and poses[0] == pytest.approx([0.3, 0.0, 0.0])
+    assert not caplog.records
+    tree.lookup("base_link", "optical", [0.0])
+    assert "base_link -> optical, tilted 90 degrees" in caplog.text
 
 
 def test_tree_refuses_bad_links():
