@@ -34,6 +34,7 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from maps.errors import MapsError as MapsError
     from maps.errors import OutputExistsError as OutputExistsError
     from maps.errors import TopomapError as TopomapError
+    from maps.errors import TransformError as TransformError
     from maps.floorplan import FloorPlan as FloorPlan
     from maps.floorplan import generate_floor_plan as generate_floor_plan
     from maps.grid import OccupancyGrid as OccupancyGrid
@@ -41,10 +42,14 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from maps.laser_sim import RayCaster as RayCaster
     from maps.laser_sim import simulate_scans as simulate_scans
     from maps.mapping import grid_from_keyframes as grid_from_keyframes
+    from maps.rosbag import BagScans as BagScans
+    from maps.rosbag import read_bag_scans as read_bag_scans
     from maps.rosbag import read_rosbag as read_rosbag
+    from maps.rosbag import read_rosbag_map as read_rosbag_map
     from maps.scan import Keyframe as Keyframe
     from maps.scan import LaserScan as LaserScan
     from maps.scan import select_keyframes as select_keyframes
+    from maps.tf import TransformTree as TransformTree
 
 _EXPORTS = {
     "FloorPlan": "maps.floorplan",
@@ -63,6 +68,11 @@ _EXPORTS = {
     "OutputExistsError": "maps.errors",
     "RayCaster": "maps.laser_sim",
     "TopomapError": "maps.errors",
+    "TransformError": "maps.errors",
+    "TransformTree": "maps.tf",
+    "BagScans": "maps.rosbag",
+    "read_bag_scans": "maps.rosbag",
+    "read_rosbag_map": "maps.rosbag",
     "generate_floor_plan": "maps.floorplan",
     "grid_from_keyframes": "maps.mapping",
     "read_carmen": "maps.carmen",
