@@ -27,7 +27,7 @@ from scipy import sparse
 from scipy.sparse import linalg as splinalg
 from scipy.sparse.csgraph import connected_components, laplacian
 from sklearn.cluster import KMeans
-from sklearn.metrics import silhouette_score
+from sklearn.metrics import pairwise_distances, silhouette_score
 from threadpoolctl import threadpool_limits
 
 from maps.scan import Keyframe
@@ -85,17 +85,24 @@ def eigengap(values: NDArray[np.float64], low: int = 2) -> int:
 def best_clustering(
     embedding: NDArray[np.float64], k: int, n_init: int, rng: np.random.Generator
 ) -> tuple[float, NDArray[np.int64]]:
-    """k-means ``n_init`` times on the first ``k`` columns; the best silhouette and labels."""
+    """k-means ``n_init`` times on the first ``k`` columns; the best silhouette and labels.
+
+    The silhouette is measured on all rows, or on one random sample of
+    :data:`SILHOUETTE_SAMPLE` rows shared by the runs, from one distance matrix.
+    """
     rows = embedding[:, :k]
     rows = rows / np.maximum(np.linalg.norm(rows, axis=1, keepdims=True), 1e-12)
     best: tuple[float, NDArray[np.int64]] = (-math.inf, np.zeros(len(rows), np.int64))
-    sample = SILHOUETTE_SAMPLE if len(rows) > SILHOUETTE_SAMPLE else None
+    sample = np.arange(len(rows))
+    if len(rows) > SILHOUETTE_SAMPLE:
+        sample = np.sort(rng.choice(len(rows), SILHOUETTE_SAMPLE, replace=False))
+    distances = pairwise_distances(rows[sample])
     for _ in range(n_init):
         seed = int(rng.integers(2**31 - 1))
         labels = KMeans(k, n_init=1, random_state=seed).fit_predict(rows)
-        if len(np.unique(labels)) < 2:
+        if len(np.unique(labels[sample])) < 2:
             continue
-        score = float(silhouette_score(rows, labels, sample_size=sample, random_state=seed))
+        score = float(silhouette_score(distances, labels[sample], metric="precomputed"))
         if score > best[0]:
             best = (score, labels.astype(np.int64))
     return best
