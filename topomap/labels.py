@@ -179,6 +179,21 @@ def name_regions(graph: nx.Graph, labels: Mapping[int, str]) -> dict[int, str]:
     return names
 
 
+def label_graph(
+    regions: Regions, graph: nx.Graph, classifier: Classifier | None = None
+) -> dict[int, str]:
+    """Label every region of ``graph`` with a place type (``classifier``, the rules by default)
+    and a unique name, stored as the nodes' ``label`` and ``name``; returns id -> label."""
+    features = region_features(regions, graph)
+    found = classify(classifier, features)
+    labels = dict(zip(features["id"].astype(int).tolist(), found, strict=True))
+    names = name_regions(graph, labels)
+    for region in graph.nodes:
+        graph.nodes[region]["label"] = labels[region]
+        graph.nodes[region]["name"] = names[region]
+    return labels
+
+
 def normalise_name(text: str) -> str:
     """A name as stored: lower case, single spaces, a synonym's first word replaced."""
     words = re.sub(r"\s+", " ", text.strip().lower()).split(" ")

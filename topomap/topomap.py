@@ -34,14 +34,7 @@ from segmentation.graph import region_graph
 from segmentation.pipeline import MapSegmenter, Segmentation
 from segmentation.regions import Regions
 from segmentation.spectral import SpectralSegmenter
-from topomap.labels import (
-    Classifier,
-    classify,
-    find_region,
-    name_regions,
-    region_features,
-    rename,
-)
+from topomap.labels import Classifier, find_region, label_graph, rename
 
 if TYPE_CHECKING:
     from planners.hierarchical import HierarchicalPlanner
@@ -207,14 +200,7 @@ class TopoMap:
         dict
             Region id -> label.
         """
-        features = region_features(self.regions, self.graph)
-        found = classify(classifier, features)
-        labels = dict(zip(features["id"].astype(int).tolist(), found, strict=True))
-        names = name_regions(self.graph, labels)
-        for region in self.graph.nodes:
-            self.graph.nodes[region]["label"] = labels[region]
-            self.graph.nodes[region]["name"] = names[region]
-        return labels
+        return label_graph(self.regions, self.graph, classifier)
 
     def region(self, query: int | str) -> int:
         """Region id of a region id or name ("hall 1", "aisle 2"); the error lists the names."""

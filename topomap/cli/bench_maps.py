@@ -28,10 +28,11 @@ def benchmark_maps(
     """``(name, make_grid)`` for each generated size (furnished, ``seed``) and each CARMEN
     log (``*.log.gz``) in ``logs``: the map a robot built from its keyframes every 0.5 m."""
     for size in sizes:
-        yield (
-            f"generated-{size}",
-            lambda size=size: generate_floor_plan(size, furniture=0.3, random_state=seed).grid,
-        )
+
+        def generated(size: str = size) -> OccupancyGrid:
+            return generate_floor_plan(size, furniture=0.3, random_state=seed).grid
+
+        yield f"generated-{size}", generated
     for log in sorted(logs.glob("*.log.gz")) if logs is not None else []:
 
         def built(log: Path = log) -> OccupancyGrid:

@@ -32,7 +32,7 @@ from segmentation.regions import Regions, dense_labels
 from segmentation.spectral import SpectralSegmenter
 from topomap.cli.drawing import region_colours
 from topomap.errors import UsageError
-from topomap.labels import classify, name_regions, region_features
+from topomap.labels import label_graph
 
 
 def offline_segmenter(
@@ -128,12 +128,7 @@ def dense_regions(
     graph = region_graph(regions, keyframe_regions)
     if not named:
         return regions, graph, keyframe_regions
-    features = region_features(regions, graph)
-    found = dict(zip(features["id"].astype(int).tolist(), classify(None, features), strict=True))
-    names = name_regions(graph, found)
-    for region in graph.nodes:
-        graph.nodes[region]["label"] = found[region]
-        graph.nodes[region]["name"] = names[region]
+    label_graph(regions, graph)
     return regions, graph, keyframe_regions
 
 
