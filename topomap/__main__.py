@@ -2,4 +2,6 @@
 
 from topomap.cli.main import run
 
-run()
+# guarded: worker processes (the demo's stages side by side) import this module again
+if __name__ == "__main__":
+    run()

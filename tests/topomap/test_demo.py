@@ -1,9 +1,14 @@
 """The demo's stages give the same results side by side in worker processes as in one."""
 
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 
 from topomap.cli.demo import CHAINS, STAGES, run_demo, summary_rows
 
+ROOT = Path(__file__).resolve().parents[2]
 #: Numbers that are times, not results; and flat RRTConnect's paths, since OMPL seeds once per
 #: process (a test process that planned before gives it other random numbers).
 SKIP = {"seconds", "wall_seconds", "latency", "median_ms", "speedup", "preprocessing_s"}
@@ -35,3 +40,20 @@ def test_every_stage_after_the_first_ones_is_in_one_chain():
     assert set(chained) <= set(STAGES)
     first = [stage.__name__ for stage in STAGES if stage not in chained]
     assert first == ["generate", "drive", "build_map"]
+
+
+@pytest.mark.slow
+def test_python_m_topomap_demo_starts_its_workers(tmp_path):
+    # spawned workers import the main module again: ``python -m topomap`` must not rerun there
+    done = subprocess.run(
+        [sys.executable, "-m", "topomap", "-q", "demo", "--size", "flat", "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=600,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == ""
+    assert "| total |" in done.stdout
+    assert (tmp_path / "paths.png").is_file()
