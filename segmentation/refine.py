@@ -51,8 +51,13 @@ def basins(grid: OccupancyGrid, depth: float = 0.3) -> NDArray[np.int32]:
     peak = np.zeros(count + 1)
     np.maximum.at(peak, seeds[free], clearance[free])
     ra, ca, rb, cb = boundary_pairs(seeds)
-    a, b = seeds[ra, ca].astype(np.int64), seeds[rb, cb].astype(np.int64)
-    passage = np.minimum(clearance[ra, ca], clearance[rb, cb]).astype(np.float64)
+    # the passage between two basins: the most open of the cells where they meet
+    pairs, where = np.unique(
+        seeds[ra, ca].astype(np.int64) * (count + 1) + seeds[rb, cb], return_inverse=True
+    )
+    passage = np.zeros(len(pairs))
+    np.maximum.at(passage, where, np.minimum(clearance[ra, ca], clearance[rb, cb]))
+    a, b = np.divmod(pairs, count + 1)
     parent = np.arange(count + 1)
 
     def root(x: int) -> int:
