@@ -205,7 +205,7 @@ def test_bench_segment_writes_records(tmp_path, capsys):
 def test_segment_bad_input(tmp_path, capsys):
     walls = maps_grid_without_free_space(tmp_path)
     assert main(["segment", str(walls), "--out", str(tmp_path / "o")]) == 2
-    assert "no free cell" in capsys.readouterr().err
+    assert "no free space a robot of radius 0.2 m fits in" in capsys.readouterr().err
     assert main(["segment", "--out", str(tmp_path / "o")]) == 2
     assert "one of the arguments map --scans is required" in capsys.readouterr().err
     assert main(["segment", str(walls), "--scans", "x.log", "--out", str(tmp_path / "o")]) == 2
