@@ -319,7 +319,7 @@ class TopoMap:
         """Write ``scan_index,x,y,theta,region``, one row per keyframe."""
         path = Path(path)
         if path.exists() and not overwrite:
-            raise FileExistsError(f"{path} exists; pass overwrite=True to replace it")
+            raise OutputExistsError(path)
         with path.open("w", newline="") as stream:
             writer = csv.writer(stream)
             writer.writerow(["scan_index", "x", "y", "theta", "region"])

@@ -2,9 +2,13 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from sklearn.metrics import adjusted_rand_score
+from sklearn.metrics.cluster import contingency_matrix
 
 from segmentation.errors import SegmentationError
-from segmentation.metrics import score
+from segmentation.metrics import adjusted_rand, score
 
 
 def two_rooms_truth():
@@ -85,3 +89,12 @@ def test_small_zones_and_unlabelled_pixels_are_ignored():
 def test_shapes_must_agree():
     with pytest.raises(SegmentationError, match="shape"):
         score(np.zeros((3, 3), int), np.zeros((3, 4), int))
+
+
+@given(
+    st.lists(st.tuples(st.integers(0, 4), st.integers(0, 4)), min_size=2, max_size=60),
+)
+def test_adjusted_rand_from_the_overlap_table_is_scikit_learns(pairs):
+    a, b = np.array(pairs).T
+    table = contingency_matrix(a, b).astype(float)
+    assert adjusted_rand(table) == pytest.approx(adjusted_rand_score(a, b), abs=1e-9)
