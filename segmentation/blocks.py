@@ -12,8 +12,9 @@ boundaries follow basin boundaries, which lie at doors and narrow passages.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,6 +25,9 @@ from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
 from segmentation.errors import ParameterError
 from segmentation.spectral import SpectralSegmenter
+
+#: ``map_blocks(function, items) -> results in item order``.
+BlockMap = Callable[[Callable[[Any], Any], Sequence[Any]], list[Any]]
 
 
 def keyframe_blocks(
@@ -92,6 +96,10 @@ class BlockSpectralSegmenter:
         Block of each keyframe (from :func:`keyframe_blocks`).
     places
         Places per block (its ``k``).
+    map_blocks
+        ``map_blocks(function, items)`` runs ``function`` on every item and returns the
+        results in order: the blocks one after the other by default, or on a pool or a Dask
+        cluster (``topomap.cli.batch.dask_map(client)``); the labels are the same either way.
 
     Attributes
     ----------
@@ -106,24 +114,41 @@ class BlockSpectralSegmenter:
     segmenter: SpectralSegmenter
     blocks: NDArray[np.int64]
     places: NDArray[np.int64]
+    map_blocks: BlockMap | None = field(default=None, repr=False)
     labels_: NDArray[np.int64] = field(init=False, repr=False)
     n_regions_: int = field(init=False, default=0)
     segmenters_: list[SpectralSegmenter] = field(init=False, default_factory=list, repr=False)
     silhouette_by_k_: dict[int, float] = field(init=False, default_factory=dict, repr=False)
 
     def fit(self, keyframes: Sequence[Keyframe]) -> BlockSpectralSegmenter:
-        """Partition each block's keyframes."""
+        """Partition each block's keyframes (through :attr:`map_blocks`)."""
         if len(self.blocks) != len(keyframes):
             raise ParameterError(f"{len(self.blocks)} block ids for {len(keyframes)} keyframes")
+        members = [np.flatnonzero(self.blocks == block) for block in np.unique(self.blocks)]
+        work = [
+            (
+                replace(self.segmenter, k=int(min(max(1, self.places[block]), len(m)))),
+                [keyframes[int(i)] for i in m],
+            )
+            for block, m in zip(np.unique(self.blocks), members, strict=True)
+        ]
+        parts = (self.map_blocks or _in_turn)(fit_block, work)
         self.labels_ = np.zeros(len(keyframes), np.int64)
-        self.segmenters_ = []
         offset = 0
-        for block in np.unique(self.blocks):
-            members = np.flatnonzero(self.blocks == block)
-            k = int(min(max(1, self.places[block]), len(members)))
-            part = replace(self.segmenter, k=k).fit([keyframes[int(i)] for i in members])
-            self.labels_[members] = part.labels_ + offset
+        for m, part in zip(members, parts, strict=True):
+            self.labels_[m] = part.labels_ + offset
             offset += part.n_regions_
-            self.segmenters_.append(part)
+        self.segmenters_ = list(parts)
         self.n_regions_ = offset
         return self
+
+
+def fit_block(work: tuple[SpectralSegmenter, list[Keyframe]]) -> SpectralSegmenter:
+    """One block's partition: ``segmenter.fit(keyframes)`` (a module-level function, so that
+    a process pool or a Dask cluster can run it)."""
+    segmenter, keyframes = work
+    return segmenter.fit(keyframes)
+
+
+def _in_turn(function: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
+    return [function(item) for item in items]

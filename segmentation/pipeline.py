@@ -40,7 +40,7 @@ from maps.grid import OccupancyGrid
 from maps.laser_sim import LaserModel
 from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
-from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
+from segmentation.blocks import BlockMap, BlockSpectralSegmenter, keyframe_blocks
 from segmentation.conditioning import ConditionedMap, condition, drop_outside
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.refine import basins, count_basins, merge_open_boundaries
@@ -117,6 +117,9 @@ class MapSegmenter:
         The virtual laser.
     on_stage
         Called with each stage's name as it starts (progress for long maps).
+    map_blocks
+        How the blocks of a large map are run (see
+        :class:`~segmentation.blocks.BlockSpectralSegmenter`): in turn by default.
 
     Examples
     --------
@@ -138,6 +141,7 @@ class MapSegmenter:
     block_places: int = 100
     laser: LaserModel = VIRTUAL_LASER
     on_stage: Callable[[str], None] | None = field(default=None, repr=False)
+    map_blocks: BlockMap | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         for name in ("place_depth", "spacing", "cell_size"):
@@ -235,7 +239,9 @@ class MapSegmenter:
         count = count_basins(space, places, self.min_area)
         if count > self.block_places:
             blocks, per_block = keyframe_blocks(space, places, keyframes, self.block_places)
-            return BlockSpectralSegmenter(spectral, blocks, per_block).fit(keyframes)
+            return BlockSpectralSegmenter(spectral, blocks, per_block, self.map_blocks).fit(
+                keyframes
+            )
         return replace(spectral, k=min(len(keyframes), count)).fit(keyframes)
 
 

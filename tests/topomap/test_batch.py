@@ -11,7 +11,7 @@ import pytest
 from maps.errors import FormatError, MapFileNotFoundError
 from maps.floorplan import generate_floor_plan
 from tests.maps.bags import Robot, tf_bag
-from topomap.cli.batch import dask_client, find_inputs, fit_blocks, run_batch
+from topomap.cli.batch import dask_client, dask_map, find_inputs, run_batch
 from topomap.cli.main import main
 from topomap.topomap import TopoMap
 
@@ -125,7 +125,7 @@ def test_parallel_blocks_equal_the_sequential_run(client):
     blocks, places = keyframe_blocks(plan.grid, basins(plan.grid), keyframes, places=3)
     model = BlockSpectralSegmenter(SpectralSegmenter(random_state=0), blocks, places)
     sequential = replace(model).fit(keyframes)
-    parallel = fit_blocks(replace(model), keyframes, client)
+    parallel = replace(model, map_blocks=dask_map(client)).fit(keyframes)
     assert len(places) >= 2
     assert np.array_equal(parallel.labels_, sequential.labels_)
     assert parallel.n_regions_ == sequential.n_regions_

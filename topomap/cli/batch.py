@@ -27,7 +27,6 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-import numpy as np
 import yaml
 
 from maps.errors import FormatError, MapFileNotFoundError
@@ -463,37 +462,3 @@ def dask_map(client: Any) -> Callable[[Callable[[Any], Any], Sequence[Any]], lis
 
     return run
 
-
-def fit_blocks(model: Any, keyframes: Sequence[Any], client: Any) -> Any:
-    """Fit a :class:`~segmentation.blocks.BlockSpectralSegmenter` with its blocks run in
-    parallel on a Dask ``client``; the result equals ``model.fit(keyframes)``.
-
-    Each block is fitted as a one-block segmenter of its own (the same code and settings as
-    the sequential run), and the labels are offset in block order as the sequential run does.
-    """
-    from segmentation.blocks import BlockSpectralSegmenter
-
-    if len(model.blocks) != len(keyframes):
-        raise ValueError(f"{len(model.blocks)} block ids for {len(keyframes)} keyframes")
-    order = np.unique(model.blocks)
-    members = [np.flatnonzero(model.blocks == block) for block in order]
-
-    def fit_one(block: int, frames: list[Any]) -> Any:
-        places = model.places[[block]]
-        return BlockSpectralSegmenter(model.segmenter, np.zeros(len(frames), np.int64), places).fit(
-            frames
-        )
-
-    parts = dask_map(client)(
-        lambda item: fit_one(*item),
-        [(int(b), [keyframes[int(i)] for i in m]) for b, m in zip(order, members, strict=True)],
-    )
-    model.labels_ = np.zeros(len(keyframes), np.int64)
-    model.segmenters_ = []
-    offset = 0
-    for m, part in zip(members, parts, strict=True):
-        model.labels_[m] = part.labels_ + offset
-        offset += part.n_regions_
-        model.segmenters_ += part.segmenters_
-    model.n_regions_ = offset
-    return model

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from topomap.cli.batch import dask_client, fit_blocks, run_batch
+from topomap.cli.batch import dask_client, dask_map, run_batch
 
 log = logging.getLogger(__name__)
 
@@ -99,8 +99,8 @@ def bench_campus_blocks(
     for count in workers:
         with dask_client(count) as client:
             start = time.perf_counter()
-            model = BlockSpectralSegmenter(segmenter, blocks, per_block)
-            fit_blocks(model, keyframes, client)
+            model = BlockSpectralSegmenter(segmenter, blocks, per_block, dask_map(client))
+            model.fit(keyframes)
             seconds = time.perf_counter() - start
         first = model.labels_ if first is None else first
         records.append(

@@ -186,11 +186,15 @@ def cmd_segment(args: argparse.Namespace) -> int:
     from maps.grid import OccupancyGrid
     from maps.scan import select_keyframes
     from topomap.cli.drawing import draw_regions
-    from topomap.topomap import TopoMap
+    from topomap.topomap import SAVED, TopoMap
 
     out = Path(args.out)
     if args.online:
         return _segment_online(args, out)
+    written_names = [*SAVED, "map.yaml", "map.pgm", "segmentation.png", "summary.json"]
+    if args.scans is not None:
+        written_names.append("keyframes.csv")
+    _refuse_existing(out, written_names, args.force)
     if args.scans is not None:
         frames = _read_keyframes(Path(args.scans), args)
         keyframes = select_keyframes(frames, distance=args.distance)
