@@ -69,9 +69,10 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
     for region in ids:
         box = boxes[region - 1]
         gap = max(1, round(FURNITURE_GAP_M / res))
-        mask = np.pad(regions.labels[box] == region, gap + 1)
+        mask = np.pad(regions.labels[box] == region, 2 * gap + 1)
         filled = _fill_small_holes(mask, int(FURNITURE_HOLE_M2 / res**2))
-        filled = ndimage.binary_closing(filled, disk(gap))
+        kernel = disk(gap).astype(np.uint8)
+        filled = cv2.morphologyEx(filled.astype(np.uint8), cv2.MORPH_CLOSE, kernel).astype(bool)
         area = float(filled.sum()) * res**2
         depth = ndimage.distance_transform_edt(filled)[filled] * res
         width = 2 * float(np.percentile(depth, 95))

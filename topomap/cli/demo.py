@@ -33,7 +33,7 @@ from planners.path import Path as PlannedPath
 from planners.visibility import VisibilityGraph
 from segmentation.metrics import score
 from topomap.cli.drawing import draw_map, draw_paths, draw_regions
-from topomap.cli.online import agreement, dense_regions, offline_segmenter, run_online, write_gif
+from topomap.cli.online import agreement, dense_regions, run_online, write_gif
 from topomap.topomap import TopoMap
 
 log = logging.getLogger(__name__)
@@ -209,7 +209,8 @@ def segment_online(run: DemoRun, seed_fraction: float = 0.5) -> None:
         frames_dir=folder / "frames",
     )
     write_gif(online.frames, folder / "regions.gif")
-    offline = offline_segmenter(keyframes, run.seed, run.grid).fit(keyframes)
+    assert run.topo is not None  # segment_log ran first: its spectral partition is the offline
+    offline = run.topo.segmenter
     regions = dense_regions(run.grid, keyframes, online.online.labels_, named=False)[0]
     run.summary["segment_online"] = {
         "seed_keyframes": online.online.n_seed_,
@@ -235,9 +236,8 @@ STAGES: list[Callable[[DemoRun], None]] = [
 #: After ``generate``, ``drive`` and ``build_map``, these chains need nothing from each other:
 #: they run side by side in worker processes, the longest first.
 CHAINS: list[list[Callable[[DemoRun], None]]] = [
-    [segment_online],
+    [segment_log, segment_online],
     [segment_plan, plan_paths],
-    [segment_log],
 ]
 
 
