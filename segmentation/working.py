@@ -53,8 +53,15 @@ def pool(space: NDArray[np.bool_], grid: OccupancyGrid, factor: int) -> Occupanc
     return OccupancyGrid.from_masks(coarse, grid.resolution * factor, origin)
 
 
+#: The eight neighbours of a cell, ``(row, col)`` offsets.
+AROUND = [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
+
+
 def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) -> NDArray[np.int32]:
     """Fine labels for the cells of ``keep`` from coarse ``labels`` (see the module docstring).
+
+    Cells next to labelled ones take the largest label around them, a ring at a time; the few
+    left further away take the nearest labelled cell's.
 
     Examples
     --------
@@ -63,15 +70,21 @@ def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) ->
     [[1, 1, 2, 2], [1, 1, 2, 2], [1, 2, 2, 2]]
     """
     height, width = keep.shape
-    fine = np.repeat(np.repeat(labels.astype(np.int32), factor, 0), factor, 1)[:height, :width]
-    fine = np.where(keep, fine, 0)
+    coarse = np.ascontiguousarray(labels, np.int32)
+    size = (coarse.shape[1] * factor, coarse.shape[0] * factor)
+    fine = cv2.resize(coarse, size, interpolation=cv2.INTER_NEAREST)[:height, :width]
+    fine[~keep] = 0
     missing = keep & (fine == 0)
     for _ in range(factor):  # most gaps are a coarse cell wide: grow labels into them
-        if not missing.any():
+        rows, cols = np.nonzero(missing)
+        if len(rows) == 0:
             return fine
-        grown = cv2.dilate(fine.astype(np.float32), np.ones((3, 3), np.uint8)).astype(np.int32)
-        fine = np.where(missing, grown, fine)
-        missing = keep & (fine == 0)
+        grown = np.zeros(len(rows), np.int32)
+        for dr, dc in AROUND:
+            r, c = np.clip(rows + dr, 0, height - 1), np.clip(cols + dc, 0, width - 1)
+            grown = np.maximum(grown, fine[r, c])
+        fine[rows, cols] = grown
+        missing[rows, cols] = grown == 0
     if missing.any() and (fine > 0).any():
         _, nearest = cv2.distanceTransformWithLabels(
             (fine == 0).astype(np.uint8), cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL
