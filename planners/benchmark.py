@@ -299,14 +299,12 @@ def markdown_table(summary: Sequence[dict[str, Any]]) -> str:
 
 
 def _plot(path: Path, records: Sequence[dict[str, Any]]) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     maps = list(dict.fromkeys(r["map"] for r in records))
     planners = list(dict.fromkeys(r["planner"] for r in records))
-    fig, ax = plt.subplots(figsize=(max(6, 1.6 * len(maps) * len(planners) / 2), 4.5))
+    fig = Figure(figsize=(max(6, 1.6 * len(maps) * len(planners) / 2), 4.5))
+    ax = fig.subplots()
     width = 0.8 / len(planners)
     for k, planner in enumerate(planners):
         data = [
@@ -325,5 +323,4 @@ def _plot(path: Path, records: Sequence[dict[str, Any]]) -> Path:
     ax.set_title("planning query times")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path

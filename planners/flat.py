@@ -16,8 +16,6 @@ from planners.errors import InvalidQueryError, NoPathError, PlannerParameterErro
 from planners.path import Path
 from planners.workspace import Workspace
 
-ou.setLogLevel(ou.LOG_WARN)
-
 #: OMPL geometric planners that solve a single start/goal query.
 PLANNERS = (
     "AORRTC",
@@ -93,6 +91,7 @@ class FlatPlanner:
             )
         if not time_limit > 0:
             raise PlannerParameterError(f"time_limit must be > 0 seconds, got {time_limit}")
+        ou.setLogLevel(ou.LOG_WARN)  # OMPL's console: warnings and errors only, once planning
         _seed_once(random_state)
         self.space, self.time_limit, self.simplify = space, float(time_limit), simplify
         self.name = f"flat_{planner.lower()}"

@@ -72,7 +72,8 @@ def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) ->
     height, width = keep.shape
     coarse = np.ascontiguousarray(labels, np.int32)
     size = (coarse.shape[1] * factor, coarse.shape[0] * factor)
-    fine = cv2.resize(coarse, size, interpolation=cv2.INTER_NEAREST)[:height, :width]
+    fine = np.asarray(cv2.resize(coarse, size, interpolation=cv2.INTER_NEAREST), np.int32)
+    fine = fine[:height, :width]
     fine[~keep] = 0
     missing = keep & (fine == 0)
     for _ in range(factor):  # most gaps are a coarse cell wide: grow labels into them

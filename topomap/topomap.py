@@ -39,6 +39,7 @@ from topomap.labels import Classifier, find_region, label_graph, rename
 if TYPE_CHECKING:
     from planners.hierarchical import HierarchicalPlanner
     from planners.path import Path as PlannedPath
+    from planners.region_route import RegionRoute
 
 #: The files :meth:`TopoMap.save` writes besides the map's YAML and image.
 SAVED = ["regions.png", "graph.graphml", "graph.json", "regions.geojson", "topomap.json"]
@@ -224,6 +225,21 @@ class TopoMap:
                 space, self.regions.labels, self.graph, **options
             )
         return self._planners[key]
+
+    def route(self, source: int | str, target: int | str) -> RegionRoute:
+        """The regions and doors from ``source`` to ``target`` (region ids or names): a
+        topological route, no geometry (:func:`planners.region_route.region_route`)."""
+        from planners.region_route import region_route
+
+        return region_route(self.graph, source, target)
+
+    def to_nav2_route(self, robot_radius: float = 0.2) -> dict[str, Any]:
+        """The door graph of :meth:`planner` as a Nav2 route graph, a GeoJSON dict
+        (:func:`planners.nav2_route.nav2_route_graph`; ``topomap export --nav2-route`` writes
+        it to a file)."""
+        from planners.nav2_route import nav2_route_graph
+
+        return nav2_route_graph(self.planner(robot_radius))
 
     def plan(
         self, start: ArrayLike, goal: ArrayLike | int | str, *, robot_radius: float = 0.2

@@ -461,4 +461,3 @@ def dask_map(client: Any) -> Callable[[Callable[[Any], Any], Sequence[Any]], lis
         return list(client.gather([client.submit(function, d, pure=False) for d in data]))
 
     return run
-
