@@ -66,9 +66,11 @@ class Segmentation:
     places
         Label image of the places (clearance basins) on ``working``.
     keyframes
-        The keyframes clustered (virtual ones for a map alone).
+        The keyframes (virtual ones for a map alone); those whose scan hit nothing within the
+        laser's range are not clustered.
     segmenter
-        The fitted spectral partition (one per block on large maps).
+        The fitted spectral partition (one per block on large maps) of the keyframes that saw a
+        wall (all of them, unless some scans hit nothing).
     spectral
         The spectral partition alone, made dense.
     regions
@@ -209,10 +211,18 @@ class MapSegmenter:
             lap("keyframes")
         keyframes = list(keyframes)
         stage("spectral")
-        fitted = self._fit(space, places, keyframes, spectral)
+        seeing = [k for k in keyframes if len(k.points())]  # a scan that hit nothing: no place
+        if len(seeing) < 2:
+            raise SegmentationError(
+                f"{len(seeing)} of {len(keyframes)} keyframes saw a wall within their laser's "
+                "range: nothing to cluster"
+            )
+        if len(seeing) < len(keyframes):
+            log.info("%d keyframes saw no wall and are not clustered", len(keyframes) - len(seeing))
+        fitted = self._fit(space, places, seeing, spectral)
         lap("spectral")
         stage("regions")
-        poses = poses_array(keyframes)
+        poses = poses_array(seeing)
         rows, cols = space.world_to_cell(poses[:, 0], poses[:, 1])
         dense = pieces(space, by_place(places, rows, cols, fitted.labels_), self.min_area)
         spectral_regions = Regions(grid, unpool(dense, factor, conditioned.free))

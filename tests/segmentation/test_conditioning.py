@@ -136,6 +136,14 @@ def test_a_rotated_origin_changes_nothing_but_the_frame(two_rooms):
     assert np.array_equal(segment(grid), segment(turned))
 
 
+@pytest.mark.slow
+def test_an_open_field_wider_than_the_laser_range_is_one_region():
+    """150 x 150 m with no wall: keyframes in the middle see nothing within 15 m and are left
+    out of the clustering instead of failing it."""
+    labels = segment(OccupancyGrid(np.zeros((3000, 3000), np.int8), 0.05))
+    assert region_count(labels) == 1 and (labels > 0).mean() > 0.99
+
+
 def test_free_space_touching_the_map_edge_is_segmented():
     cells = np.zeros((80, 120), np.int8)  # all free: the edge is the only wall
     labels = segment(OccupancyGrid(cells, 0.05))
