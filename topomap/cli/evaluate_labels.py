@@ -20,6 +20,7 @@ from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
 from maps.errors import MapFileNotFoundError
 from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
+from topomap.cli.drawing import _map_figure, _save
 from topomap.labels import (
     PLACE_TYPES,
     ForestClassifier,
@@ -73,7 +74,8 @@ def majority_types(labels: NDArray[np.integer], truth: NDArray[np.int8], ids: ND
 
 
 def labelled_regions(topo: TopoMap, truth: NDArray[np.int8], map_name: str) -> dict[str, Any]:
-    """Features and true type of every region of ``topo`` with a true type."""
+    """Features and true type of every region of ``topo`` with a true type, and the map's
+    regions and graph (``"topo"``) for pictures."""
     features = region_features(topo.regions, topo.graph)
     types = majority_types(topo.regions.labels, truth, features["id"].astype(int))
     keep = np.array([t is not None for t in types])
@@ -81,6 +83,7 @@ def labelled_regions(topo: TopoMap, truth: NDArray[np.int8], map_name: str) -> d
         "map": map_name,
         "features": {k: v[keep] for k, v in features.items()},
         "truth": [t for t in types if t is not None],
+        "topo": topo,
     }
 
 
@@ -133,10 +136,9 @@ def score_labels(truth: list[str], predicted: list[str]) -> dict[str, Any]:
     }
 
 
-def evaluate_labels(maps: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
-    """Scores of the rules, of a forest with each map left out of its own training, and of
-    the "always room" baseline, over all regions of ``maps``."""
-    truth = [t for m in maps for t in m["truth"]]
+def predictions(maps: list[dict[str, Any]]) -> dict[str, list[str]]:
+    """Per method, the predicted type of every region of ``maps`` (maps in order): the rules,
+    a forest with each map left out of its own training, and "always room"."""
     rules = [label for m in maps for label in rule_classifier(m["features"])]
     forest: list[str] = []
     for held in range(len(maps)):
@@ -145,8 +147,85 @@ def evaluate_labels(maps: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
         y = [t for m in train for t in m["truth"]]
         model = ForestClassifier().fit(x, y)
         forest += model.predict(feature_matrix(maps[held]["features"]))
-    return {
-        "rules": score_labels(truth, rules),
-        "forest (maps left out)": score_labels(truth, forest),
-        "always room": score_labels(truth, ["room"] * len(truth)),
-    }
+    count = sum(len(m["truth"]) for m in maps)
+    return {"rules": rules, "forest (maps left out)": forest, "always room": ["room"] * count}
+
+
+def region_records(
+    maps: list[dict[str, Any]], predicted: dict[str, list[str]]
+) -> list[dict[str, Any]]:
+    """One record per region: map, id, true type, every method's prediction and the features."""
+    records = []
+    rows = [(m, i) for m in maps for i in range(len(m["truth"]))]
+    for k, (m, i) in enumerate(rows):
+        features = {n: round(float(v[i]), 4) for n, v in m["features"].items() if n != "id"}
+        records.append(
+            {
+                "map": m["map"],
+                "id": int(m["features"]["id"][i]),
+                "truth": m["truth"][i],
+                **{method: labels[k] for method, labels in predicted.items()},
+                "features": features,
+            }
+        )
+    return records
+
+
+def evaluate_labels(maps: list[dict[str, Any]]) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """Scores of every method of :func:`predictions` over all regions of ``maps``, keyed by
+    method, and the :func:`region_records`."""
+    truth = [t for m in maps for t in m["truth"]]
+    predicted = predictions(maps)
+    scores = {method: score_labels(truth, labels) for method, labels in predicted.items()}
+    return scores, region_records(maps, predicted)
+
+
+#: Colours of the place types in the pictures.
+PLACE_COLOURS = {
+    "room": "#9ecae1",
+    "corridor": "#fdae6b",
+    "hall": "#a1d99b",
+    "doorway": "#bcbddc",
+}
+
+
+def draw_labels(path: str | Path, labelled: dict[str, Any], predicted: list[str]) -> Path:
+    """Write a PNG of one map of :func:`labelled_regions`: every region filled with the colour
+    of its predicted type, a text "predicted / true" at its inside point, red where they differ
+    (regions without a true type are left white)."""
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Patch
+
+    topo = labelled["topo"]
+    grid, labels = topo.regions.grid, topo.regions.labels
+    fig, ax = _map_figure(grid)
+    ids = labelled["features"]["id"].astype(int)
+    table = np.zeros((int(labels.max(initial=0)) + 1, 4))
+    for region, place in zip(ids, predicted, strict=True):
+        table[region] = to_rgba(PLACE_COLOURS[place], 0.85)
+    image = table[labels]
+    edges = np.zeros(labels.shape, bool)
+    edges[:-1] |= labels[:-1] != labels[1:]
+    edges[:, :-1] |= labels[:, :-1] != labels[:, 1:]
+    image[edges & (labels > 0)] = (0.2, 0.2, 0.2, 1.0)
+    xmin, ymin, xmax, ymax = grid.bounds()
+    ax.imshow(image, extent=(xmin, xmax, ymin, ymax), interpolation="nearest")
+    for region, place, true in zip(ids, predicted, labelled["truth"], strict=True):
+        node = topo.graph.nodes[region]
+        wrong = place != true
+        ax.annotate(
+            f"{region}: {place}" + (f" / {true}" if wrong else ""),
+            (node["x"], node["y"]),
+            fontsize=7 if wrong else 5,
+            ha="center",
+            color="red" if wrong else "black",
+            weight="bold" if wrong else "normal",
+        )
+    ax.legend(
+        handles=[Patch(color=c, label=p) for p, c in PLACE_COLOURS.items()],
+        loc="upper right",
+        fontsize=7,
+    )
+    errors = sum(p != t for p, t in zip(predicted, labelled["truth"], strict=True))
+    title = f"{labelled['map']}: predicted (red: predicted / true), {errors} of {len(ids)} wrong"
+    return _save(fig, ax, path, title)

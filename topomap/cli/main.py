@@ -271,7 +271,12 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
 
 
 def cmd_eval_labels(args: argparse.Namespace) -> int:
-    from topomap.cli.evaluate_labels import evaluate_labels, generated_regions, ipa_places_regions
+    from topomap.cli.evaluate_labels import (
+        draw_labels,
+        evaluate_labels,
+        generated_regions,
+        ipa_places_regions,
+    )
     from topomap.labels import PLACE_TYPES
 
     out = Path(args.out)
@@ -279,9 +284,14 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
     datasets = {"ipa_places": ipa_places_regions(args.data, progress=args.progress)}
     if args.generated:
         datasets["generated"] = generated_regions(progress=args.progress)
-    results: dict[str, Any] = {}
+    results: dict[str, Any] = {"regions": {}}
+    out.mkdir(parents=True, exist_ok=True)
     for dataset, maps in datasets.items():
-        results[dataset] = evaluate_labels(maps)
+        results[dataset], records = evaluate_labels(maps)
+        results["regions"][dataset] = records
+        for m in maps:
+            predicted = [r["rules"] for r in records if r["map"] == m["map"]]
+            draw_labels(out / f"{m['map']}_labels.png", m, predicted)
         rows = []
         for method, scores in results[dataset].items():
             for place, s in scores["per_class"].items():
@@ -302,9 +312,8 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
             )
         )
         print()
-    out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps(results, indent=2))
-    print(f"wrote {out / 'results.json'}")
+    print(f"wrote {out / 'results.json'} (features and labels per region) and a picture per map")
     return 0
 
 
