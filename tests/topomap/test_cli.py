@@ -81,6 +81,7 @@ def test_bad_input_gives_a_clear_error(tmp_path, capsys):
         ("simulate_robot_run.py", ["3"]),
         ("map_from_carmen_log.py", ["LOG", "OUT"]),
         ("segment_generated_building.py", ["OUT"]),
+        ("segment_a_slam_map.py", ["LOG", "OUT"]),
         ("plan_to_a_named_region.py", []),
     ],
 )
