@@ -450,6 +450,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
 def cmd_bench_batch(args: argparse.Namespace) -> int:
     from topomap.cli.bench_batch import bench_batch
 
+    _refuse_existing(Path(args.out), ["results.json"], args.force)
     results = bench_batch(
         args.out,
         maps=args.maps,
@@ -702,6 +703,7 @@ def build_parser() -> argparse.ArgumentParser:
     batch.set_defaults(func=cmd_batch)
     batch_bench = bench_sub.add_parser("batch", help="topomap batch: maps per minute, 1-2 workers")
     batch_bench.add_argument("--out", default="out/bench-batch")
+    batch_bench.add_argument("--force", action="store_true", help="overwrite existing results")
     batch_bench.add_argument("--maps", type=int, default=24, help="generated buildings")
     batch_bench.add_argument("--size", default="flat", choices=["flat", "office"])
     batch_bench.add_argument("--workers", type=worker_count, nargs="+", default=[1, 2])
