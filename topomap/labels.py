@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 from skimage.measure import perimeter
-from skimage.morphology import disk
+from skimage.morphology import disk, skeletonize
 from sklearn.ensemble import RandomForestClassifier
 
 from segmentation.regions import Regions
@@ -42,9 +42,17 @@ FEATURES = (
     "door_width_max_m",
     "door_width_mean_m",
     "perimeter_m",
+    "skeleton_length_m",
+    "skeleton_width_m",
+    "skeleton_slenderness",
+    "branch_points",
+    "betweenness",
+    "door_span_m",
 )
 #: Furniture holes up to this size (m^2) are filled before measuring shape.
 FURNITURE_HOLE_M2 = 4.0
+#: The medial axis is traced on cells of about this size (m), coarser cells being given as is.
+SKELETON_CELL_M = 0.1
 #: Notches (furniture against a wall) narrower than twice this (m) are closed, too.
 FURNITURE_GAP_M = 0.5
 
@@ -64,6 +72,7 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
     """
     res = regions.grid.resolution
     ids = sorted(int(n) for n in graph.nodes)
+    between = nx.betweenness_centrality(graph) if len(graph) > 2 else {}
     boxes = ndimage.find_objects(regions.labels)
     columns: dict[str, list[float]] = {name: [] for name in ("id", *FEATURES)}
     for region in ids:
@@ -74,12 +83,20 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
         kernel = disk(gap).astype(np.uint8)
         filled = cv2.morphologyEx(filled.astype(np.uint8), cv2.MORPH_CLOSE, kernel).astype(bool)
         area = float(filled.sum()) * res**2
-        depth = ndimage.distance_transform_edt(filled)[filled] * res
+        distance = ndimage.distance_transform_edt(filled)
+        depth = distance[filled] * res
         width = 2 * float(np.percentile(depth, 95))
+        step = max(1, int(SKELETON_CELL_M / res))
+        length, mean_width, branches = skeleton_shape(
+            filled[::step, ::step], distance[::step, ::step] / step, res * step
+        )
         edge = float(perimeter(filled)) * res
-        rows, cols = np.nonzero(filled)
-        (_, _), (w, h), _ = cv2.minAreaRect(np.column_stack([cols, rows]).astype(np.float32))
+        outline, _ = cv2.findContours(
+            filled.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE
+        )
+        (_, _), (w, h), _ = cv2.minAreaRect(np.vstack(outline))
         widths = [float(d) for _, _, d in graph.edges(region, data="width")]
+        doors = [door.centre for _, _, ds in graph.edges(region, data="doors") for door in ds]
         values = {
             "id": region,
             "area_m2": area,
@@ -91,10 +108,74 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
             "door_width_max_m": max(widths, default=0.0),
             "door_width_mean_m": float(np.mean(widths)) if widths else 0.0,
             "perimeter_m": edge,
+            "skeleton_length_m": length,
+            "skeleton_width_m": mean_width,
+            "skeleton_slenderness": length / mean_width if mean_width else 0.0,
+            "branch_points": float(branches),
+            "betweenness": float(between.get(region, 0.0)),
+            "door_span_m": _span(np.asarray(doors, float).reshape(-1, 2)),
         }
         for name, value in values.items():
             columns[name].append(value)
     return {name: np.asarray(values, float) for name, values in columns.items()}
+
+
+def skeleton_shape(
+    mask: NDArray[np.bool_], distance: NDArray[np.float64], resolution: float
+) -> tuple[float, float, int]:
+    """``(length m, mean width m, branch points)`` of the medial axis of ``mask``.
+
+    The axis is :func:`skimage.morphology.skeletonize` with its spurs cut: a piece between an
+    end and a branch point shorter than the space is wide at that branch point (twice
+    ``distance`` there, ``distance`` being the distance to the edge in cells) is a corner or a
+    notch, not a way through. The length counts axis cells (a straight axis of n cells is n
+    cells long), the width is twice the mean ``distance`` along the axis, and branch points are
+    the clusters of axis cells with three or more axis neighbours. A ``w`` x ``l`` rectangle
+    (``w < l``) has an axis about ``l - w`` long and ``w`` wide, with no branch point.
+
+    Examples
+    --------
+    >>> mask = np.zeros((60, 220), bool)
+    >>> mask[10:50, 10:210] = True  # 10 x 2 m at 5 cm
+    >>> length, width, branches = skeleton_shape(mask, ndimage.distance_transform_edt(mask), 0.05)
+    >>> round(length), round(width), branches
+    (8, 2, 0)
+    """
+    axis = skeletonize(mask)
+    for _ in range(2):  # cutting spurs can leave a new, shorter one at a former branch point
+        neighbours = (
+            ndimage.convolve(axis.astype(np.uint8), np.ones((3, 3), np.uint8), mode="constant") - 1
+        )
+        junctions = axis & (neighbours >= 3)
+        near = ndimage.binary_dilation(junctions, np.ones((3, 3), bool))
+        pieces, count = ndimage.label(axis & ~near, np.ones((3, 3), bool))
+        if count == 0 or not junctions.any():
+            break
+        ends = axis & (neighbours == 1)
+        sizes = np.bincount(pieces.ravel(), minlength=count + 1)
+        has_end = np.bincount(pieces[ends], minlength=count + 1) > 0
+        # the width where each piece meets the rest: the largest distance along the piece
+        reach = np.zeros(count + 1)
+        np.maximum.at(reach, pieces[axis], distance[axis])
+        spur = has_end & (sizes < 2 * reach) & (np.arange(count + 1) > 0)
+        if not spur.any():
+            break
+        axis = axis & ~spur[pieces]
+    if not axis.any():
+        return 0.0, 2 * float(distance.max()) * resolution, 0
+    neighbours = (
+        ndimage.convolve(axis.astype(np.uint8), np.ones((3, 3), np.uint8), mode="constant") - 1
+    )
+    _, branches = ndimage.label(axis & (neighbours >= 3), np.ones((3, 3), bool))
+    length = float(axis.sum()) * resolution
+    return length, 2 * float(distance[axis].mean()) * resolution, int(branches)
+
+
+def _span(points: NDArray[np.float64]) -> float:
+    """The largest distance between two of ``points`` (0 for fewer than two)."""
+    if len(points) < 2:
+        return 0.0
+    return float(np.max(np.linalg.norm(points[:, None] - points[None], axis=2)))
 
 
 def _fill_small_holes(mask: NDArray[np.bool_], most: int) -> NDArray[np.bool_]:
@@ -110,25 +191,57 @@ def feature_matrix(features: Mapping[str, NDArray[np.float64]]) -> NDArray[np.fl
     return np.column_stack([features[name] for name in FEATURES])
 
 
+#: A space with this many doors or more, under :data:`HUB_MAX_M2`, is a circulation space.
+HUB_DOORS = 5
+#: Above this area (m^2) many doors no longer say corridor (open-plan rooms, halls).
+HUB_MAX_M2 = 100.0
+#: A space at most this wide (m) with doors at least :data:`PASSAGE_SPAN` widths apart is a
+#: corridor: a passage, too narrow to furnish as a room and walked from end to end.
+PASSAGE_WIDTH_M = 2.5
+PASSAGE_SPAN = 2.0
+
+
 def rule_classifier(features: Mapping[str, NDArray[np.float64]]) -> list[str]:
-    """The default labels, from thresholds in metres.
+    """The default labels, from thresholds in metres and counts, none fitted to a map.
 
     - ``doorway``: a small region (under 3 m^2, at most 1.5 m wide) between two or more others;
-    - ``corridor``: at most 3.5 m wide and long for its width (slenderness 3.5 or more with
-      three doors or more, or slenderness 8 or more whatever its doors); or a large space
-      (150 m^2 or more) of slenderness 4 or more, a wide corridor;
+    - ``corridor``, any of
+      - long for its width: at most 3.5 m wide with slenderness 3.5 or more and three doors or
+        more, or slenderness 8 or more whatever its doors; or a large space (150 m^2 or more)
+        of slenderness 4 or more, a wide corridor;
+      - a hub: :data:`HUB_DOORS` doors or more on under :data:`HUB_MAX_M2` (a room has one or
+        two entrances; a small space that many others open onto is where people pass, even
+        when the segmentation cut it short);
+      - a passage: at most :data:`PASSAGE_WIDTH_M` wide (narrower than a furnished room) with
+        two doors at least :data:`PASSAGE_SPAN` widths apart (walked from end to end);
     - ``hall``: any other space of 150 m^2 or more at least 8 m wide;
     - ``room``: everything else.
+
+    Examples
+    --------
+    >>> features = {
+    ...     "area_m2": np.array([40.0, 30.0, 300.0]),
+    ...     "width_m": np.array([2.0, 5.0, 15.0]),
+    ...     "slenderness": np.array([10.0, 1.2, 1.3]),
+    ...     "doors": np.array([4.0, 1.0, 2.0]),
+    ...     "door_span_m": np.array([18.0, 0.0, 12.0]),
+    ... }
+    >>> rule_classifier(features)
+    ['corridor', 'room', 'hall']
     """
     labels = []
     for i in range(len(features["area_m2"])):
         area, width = features["area_m2"][i], features["width_m"][i]
         slender, doors = features["slenderness"][i], features["doors"][i]
+        long = (width <= 3.5 and ((slender >= 3.5 and doors >= 3) or slender >= 8.0)) or (
+            area >= 150.0 and slender >= 4.0
+        )
+        hub = doors >= HUB_DOORS and area < HUB_MAX_M2
+        span = features["door_span_m"][i]
+        passage = width <= PASSAGE_WIDTH_M and doors >= 2 and span >= PASSAGE_SPAN * width
         if area < 3.0 and width <= 1.5 and doors >= 2:
             labels.append("doorway")
-        elif (width <= 3.5 and ((slender >= 3.5 and doors >= 3) or slender >= 8.0)) or (
-            area >= 150.0 and slender >= 4.0
-        ):
+        elif long or hub or passage:
             labels.append("corridor")
         elif area >= 150.0 and width >= 8.0:
             labels.append("hall")

@@ -1,0 +1,125 @@
+"""Corridor features and default rules on hand-made buildings, against values worked out by
+hand: a 20 x 2 m corridor with four rooms on its side, a hall, a hub and a passage."""
+
+import networkx as nx
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from maps.grid import OccupancyGrid
+from segmentation.graph import region_graph
+from segmentation.regions import Regions
+from topomap.labels import region_features, rule_classifier, skeleton_shape
+
+CELL = 0.05  # m
+
+
+def _cells(metres: float) -> int:
+    return round(metres / CELL)
+
+
+def _building(labels: np.ndarray) -> tuple[Regions, nx.Graph]:
+    grid = OccupancyGrid(np.where(labels > 0, 0, 100).astype(np.int8), CELL)
+    regions = Regions(grid, labels)
+    return regions, region_graph(regions)
+
+
+def _corridor_with_rooms(doors_at: tuple[float, ...] = (2.5, 7.5, 12.5, 17.5)) -> np.ndarray:
+    """A 20 x 2 m corridor (id 1) and, above it behind a 10 cm wall, 4 x 5 m rooms (ids 2...)
+    each opening onto the corridor through a 1 m door centred at ``doors_at`` (m from the
+    corridor's west end)."""
+    top, wall = _cells(1), _cells(0.1)
+    corridor_top = top + _cells(4) + wall
+    labels = np.zeros((corridor_top + _cells(2) + top, _cells(22)), np.int32)
+    west = _cells(1)
+    labels[corridor_top : corridor_top + _cells(2), west : west + _cells(20)] = 1
+    for k, x in enumerate(doors_at):
+        left = west + _cells(x - 2.5)
+        labels[top : top + _cells(4), left : left + _cells(5) - wall] = k + 2
+        door = west + _cells(x - 0.5)
+        labels[top + _cells(4) : corridor_top, door : door + _cells(1)] = k + 2
+    return labels
+
+
+def test_medial_axis_of_rectangles_and_a_tee():
+    # a w x l rectangle: axis l - w long, w wide, no branch point
+    for w, length in ((2.0, 10.0), (4.0, 5.0), (1.2, 7.0)):
+        mask = np.zeros((_cells(w) + 20, _cells(length) + 20), bool)
+        mask[10 : 10 + _cells(w), 10 : 10 + _cells(length)] = True
+        axis, width, branches = skeleton_shape(mask, ndimage.distance_transform_edt(mask), CELL)
+        assert axis == pytest.approx(length - w, abs=0.2)
+        assert width == pytest.approx(w, abs=0.15)
+        assert branches == 0
+    # a T of 2 m wide bars: 12 m across (y 1-3 m), a stem down to y = 9 m -> one branch
+    # point; axis: the bar's 12 - 2 = 10 m, the stem's from the bar's axis (y 2) to 1 m short
+    # of its end (y 8), 6 m: 16 m
+    mask = np.zeros((_cells(10), _cells(14)), bool)
+    mask[_cells(1) : _cells(3), _cells(1) : _cells(13)] = True
+    mask[_cells(1) : _cells(9), _cells(6) : _cells(8)] = True
+    axis, width, branches = skeleton_shape(mask, ndimage.distance_transform_edt(mask), CELL)
+    assert branches == 1
+    assert axis == pytest.approx(16.0, abs=0.6)
+    assert width == pytest.approx(2.0, abs=0.3)
+
+
+def test_corridor_with_four_side_doors():
+    regions, graph = _building(_corridor_with_rooms())
+    f = region_features(regions, graph)
+    assert list(f["doors"]) == [4, 1, 1, 1, 1]
+    # every path between two of the four rooms passes the corridor: C(4, 2) of C(4, 2) pairs
+    assert list(f["betweenness"]) == pytest.approx([1.0, 0, 0, 0, 0])
+    # outermost door centres 2.5 m and 17.5 m along: 15 m apart; a room's single door: 0
+    assert f["door_span_m"][0] == pytest.approx(15.0, abs=0.1)
+    assert f["door_span_m"][1] == 0.0
+    assert f["skeleton_length_m"][0] == pytest.approx(18.0, abs=0.4)
+    assert f["skeleton_width_m"][0] == pytest.approx(2.0, abs=0.15)
+    assert rule_classifier(f) == ["corridor", "room", "room", "room", "room"]
+
+
+def test_room_with_one_door_and_a_hall():
+    labels = _corridor_with_rooms(doors_at=(2.5,))
+    hall = np.zeros((_cells(17), _cells(22)), np.int32)
+    hall[_cells(1) : _cells(16), _cells(1) : _cells(21)] = 3  # 20 x 15 m, alone
+    regions, graph = _building(np.vstack([labels, hall]))
+    f = region_features(regions, graph)
+    assert f["area_m2"] == pytest.approx([40.0, 4 * 4.9 + 0.1, 300.0], rel=0.02)
+    assert rule_classifier(f) == ["corridor", "room", "hall"]
+
+
+def test_hub_and_passage_whatever_their_length():
+    # a 5 x 5 m space with five rooms opening onto it is where people pass: corridor
+    size = _cells(5)
+    labels = np.zeros((_cells(11), _cells(11)), np.int32)
+    inner = slice(_cells(3), _cells(3) + size)
+    labels[inner, inner] = 1
+    rooms = [
+        (slice(0, _cells(3)), slice(_cells(3), _cells(5.4))),
+        (slice(0, _cells(3)), slice(_cells(5.6), _cells(8))),
+        (slice(_cells(8), None), inner),
+        (inner, slice(0, _cells(3))),
+        (inner, slice(_cells(8), None)),
+    ]
+    for k, (rows, cols) in enumerate(rooms):
+        labels[rows, cols] = k + 2
+    regions, graph = _building(labels)
+    f = region_features(regions, graph)
+    assert f["doors"][0] == 5
+    assert f["slenderness"][0] < 2  # not long for its width
+    assert rule_classifier(f)[0] == "corridor"
+
+    # a 2 x 5 m passage with doors at its two ends is a corridor; the same space entered
+    # twice through one long side is a (narrow) room
+    def passage(door_cols: tuple[slice, slice], door_rows: tuple[slice, slice]) -> str:
+        labels = np.zeros((_cells(9), _cells(9)), np.int32)
+        labels[_cells(2) : _cells(7), _cells(3) : _cells(5)] = 1
+        for k, (rows, cols) in enumerate(zip(door_rows, door_cols, strict=True)):
+            labels[rows, cols] = k + 2
+        regions, graph = _building(labels)
+        f = region_features(regions, graph)
+        assert f["doors"][0] == 2
+        return rule_classifier(f)[0]
+
+    ends = (slice(_cells(3), _cells(5)), slice(_cells(3), _cells(5)))
+    assert passage(ends, (slice(0, _cells(2)), slice(_cells(7), None))) == "corridor"
+    side = (slice(_cells(5), None), slice(_cells(5), None))
+    assert passage(side, (slice(_cells(2), _cells(3)), slice(_cells(3.2), _cells(4)))) == "room"
