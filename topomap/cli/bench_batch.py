@@ -17,10 +17,6 @@ from topomap.cli.batch import dask_client, dask_map, run_batch
 
 log = logging.getLogger(__name__)
 
-#: Places per block, as the facade divides a large map.
-PLACES_PER_BLOCK = 100
-
-
 def generated_maps(folder: Path, count: int, size: str = "flat") -> list[str]:
     """Write ``count`` generated buildings (seeds 0, 1, ...) as map YAMLs in ``folder``."""
     from maps.floorplan import generate_floor_plan
@@ -81,40 +77,40 @@ def bench_batch_maps(
 def bench_campus_blocks(
     workers: Sequence[int] = (1, 2), *, random_state: int = 0
 ) -> list[dict[str, Any]]:
-    """The spectral stage of the campus, block by block, with its blocks on a local cluster
-    of each worker count (the same single-threaded workers, so only their number differs):
-    seconds, the speed-up over the first count, and whether the labels equal the first's."""
+    """The whole segmentation of the campus (``MapSegmenter``) with its spectral blocks on a
+    local cluster of each worker count (the same single-threaded workers, so only their
+    number differs): seconds of the whole call and of its spectral stage, the speed-up over
+    the first count, and whether the regions equal the first's."""
     from maps.floorplan import generate_floor_plan
-    from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
-    from segmentation.refine import basins
+    from segmentation.pipeline import MapSegmenter
     from segmentation.spectral import SpectralSegmenter
-    from segmentation.virtual import virtual_keyframes
 
-    grid = generate_floor_plan("campus", random_state=random_state).grid
-    keyframes = virtual_keyframes(grid, 0.8, random_state=random_state)
-    blocks, per_block = keyframe_blocks(grid, basins(grid), keyframes, PLACES_PER_BLOCK)
-    segmenter = SpectralSegmenter(random_state=random_state)
+    grid = generate_floor_plan("campus", furniture=0.3, random_state=random_state).grid
     records: list[dict[str, Any]] = []
     first = None
     for count in workers:
         with dask_client(count) as client:
+            pipeline = MapSegmenter(
+                SpectralSegmenter(random_state=random_state), map_blocks=dask_map(client)
+            )
             start = time.perf_counter()
-            model = BlockSpectralSegmenter(segmenter, blocks, per_block, dask_map(client))
-            model.fit(keyframes)
+            found = pipeline.segment(grid)
             seconds = time.perf_counter() - start
-        first = model.labels_ if first is None else first
+        labels = found.regions.labels
+        first = labels if first is None else first
         records.append(
             {
                 "workers": count,
-                "keyframes": len(keyframes),
-                "blocks": len(per_block),
-                "regions": model.n_regions_,
+                "keyframes": len(found.keyframes),
+                "regions": len(found.regions.ids),
                 "seconds": round(seconds, 1),
-                "same_labels": bool(np.array_equal(model.labels_, first)),
+                "spectral_s": round(found.seconds["spectral"], 1),
+                "same_labels": bool(np.array_equal(labels, first)),
             }
         )
     for record in records:
         record["speedup"] = round(records[0]["seconds"] / record["seconds"], 2)
+        record["spectral_speedup"] = round(records[0]["spectral_s"] / record["spectral_s"], 2)
     return records
 
 
