@@ -2,8 +2,9 @@
 against the generator's own room types.
 
 Each map is segmented; each region's true type is the majority type of its cells; regions are
-then predicted by the rules, and by a random forest trained on the *other* maps only (whole
-maps left out). Scores are per region.
+then predicted by the rules, and by a random forest trained on all *other* labelled maps (whole
+maps left out; with ``more``, the other data set's maps too). Scores are per region, and per
+map the corridors found and invented.
 """
 
 from __future__ import annotations
@@ -136,19 +137,46 @@ def score_labels(truth: list[str], predicted: list[str]) -> dict[str, Any]:
     }
 
 
-def predictions(maps: list[dict[str, Any]]) -> dict[str, list[str]]:
+def predictions(
+    maps: list[dict[str, Any]], more: list[dict[str, Any]] | None = None
+) -> dict[str, list[str]]:
     """Per method, the predicted type of every region of ``maps`` (maps in order): the rules,
-    a forest with each map left out of its own training, and "always room"."""
+    a forest trained on all other labelled maps (the other ``maps`` and ``more``, never the map
+    it predicts), and "always room"."""
     rules = [label for m in maps for label in rule_classifier(m["features"])]
     forest: list[str] = []
     for held in range(len(maps)):
-        train = [m for i, m in enumerate(maps) if i != held]
+        train = [m for i, m in enumerate(maps) if i != held] + (more or [])
         x = np.vstack([feature_matrix(m["features"]) for m in train])
         y = [t for m in train for t in m["truth"]]
         model = ForestClassifier().fit(x, y)
         forest += model.predict(feature_matrix(maps[held]["features"]))
     count = sum(len(m["truth"]) for m in maps)
     return {"rules": rules, "forest (maps left out)": forest, "always room": ["room"] * count}
+
+
+def per_map(maps: list[dict[str, Any]], predicted: dict[str, list[str]]) -> list[dict[str, Any]]:
+    """Per map: regions, true corridors, and per method the corridors found, the corridors
+    invented and all wrong labels."""
+    rows, start = [], 0
+    for m in maps:
+        truth = m["truth"]
+        row: dict[str, Any] = {
+            "map": m["map"],
+            "regions": len(truth),
+            "corridors": truth.count("corridor"),
+        }
+        for method, labels in predicted.items():
+            mine = labels[start : start + len(truth)]
+            pairs = list(zip(truth, mine, strict=True))
+            row[method] = {
+                "corridors found": sum(t == p == "corridor" for t, p in pairs),
+                "corridors invented": sum(p == "corridor" != t for t, p in pairs),
+                "wrong": sum(t != p for t, p in pairs),
+            }
+        rows.append(row)
+        start += len(truth)
+    return rows
 
 
 def region_records(
@@ -171,13 +199,15 @@ def region_records(
     return records
 
 
-def evaluate_labels(maps: list[dict[str, Any]]) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+def evaluate_labels(
+    maps: list[dict[str, Any]], more: list[dict[str, Any]] | None = None
+) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]]]:
     """Scores of every method of :func:`predictions` over all regions of ``maps``, keyed by
-    method, and the :func:`region_records`."""
+    method; the :func:`region_records`; the :func:`per_map` counts."""
     truth = [t for m in maps for t in m["truth"]]
-    predicted = predictions(maps)
+    predicted = predictions(maps, more)
     scores = {method: score_labels(truth, labels) for method, labels in predicted.items()}
-    return scores, region_records(maps, predicted)
+    return scores, region_records(maps, predicted), per_map(maps, predicted)
 
 
 #: Colours of the place types in the pictures.

@@ -284,11 +284,12 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
     datasets = {"ipa_places": ipa_places_regions(args.data, progress=args.progress)}
     if args.generated:
         datasets["generated"] = generated_regions(progress=args.progress)
-    results: dict[str, Any] = {"regions": {}}
+    results: dict[str, Any] = {"regions": {}, "per_map": {}}
     out.mkdir(parents=True, exist_ok=True)
     for dataset, maps in datasets.items():
-        results[dataset], records = evaluate_labels(maps)
-        results["regions"][dataset] = records
+        more = [m for other, ms in datasets.items() if other != dataset for m in ms]
+        results[dataset], records, counts = evaluate_labels(maps, more)
+        results["regions"][dataset], results["per_map"][dataset] = records, counts
         for m in maps:
             predicted = [r["rules"] for r in records if r["map"] == m["map"]]
             draw_labels(out / f"{m['map']}_labels.png", m, predicted)
@@ -300,6 +301,25 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
         print(f"{dataset}: {sum(len(m['truth']) for m in maps)} regions on {len(maps)} maps")
         columns = ["method", "class", "precision", "recall", "f1", "support"]
         print(_table([{c: r.get(c, "") for c in columns} for r in rows], columns))
+        print("per map (corridors found / invented, wrong labels):")
+        methods = ["rules", "forest (maps left out)"]
+        print(
+            _table(
+                [
+                    {
+                        "map": c["map"],
+                        "regions": c["regions"],
+                        "corridors": c["corridors"],
+                        **{
+                            k: "{corridors found} / {corridors invented}, {wrong}".format(**c[k])
+                            for k in methods
+                        },
+                    }
+                    for c in counts
+                ],
+                ["map", "regions", "corridors", *methods],
+            )
+        )
         matrix = results[dataset]["rules"]["confusion"]
         print("rules, confusion (rows true, columns predicted):")
         print(
