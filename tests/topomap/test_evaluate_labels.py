@@ -1,8 +1,6 @@
 """The label evaluation's per-region records, per-map counts and pictures, on a hand-made
 building whose true types are drawn by hand."""
 
-from types import SimpleNamespace
-
 import numpy as np
 from matplotlib.image import imread
 
@@ -29,8 +27,7 @@ def _labelled(name: str) -> dict:
     truth = np.full(labels.shape, -1, np.int8)
     truth[labels > 0] = PLACE_TYPES.index("room")
     truth[(labels == 1) | (labels == 3)] = PLACE_TYPES.index("corridor")
-    topo = SimpleNamespace(regions=regions, graph=region_graph(regions))
-    return labelled_regions(topo, truth, name)
+    return labelled_regions(regions, region_graph(regions), truth, name)
 
 
 def test_records_counts_and_pictures(tmp_path):

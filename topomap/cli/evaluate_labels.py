@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import cv2
+import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
@@ -21,6 +22,7 @@ from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
 from maps.errors import MapFileNotFoundError
 from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
+from segmentation.regions import Regions
 from topomap.cli.drawing import _map_figure, _save
 from topomap.labels import (
     PLACE_TYPES,
@@ -74,17 +76,20 @@ def majority_types(labels: NDArray[np.integer], truth: NDArray[np.int8], ids: ND
     return found
 
 
-def labelled_regions(topo: TopoMap, truth: NDArray[np.int8], map_name: str) -> dict[str, Any]:
-    """Features and true type of every region of ``topo`` with a true type, and the map's
-    regions and graph (``"topo"``) for pictures."""
-    features = region_features(topo.regions, topo.graph)
-    types = majority_types(topo.regions.labels, truth, features["id"].astype(int))
+def labelled_regions(
+    regions: Regions, graph: nx.Graph, truth: NDArray[np.int8], map_name: str
+) -> dict[str, Any]:
+    """Features and true type of every region of ``graph`` with a true type, and the map's
+    ``regions`` and ``graph`` for pictures."""
+    features = region_features(regions, graph)
+    types = majority_types(regions.labels, truth, features["id"].astype(int))
     keep = np.array([t is not None for t in types])
     return {
         "map": map_name,
         "features": {k: v[keep] for k, v in features.items()},
         "truth": [t for t in types if t is not None],
-        "topo": topo,
+        "regions": regions,
+        "graph": graph,
     }
 
 
@@ -95,7 +100,8 @@ def ipa_places_regions(
     found = []
     for name, plan, places in progress(place_maps(data_dir)):
         grid = OccupancyGrid.from_image(plan, PLACES_RESOLUTION)
-        found.append(labelled_regions(TopoMap.from_grid(grid), read_places(places), name))
+        topo = TopoMap.from_grid(grid)
+        found.append(labelled_regions(topo.regions, topo.graph, read_places(places), name))
     return found
 
 
@@ -113,7 +119,8 @@ def generated_regions(
         for index, place in enumerate(plan.types, start=1):
             truth[plan.labels == index] = PLACE_TYPES.index(place)
         topo = TopoMap.from_grid(plan.grid, random_state=seed)
-        found.append(labelled_regions(topo, truth, f"generated-{size}-{seed}"))
+        name = f"generated-{size}-{seed}"
+        found.append(labelled_regions(topo.regions, topo.graph, truth, name))
     return found
 
 
@@ -226,8 +233,7 @@ def draw_labels(path: str | Path, labelled: dict[str, Any], predicted: list[str]
     from matplotlib.colors import to_rgba
     from matplotlib.patches import Patch
 
-    topo = labelled["topo"]
-    grid, labels = topo.regions.grid, topo.regions.labels
+    grid, labels = labelled["regions"].grid, labelled["regions"].labels
     fig, ax = _map_figure(grid)
     ids = labelled["features"]["id"].astype(int)
     table = np.zeros((int(labels.max(initial=0)) + 1, 4))
@@ -241,7 +247,7 @@ def draw_labels(path: str | Path, labelled: dict[str, Any], predicted: list[str]
     xmin, ymin, xmax, ymax = grid.bounds()
     ax.imshow(image, extent=(xmin, xmax, ymin, ymax), interpolation="nearest")
     for region, place, true in zip(ids, predicted, labelled["truth"], strict=True):
-        node = topo.graph.nodes[region]
+        node = labelled["graph"].nodes[region]
         wrong = place != true
         ax.annotate(
             f"{region}: {place}" + (f" / {true}" if wrong else ""),
