@@ -4,6 +4,8 @@ hand: a 20 x 2 m corridor with four rooms on its side, a hall, a hub and a passa
 import networkx as nx
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid
@@ -41,15 +43,20 @@ def _corridor_with_rooms(doors_at: tuple[float, ...] = (2.5, 7.5, 12.5, 17.5)) -
     return labels
 
 
-def test_medial_axis_of_rectangles_and_a_tee():
-    # a w x l rectangle: axis l - w long, w wide, no branch point
-    for w, length in ((2.0, 10.0), (4.0, 5.0), (1.2, 7.0)):
-        mask = np.zeros((_cells(w) + 20, _cells(length) + 20), bool)
-        mask[10 : 10 + _cells(w), 10 : 10 + _cells(length)] = True
-        axis, width, branches = skeleton_shape(mask, ndimage.distance_transform_edt(mask), CELL)
-        assert axis == pytest.approx(length - w, abs=0.2)
-        assert width == pytest.approx(w, abs=0.15)
-        assert branches == 0
+@settings(max_examples=30, deadline=None)
+@given(st.integers(10, 80), st.integers(0, 200), st.booleans())
+def test_medial_axis_of_any_rectangle(short, extra, upright):
+    # a w x l rectangle (w <= l): axis l - w long (within four cells), w wide, no branch point
+    rows, cols = (short + extra, short) if upright else (short, short + extra)
+    mask = np.zeros((rows + 4, cols + 4), bool)
+    mask[2 : 2 + rows, 2 : 2 + cols] = True
+    axis, width, branches = skeleton_shape(mask, ndimage.distance_transform_edt(mask), 0.1)
+    assert axis == pytest.approx(0.1 * extra, abs=0.4)
+    assert width == pytest.approx(0.1 * short, abs=0.1 + 0.05 * 0.1 * short)
+    assert branches == 0
+
+
+def test_medial_axis_of_a_tee():
     # a T of 2 m wide bars: 12 m across (y 1-3 m), a stem down to y = 9 m -> one branch
     # point; axis: the bar's 12 - 2 = 10 m, the stem's from the bar's axis (y 2) to 1 m short
     # of its end (y 8), 6 m: 16 m
