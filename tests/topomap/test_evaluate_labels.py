@@ -7,8 +7,13 @@ from matplotlib.image import imread
 from maps.grid import OccupancyGrid
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
-from topomap.cli.evaluate_labels import draw_labels, evaluate_labels, labelled_regions
-from topomap.labels import PLACE_TYPES
+from topomap.cli.evaluate_labels import (
+    draw_labels,
+    evaluate_labels,
+    labelled_regions,
+    train_on_all,
+)
+from topomap.labels import PLACE_TYPES, ForestClassifier, feature_matrix
 
 
 def _labelled(name: str) -> dict:
@@ -57,3 +62,14 @@ def test_records_counts_and_pictures(tmp_path):
     for colour in ((0x9E, 0xCA, 0xE1), (0xFD, 0xAE, 0x6B)):
         mixed = 0.85 * np.array(colour)
         assert (np.abs(rgb - mixed - 0.15 * 255).sum(axis=2) < 12).any()
+
+
+def test_a_forest_trained_on_all_maps_saves_as_json(tmp_path):
+    maps = [_labelled("a"), _labelled("b")]
+    model = train_on_all(maps)
+    found = model.predict(feature_matrix(maps[0]["features"]))
+    # the corridor and the room below are learnt; rooms 2 and 3 have the same features and
+    # two different true types, so no model can get both
+    assert (found[0], found[3]) == ("corridor", "room")
+    again = ForestClassifier.load(model.save(tmp_path / "model.json"))
+    assert again.predict(feature_matrix(maps[1]["features"])) == found

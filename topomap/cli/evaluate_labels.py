@@ -154,12 +154,15 @@ def predictions(
     forest: list[str] = []
     for held in range(len(maps)):
         train = [m for i, m in enumerate(maps) if i != held] + (more or [])
-        x = np.vstack([feature_matrix(m["features"]) for m in train])
-        y = [t for m in train for t in m["truth"]]
-        model = ForestClassifier().fit(x, y)
-        forest += model.predict(feature_matrix(maps[held]["features"]))
+        forest += train_on_all(train).predict(feature_matrix(maps[held]["features"]))
     count = sum(len(m["truth"]) for m in maps)
     return {"rules": rules, "forest (maps left out)": forest, "always room": ["room"] * count}
+
+
+def train_on_all(maps: list[dict[str, Any]]) -> ForestClassifier:
+    """A :class:`ForestClassifier` trained on every labelled region of ``maps``."""
+    x = np.vstack([feature_matrix(m["features"]) for m in maps])
+    return ForestClassifier().fit(x, [t for m in maps for t in m["truth"]])
 
 
 def per_map(maps: list[dict[str, Any]], predicted: dict[str, list[str]]) -> list[dict[str, Any]]:

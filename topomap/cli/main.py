@@ -276,6 +276,7 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
         evaluate_labels,
         generated_regions,
         ipa_places_regions,
+        train_on_all,
     )
     from topomap.labels import PLACE_TYPES
 
@@ -334,6 +335,9 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
         print()
     (out / "results.json").write_text(json.dumps(results, indent=2))
     print(f"wrote {out / 'results.json'} (features and labels per region) and a picture per map")
+    if args.save_model:
+        model = train_on_all([m for maps in datasets.values() for m in maps])
+        print(f"wrote {model.save(args.save_model)} (forest trained on all labelled regions)")
     return 0
 
 
@@ -644,6 +648,9 @@ def build_parser() -> argparse.ArgumentParser:
     eval_labels.add_argument("--force", action="store_true", help="overwrite existing results")
     eval_labels.add_argument(
         "--generated", action="store_true", help="also on generated buildings' room types"
+    )
+    eval_labels.add_argument(
+        "--save-model", metavar="JSON", help="write a forest trained on all labelled regions"
     )
     eval_labels.set_defaults(func=cmd_eval_labels)
 
