@@ -17,6 +17,7 @@ from topomap.cli.batch import dask_client, dask_map, run_batch
 
 log = logging.getLogger(__name__)
 
+
 def generated_maps(folder: Path, count: int, size: str = "flat") -> list[str]:
     """Write ``count`` generated buildings (seeds 0, 1, ...) as map YAMLs in ``folder``."""
     from maps.floorplan import generate_floor_plan
