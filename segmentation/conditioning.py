@@ -110,12 +110,13 @@ def find_clutter(
     """
     blocked = (~grid.free).astype(np.uint8)
     gap = robot_radius / grid.resolution
-    grouped = cv2.dilate(blocked, _disc(gap / 2)) if gap >= 2 else blocked
+    half = math.ceil((gap - 1) / 2)  # each obstacle grows by this many cells: gaps < gap close
+    grouped = cv2.dilate(blocked, _disc(half)) if half >= 1 else blocked
     _, pieces, stats, _ = cv2.connectedComponentsWithStats(grouped, connectivity=8)
     x, y, w, h = (stats[:, i] for i in range(4))
     height, width = grid.shape
     inside = (x > 0) & (y > 0) & (x + w < width) & (y + h < height)
-    grow = 2 * math.floor(gap / 2) if gap >= 2 else 0
+    grow = 2 * max(half, 0)
     size = np.hypot(w - grow, h - grow) * grid.resolution
     small = inside & (size <= clutter_size)
     small[0] = False

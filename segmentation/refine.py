@@ -96,9 +96,9 @@ def merge_open_boundaries(
     The opening between two regions is a door when its clearance (half its width, at its most
     open cell) is below ``ratio`` times the clearance of the open spaces on *both* sides (the
     peaks of the basins of :func:`basins` that touch the opening) and at most ``max_door``
-    metres wide (double doors included; a wider constriction is where a corridor narrows, not a
-    door). Anything else (a cut across a corridor or a room, a corridor widening into a hall)
-    is merged away.
+    metres wide, to a cell (double doors included; a wider constriction is where a corridor
+    narrows, not a door). Anything else (a cut across a corridor or a room, a corridor widening
+    into a hall) is merged away.
 
     Examples
     --------
@@ -130,7 +130,10 @@ def merge_open_boundaries(
     np.maximum.at(widest, index, passage)
     np.maximum.at(open_a, index, side_a)
     np.maximum.at(open_b, index, side_b)
-    merge = (widest >= ratio * np.minimum(open_a, open_b)) | (2 * widest > max_door)
+    # clearance runs to the wall cells' centres: the free width is a cell less than twice it
+    merge = (widest >= ratio * np.minimum(open_a, open_b)) | (
+        2 * widest - grid.resolution > max_door
+    )
     first, second = np.divmod(pairs[merge], int(labels.max()) + 1)
     links = sparse.coo_matrix(
         (np.ones(len(first)), (first, second)), shape=(int(labels.max()) + 1,) * 2

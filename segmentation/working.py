@@ -4,7 +4,7 @@ Places and doors are metres wide; cells of a few centimetres only make the segme
 :func:`pool` merges ``factor x factor`` blocks of cells into one cell that is free only when
 all of them are (walls stay closed, passages narrow by at most one coarse cell), and
 :func:`unpool` brings labels back, every fine cell of the mask taking the label of its coarse
-cell, or of a labelled cell nearby when its coarse cell has none.
+cell, or of a labelled cell nearby (through the kept cells) when its coarse cell has none.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ import math
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from skimage.segmentation import watershed
 
 from maps.grid import OccupancyGrid
 
@@ -61,7 +62,8 @@ def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) ->
     """Fine labels for the cells of ``keep`` from coarse ``labels`` (see the module docstring).
 
     Cells next to labelled ones take the largest label around them, a ring at a time; the few
-    left further away take the nearest labelled cell's.
+    left further away take the label that reaches them first through the kept cells (never
+    across a wall); cells no label reaches stay 0.
 
     Examples
     --------
@@ -86,10 +88,6 @@ def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) ->
             grown = np.maximum(grown, fine[r, c])
         fine[rows, cols] = grown
         missing[rows, cols] = grown == 0
-    if missing.any() and (fine > 0).any():
-        _, nearest = cv2.distanceTransformWithLabels(
-            (fine == 0).astype(np.uint8), cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL
-        )
-        found = fine[fine > 0]  # the labelled cells in raster order: label k is found[k - 1]
-        fine[missing] = found[nearest[missing] - 1]
+    if missing.any() and (fine > 0).any():  # further away: flood through the kept cells only
+        fine = watershed(np.zeros(fine.shape, np.uint8), fine, mask=keep).astype(np.int32)
     return fine

@@ -67,6 +67,14 @@ def pipeline_from_options(options: dict[str, Any]) -> MapSegmenter:
     return MapSegmenter(spectral, **{k: v for k, v in options.items() if k in _PIPELINE})
 
 
+def _pipeline(pipeline: MapSegmenter | None, options: dict[str, Any]) -> MapSegmenter:
+    if pipeline is not None and options:
+        raise ParameterError(
+            f"give a pipeline or segmentation options, not both (got {sorted(options)})"
+        )
+    return pipeline or pipeline_from_options(options)
+
+
 @dataclass
 class TopoMap:
     """A map segmented into regions, with the region adjacency graph.
@@ -113,7 +121,7 @@ class TopoMap:
 
         ``options`` are those of :func:`pipeline_from_options` (or give ``pipeline``).
         """
-        pipeline = pipeline or pipeline_from_options(options)
+        pipeline = _pipeline(pipeline, options)
         return cls._build(grid, pipeline.segment(grid, random_state=random_state))
 
     @classmethod
@@ -129,7 +137,7 @@ class TopoMap:
     ) -> TopoMap:
         """Segment a robot's keyframes; the map is built from them unless ``grid`` is given.
         Options as for :meth:`from_grid`."""
-        pipeline = pipeline or pipeline_from_options(options)
+        pipeline = _pipeline(pipeline, options)
         start = time.perf_counter()
         built = grid is None
         grid = grid_from_keyframes(keyframes, resolution) if grid is None else grid
@@ -283,6 +291,7 @@ class TopoMap:
         info.write_text(json.dumps(about, indent=2))
         return [
             self.grid.save(out / "map.yaml", overwrite=True),
+            out / "map.pgm",
             write_label_image(self.regions.labels, out / "regions.png", overwrite=True),
             write_graphml(self.graph, out / "graph.graphml", overwrite=True),
             write_node_link(self.graph, out / "graph.json", overwrite=True),

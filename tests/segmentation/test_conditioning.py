@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from scipy import ndimage
 
 import maps
 from maps.grid import OCCUPIED, UNKNOWN, OccupancyGrid
@@ -169,13 +170,16 @@ def blocks(mask: np.ndarray, factor: int, shape: tuple[int, int]) -> np.ndarray:
 
 
 @given(arrays(bool, st.tuples(st.integers(1, 30), st.integers(1, 30))), st.integers(1, 4))
-def test_pooling_never_opens_a_wall_and_unpooling_labels_every_cell(fine_mask, factor):
+def test_pooling_never_opens_a_wall_and_unpooling_never_crosses_one(fine_mask, factor):
     grid = OccupancyGrid.from_masks(fine_mask, 0.05)
     coarse = pool(fine_mask, grid, factor)
     assert not (blocks(coarse.free, factor, fine_mask.shape) & ~fine_mask).any()
     labels = np.where(coarse.free, np.arange(coarse.free.size).reshape(coarse.shape) + 1, 0)
     fine = unpool(labels, factor, fine_mask)
-    assert np.array_equal(fine > 0, fine_mask & bool(labels.any()))
+    # labelled: exactly the kept cells connected (through kept cells) to a pooled cell
+    pieces, _ = ndimage.label(fine_mask)
+    seeded = np.unique(pieces[blocks(coarse.free, factor, fine_mask.shape)])
+    assert np.array_equal(fine > 0, fine_mask & np.isin(pieces, seeded[seeded > 0]))
     rows, cols = np.nonzero(blocks(coarse.free, factor, fine_mask.shape))
     assert np.array_equal(fine[rows, cols], labels[rows // factor, cols // factor])
     # a coarse cell keeps its place in the map frame
@@ -184,3 +188,29 @@ def test_pooling_never_opens_a_wall_and_unpooling_labels_every_cell(fine_mask, f
         x, y = coarse.cell_to_world(r, c)
         fr, fc = grid.world_to_cell(x, y)
         assert (fr // factor, fc // factor) == (r, c)
+
+
+def test_a_small_room_never_joins_a_region_across_a_wall():
+    """A 1 m^2 room shrinks under min_area once pooled: it is left out and counted, never
+    given the big room's region through the wall."""
+    cells = np.full((80, 120), OCCUPIED, np.int8)
+    cells[5:75, 5:80] = 0
+    cells[11:32, 87:108] = 0
+    grid = OccupancyGrid(cells, 0.05)
+    found = MapSegmenter(spectral=SpectralSegmenter(random_state=0)).segment(grid)
+    labels = found.regions.labels
+    assert set(np.unique(labels[11:32, 87:108])) <= {0} or not set(
+        np.unique(labels[11:32, 87:108])
+    ) & set(np.unique(labels[5:75, 5:80]))
+    assert all(shape.geom_type == "Polygon" for shape in found.regions.polygons.values())
+    counts = found.conditioned.summary()
+    dropped = sum(v for k, v in counts.items() if k.startswith("dropped"))
+    assert counts["kept_cells"] + dropped == counts["free_cells"] == (labels > 0).sum() + dropped
+
+
+def test_obstacles_closer_than_the_robot_group_at_any_resolution():
+    cells = np.zeros((60, 60), np.int8)
+    cells[[0, -1], :] = cells[:, [0, -1]] = OCCUPIED
+    cells[30, 1:59:2] = OCCUPIED  # a dotted wall, 0.1 m gaps, a 0.3 m robot cannot pass
+    clutter = find_clutter(OccupancyGrid(cells, 0.1), robot_radius=0.15)
+    assert not clutter[30].any()

@@ -101,3 +101,11 @@ def test_files_that_do_not_belong_together_are_refused(tmp_path, flat):
         TopoMap.load(tmp_path)
     with pytest.raises(MapFileNotFoundError):
         TopoMap.load(tmp_path / "nothing")
+
+
+def test_a_pipeline_and_options_together_are_refused(flat):
+    from segmentation.errors import ParameterError
+    from segmentation.pipeline import MapSegmenter
+
+    with pytest.raises(ParameterError, match="not both"):
+        TopoMap.from_grid(flat.grid, pipeline=MapSegmenter(), robot_radius=5.0)
