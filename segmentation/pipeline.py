@@ -212,7 +212,7 @@ class MapSegmenter:
             lap("keyframes")
         keyframes = list(keyframes)
         stage("spectral")
-        seeing = [k for k in keyframes if len(k.points())]  # a scan that hit nothing: no place
+        seeing = [k for k in keyframes if k.scan.valid.any()]  # a scan that hit nothing: no place
         if len(seeing) < 2:
             raise SegmentationError(
                 f"{len(seeing)} of {len(keyframes)} keyframes saw a wall within their laser's "
