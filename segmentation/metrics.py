@@ -123,3 +123,88 @@ def score(segments: NDArray[np.integer], truth: NDArray[np.integer]) -> Scores:
         segments=n_seg,
         rooms=n_gt,
     )
+
+
+#: ROSE²'s evaluation ignores rooms of the ground truth with at most this many pixels.
+ROSE2_MIN_ROOM = 200
+
+
+@dataclass(frozen=True)
+class Rose2Scores:
+    """ROSE²'s scores of one segmentation, in % (Luperto et al., RA-L 2022,
+    ``code/util/evaluation.py``)."""
+
+    precision: float
+    recall: float
+    iou: float
+
+    def as_dict(self) -> dict[str, float]:
+        """The scores as a plain dict, keys prefixed ``rose2_``."""
+        return {f"rose2_{k}": v for k, v in asdict(self).items()}
+
+
+def rose2_score(segments: NDArray[np.integer], truth: NDArray[np.integer]) -> Rose2Scores:
+    """Score ``segments`` against ``truth`` (0 = no room / no segment) the way ROSE² does.
+
+    Rooms of at most :data:`ROSE2_MIN_ROOM` pixels are ignored; ``|s|`` counts every pixel of a
+    segment, ``|g|`` every pixel of a room. Precision is the mean over segments of
+    ``max_g O[s, g] / |s|``, recall the mean over rooms of ``max_s O[s, g] / |g|``, IoU the mean
+    over segments of ``O[s, g*] / (|s| + |g*| - O[s, g*])`` with ``g*`` the room of largest
+    overlap (0 when the segment meets no room).
+
+    Examples
+    --------
+    >>> truth = np.repeat([[1] * 20 + [2] * 20], 20, axis=0)
+    >>> whole = rose2_score(truth, truth)
+    >>> (whole.precision, whole.recall, whole.iou)
+    (100.0, 100.0, 100.0)
+    >>> one = rose2_score(np.ones_like(truth), truth)  # two rooms, one segment
+    >>> (one.precision, one.recall, one.iou)
+    (50.0, 100.0, 50.0)
+    """
+    if segments.shape != truth.shape:
+        raise SegmentationError(
+            f"segmentation shape {segments.shape} differs from ground truth {truth.shape}"
+        )
+    gt = truth.astype(np.int64)
+    sizes = np.bincount(gt.ravel())
+    gt = np.where(sizes[gt] > ROSE2_MIN_ROOM, gt, 0)
+    gt[truth <= 0] = 0
+    seg_ids, seg_index = np.unique(segments, return_inverse=True)
+    gt_ids, gt_index = np.unique(gt, return_inverse=True)
+    seg_index, gt_index = seg_index.reshape(gt.shape), gt_index.reshape(gt.shape)
+    table = sparse.coo_matrix(
+        (np.ones(gt.size), (seg_index.ravel(), gt_index.ravel())),
+        shape=(len(seg_ids), len(gt_ids)),
+    ).toarray()
+    seg_size = table.sum(axis=1)[seg_ids > 0]
+    gt_size = table.sum(axis=0)[gt_ids > 0]
+    overlap = table[seg_ids > 0][:, gt_ids > 0]
+    if overlap.shape[0] == 0 or overlap.shape[1] == 0:
+        return Rose2Scores(0.0, 0.0, 0.0)
+    best = overlap.max(axis=1)
+    partner = gt_size[overlap.argmax(axis=1)]
+    iou = np.where(best > 0, best / (seg_size + partner - best), 0.0)
+    return Rose2Scores(
+        precision=round(100 * float(np.mean(best / seg_size)), 3),
+        recall=round(100 * float(np.mean(overlap.max(axis=0) / gt_size)), 3),
+        iou=round(100 * float(np.mean(iou)), 3),
+    )
+
+
+def colour_labels(image: NDArray[np.uint8]) -> NDArray[np.int32]:
+    """Rooms of a colour ground truth (black = no room, each other colour one room), 1..K.
+
+    Examples
+    --------
+    >>> image = np.zeros((1, 4, 3), np.uint8)
+    >>> image[0, 1] = image[0, 3] = (0, 0, 255)
+    >>> image[0, 2] = (0, 255, 0)
+    >>> colour_labels(image).tolist()
+    [[0, 1, 2, 1]]
+    """
+    pixels = image[..., :3].reshape(-1, 3).astype(np.int64)
+    key = (pixels[:, 0] << 16) | (pixels[:, 1] << 8) | pixels[:, 2]
+    colours, index = np.unique(key, return_inverse=True)
+    labels = index.astype(np.int32) + (0 if colours[0] == 0 else 1)
+    return labels.reshape(image.shape[:2])

@@ -11,18 +11,17 @@ Stages, each timed in :attr:`Segmentation.seconds`:
    place and on a lattice of ``spacing`` metres, simulated in the conditioned space; a robot's
    keyframes are used as they are.
 4. ``spectral``: the paper's spectral partition of the keyframes
-   (:class:`~segmentation.spectral.SpectralSegmenter`), with the guess ``k'`` = the number of
+   (:class:`~segmentation.spectral.SpectralSegmenter`) on the paper's similarity weighed by
+   the openness of the passages between the keyframes' places
+   (:class:`~segmentation.affinity.PassageAffinity`), with the guess ``k'`` = the number of
    places, block by block on maps of more than ``block_places`` places.
-5. ``regions``: the spectral partition alone, made dense: every place takes the cluster of
-   most of its keyframes (of the keyframe nearest to it if it has none).
-6. ``refine`` (optional): the regions people draw. The places are joined wherever the opening
-   between them is not a door (:func:`~segmentation.refine.merge_open_boundaries`): a room
-   ends at its doors, a corridor system that no door separates is one region. This rule
-   follows from the geometry alone; on the ipa floor plans it agrees with people more than the
-   spectral clusters snapped to the places did (MCC 0.87 against 0.82), so the spectral
-   partition is kept beside it (:attr:`Segmentation.spectral`), not under it.
-
-Clutter and dropped cells carry no region (label 0).
+5. ``regions``: the partition made dense: every place takes the cluster of most of its
+   keyframes (of the keyframe nearest to it if it has none); pieces under ``min_area`` join a
+   neighbour. With ``method="doors"`` (the baseline) the places are joined wherever the
+   opening between them is not a door (:func:`~segmentation.refine.merge_open_boundaries`)
+   instead.
+6. ``cover``: every building cell gets a region (:func:`~segmentation.coverage.cover`):
+   furniture, thin rays, rooms seen only through their doors.
 """
 
 from __future__ import annotations
@@ -41,8 +40,10 @@ from maps.grid import OccupancyGrid
 from maps.laser_sim import LaserModel
 from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
+from segmentation.affinity import PassageAffinity
 from segmentation.blocks import BlockMap, BlockSpectralSegmenter, keyframe_blocks
 from segmentation.conditioning import ConditionedMap, condition, drop_outside
+from segmentation.coverage import Coverage, cover
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.refine import basins, count_basins, merge_open_boundaries
 from segmentation.regions import Regions, consecutive, pieces
@@ -51,6 +52,9 @@ from segmentation.virtual import VIRTUAL_LASER, most_open_cells, virtual_keyfram
 from segmentation.working import pool, pool_factor, unpool
 
 log = logging.getLogger(__name__)
+
+#: The ways regions are made: the spectral partition (default) and the door-rule baseline.
+METHODS = ("spectral", "doors")
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,9 +77,13 @@ class Segmentation:
         The fitted spectral partition (one per block on large maps) of the keyframes that saw a
         wall (all of them, unless some scans hit nothing).
     spectral
-        The spectral partition alone, made dense.
+        The spectral partition made dense and covering the building.
     regions
-        The refined regions (the spectral partition when ``refine=False``).
+        The regions of the pipeline's ``method``: ``spectral`` itself by default, the door
+        rule's with ``method="doors"``.
+    coverage
+        What covering the building added to ``regions``: cells filled, rooms seen through
+        doors.
     seconds
         Time per stage.
     """
@@ -87,6 +95,7 @@ class Segmentation:
     segmenter: SpectralSegmenter | BlockSpectralSegmenter
     spectral: Regions
     regions: Regions
+    coverage: Coverage
     seconds: dict[str, float]
 
     def keyframe_regions(self) -> NDArray[np.int64]:
@@ -112,8 +121,12 @@ class MapSegmenter:
     cell_size
         Finer maps are segmented on cells of about this size (metres), then labelled cell by
         cell.
-    refine
-        Regions from the places and their doors (else the spectral partition).
+    method
+        ``"spectral"``: the regions are the spectral partition (the paper's method, default);
+        ``"doors"``: the door rule over the places (the baseline).
+    contrast
+        How much a narrow passage weakens the affinity of the keyframes on both sides
+        (:class:`~segmentation.affinity.PassageAffinity`); 0 is the paper's affinity alone.
     block_places
         Maps with more places are partitioned block by block.
     laser
@@ -140,7 +153,8 @@ class MapSegmenter:
     place_depth: float = 0.3
     spacing: float = 2.0
     cell_size: float = 0.1
-    refine: bool = True
+    method: str = "spectral"
+    contrast: float = 2.0
     block_places: int = 100
     laser: LaserModel = VIRTUAL_LASER
     on_stage: Callable[[str], None] | None = field(default=None, repr=False)
@@ -151,6 +165,8 @@ class MapSegmenter:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise ParameterError(f"{name} must be > 0 metres, got {value!r}")
+        if self.method not in METHODS:
+            raise ParameterError(f"method must be one of {', '.join(METHODS)}, got {self.method!r}")
         if not (isinstance(self.block_places, int) and self.block_places >= 2):
             raise ParameterError(f"block_places must be an integer >= 2, got {self.block_places!r}")
 
@@ -220,24 +236,31 @@ class MapSegmenter:
             )
         if len(seeing) < len(keyframes):
             log.info("%d keyframes saw no wall and are not clustered", len(keyframes) - len(seeing))
-        fitted = self._fit(space, places, seeing, spectral)
+        affinity = PassageAffinity(space, places, spectral.criterion, self.contrast)
+        fitted = self._fit(space, places, seeing, replace(spectral, criterion=affinity))
         lap("spectral")
         stage("regions")
         poses = poses_array(seeing)
         rows, cols = space.world_to_cell(poses[:, 0], poses[:, 1])
         dense = pieces(space, by_place(places, rows, cols, fitted.labels_), self.min_area)
-        spectral_regions = Regions(grid, unpool(dense, factor, conditioned.free))
+        if self.method == "doors":
+            doors = pieces(space, merge_open_boundaries(space, places, places), self.min_area)
         lap("regions")
-        regions = spectral_regions
-        if self.refine:
-            stage("refine")
-            merged = pieces(space, merge_open_boundaries(space, places, places), self.min_area)
-            regions = Regions(grid, unpool(merged, factor, conditioned.free))
-            lap("refine")
+        stage("cover")
+        covered = self._cover(conditioned, unpool(dense, factor, conditioned.free))
+        spectral_regions = Regions(grid, covered.labels)
+        if self.method == "doors":
+            covered = self._cover(conditioned, unpool(doors, factor, conditioned.free))
+        regions = Regions(grid, covered.labels)
+        lap("cover")
         conditioned = _count_unlabelled(conditioned, regions.labels)
         return Segmentation(
-            conditioned, space, places, keyframes, fitted, spectral_regions, regions, seconds
+            conditioned, space, places, keyframes, fitted, spectral_regions, regions, covered,
+            seconds,
         )
+
+    def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
+        return cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
 
     def _fit(
         self,

@@ -1,4 +1,5 @@
-"""Evaluation of the segmentation on floor plans with human ground truth (the ipa benchmark)."""
+"""Evaluation of the segmentation against people's rooms: the ipa floor plans (a label image
+per plan) and ROSE²'s real SLAM maps (a colour image per map, ROSE²'s own results beside)."""
 
 from __future__ import annotations
 
@@ -9,29 +10,57 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
+from numpy.typing import NDArray
 
 from maps.errors import MapFileNotFoundError
 from maps.grid import OccupancyGrid
+from maps.map_server import grid_from_image
 from segmentation.export import read_label_image
-from segmentation.metrics import score
+from segmentation.metrics import colour_labels, rose2_score, score
 from topomap.topomap import pipeline_from_options
 
-METRICS = ["recall", "precision", "mcc", "ari"]
+METRICS = ["recall", "precision", "mcc", "ari", "rose2_precision", "rose2_recall", "rose2_iou"]
+#: How ROSE²'s maps are read (its README): 0.05 m per pixel, map_server's trinary thresholds.
+ROSE2_MAP = {"resolution": 0.05, "free_thresh": 0.05, "occupied_thresh": 0.65}
 
 
 @dataclass(frozen=True)
 class FloorPlan:
-    """One map of the benchmark: its YAML, its ground-truth label image, furnished or not."""
+    """One map to evaluate: its occupancy map, its people's rooms, furnished or not, and an
+    other system's segmentation of it when the data has one."""
 
     name: str
     yaml: Path
     truth: Path
     furnished: bool
+    released: Path | None = None
+
+    def grid(self) -> OccupancyGrid:
+        """The occupancy map (a map_server YAML, or a ROSE² image)."""
+        if self.yaml.suffix == ".png":
+            return grid_from_image(self.yaml, **ROSE2_MAP)  # type: ignore[arg-type]
+        return OccupancyGrid.load(self.yaml)
+
+    def rooms(self) -> NDArray[np.int32]:
+        """The people's rooms as labels (0 = no room)."""
+        return _labels(self.truth)
+
+
+def _labels(path: Path) -> NDArray[np.int32]:
+    if path.parent.name in ("gt", "rose2_seg"):
+        image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        if image is None:
+            raise MapFileNotFoundError(path, "colour label image")
+        return colour_labels(image)
+    return read_label_image(path)
 
 
 def floor_plans(data_dir: str | Path) -> list[FloorPlan]:
-    """Every ``NAME.yaml`` / ``NAME_furnitures.yaml`` with a ``NAME_gt_labels.png`` beside it."""
+    """The maps of ``data_dir``: every ``NAME.yaml`` / ``NAME_furnitures.yaml`` with a
+    ``NAME_gt_labels.png`` beside it (the ipa layout), or every ``maps/NAME.png`` with a
+    colour ``gt/NAME.png`` (ROSE²'s layout; ``rose2_seg/NAME.png`` its released result)."""
     data_dir = Path(data_dir)
     if not data_dir.is_dir():
         raise MapFileNotFoundError(data_dir, "data folder")
@@ -42,38 +71,66 @@ def floor_plans(data_dir: str | Path) -> list[FloorPlan]:
         truth = data_dir / f"{base}_gt_labels.png"
         if truth.exists():
             found.append(FloorPlan(name, yaml, truth, name != base))
+    for image in sorted((data_dir / "maps").glob("*.png"), key=_natural):
+        truth = data_dir / "gt" / image.name
+        released = data_dir / "rose2_seg" / image.name
+        if truth.exists():
+            found.append(
+                FloorPlan(image.stem, image, truth, False, released if released.exists() else None)
+            )
     if not found:
-        raise MapFileNotFoundError(data_dir / "*.yaml", "map YAML with a *_gt_labels.png")
+        raise MapFileNotFoundError(
+            data_dir / "*.yaml", "map YAML with a *_gt_labels.png, or maps/*.png with gt/*.png"
+        )
     return found
 
 
-def evaluate(plan: FloorPlan, **options: Any) -> list[dict[str, Any]]:
-    """Segment one floor plan; score the spectral partition alone and the refined regions.
+def _natural(path: Path) -> tuple[str, int]:
+    stem = path.stem.rstrip("0123456789")
+    digits = path.stem[len(stem) :]
+    return stem, int(digits) if digits else -1
 
-    Both come from one segmentation call (:meth:`MapSegmenter.segment`, the region graph and
-    names not included, like the anchors' segmentation-only times): ``seconds`` is its wall
-    time, ``cpu_seconds`` its processor time (the same on an idle machine; on a busy one the
-    wall time also counts waiting for the processor).
+
+def _scores(labels: NDArray[np.integer], truth: NDArray[np.integer]) -> dict[str, Any]:
+    found: dict[str, Any] = {**score(labels, truth).as_dict(), **rose2_score(labels, truth).as_dict()}
+    return {k: round(v, 4) if isinstance(v, float) else v for k, v in found.items()}
+
+
+def evaluate(plan: FloorPlan, **options: Any) -> list[dict[str, Any]]:
+    """Segment one map with each method (the spectral partition, the door-rule baseline) and
+    score both, and the released segmentation of another system when there is one.
+
+    ``seconds`` is the wall time of one segmentation call (:meth:`MapSegmenter.segment`: the
+    region graph and names not included, like the anchors' segmentation-only times),
+    ``cpu_seconds`` its processor time.
     """
-    grid = OccupancyGrid.load(plan.yaml)
-    truth = read_label_image(plan.truth)
-    pipeline = pipeline_from_options(options)
-    wall, cpu = time.perf_counter(), time.process_time()
-    found = pipeline.segment(grid, random_state=0)
-    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    grid = plan.grid()
+    truth = plan.rooms()
     records = []
-    for variant, regions in (("spectral", found.spectral), ("refined", found.regions)):
-        scores = score(regions.labels, truth).as_dict()
+    for method in ("spectral", "doors"):
+        pipeline = pipeline_from_options({**options, "method": method})
+        wall, cpu = time.perf_counter(), time.process_time()
+        found = pipeline.segment(grid, random_state=0)
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
         records.append(
             {
                 "map": plan.name.removesuffix("_furnitures"),
                 "furnished": plan.furnished,
-                "variant": variant,
+                "variant": method,
                 "keyframes": len(found.keyframes),
                 "seconds": round(wall, 3),
                 "cpu_seconds": round(cpu, 3),
-                "dropped_cells": sum(found.conditioned.dropped.values()),
-                **{k: round(v, 4) if isinstance(v, float) else v for k, v in scores.items()},
+                **_scores(found.regions.labels, truth),
+            }
+        )
+    if plan.released is not None:
+        records.append(
+            {
+                "map": plan.name,
+                "furnished": False,
+                "variant": "rose2_released",
+                "seconds": None,
+                **_scores(_labels(plan.released), truth),
             }
         )
     return records
@@ -93,9 +150,22 @@ def read_anchors(data_dir: str | Path) -> list[dict[str, Any]]:
     path = Path(data_dir) / "anchors.csv"
     if not path.exists():
         return []
-    rows = []
+    rows: list[dict[str, Any]] = []
     with path.open() as stream:
         for row in csv.DictReader(stream):
+            if "iou_mean_seg" in row:  # ROSE²'s published scores, in %
+                rows.append(
+                    {
+                        "map": row["map"],
+                        "furnished": False,
+                        "variant": row["method"],
+                        "rose2_precision": float(row["prec_micro"]),
+                        "rose2_recall": float(row["rec_micro"]),
+                        "rose2_iou": float(row["iou_mean_seg"]),
+                        "seconds": None,
+                    }
+                )
+                continue
             rows.append(
                 {
                     "map": row["map"],
@@ -124,10 +194,12 @@ def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[
                 "furnished": furnished,
                 "maps": len(group),
             }
-            for metric in ("recall", "precision", "mcc", "ari"):
+            for metric in METRICS:
                 values = [g[metric] for g in group if metric in g]
                 row[metric] = round(float(np.mean(values)), 3) if values else "-"
-            times = [g["seconds"] for g in group if g["seconds"] is not None]
+            mccs = [g["mcc"] for g in group if "mcc" in g]
+            row["min_mcc"] = round(float(np.min(mccs)), 3) if mccs else "-"
+            times = [g["seconds"] for g in group if g.get("seconds") is not None]
             row["mean_s"] = round(float(np.mean(times)), 2) if times else "-"
             cpu = [g["cpu_seconds"] for g in group if "cpu_seconds" in g]
             row["mean_cpu_s"] = round(float(np.mean(cpu)), 2) if cpu else "-"

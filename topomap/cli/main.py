@@ -21,7 +21,7 @@ PACKAGES = ("maps", "segmentation", "planners", "topomap")
 def _table(rows: list[dict[str, object]], columns: list[str]) -> str:
     """A markdown table of ``rows`` restricted to ``columns``."""
     lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    lines += ["| " + " | ".join(str(r[c]) for c in columns) + " |" for r in rows]
+    lines += ["| " + " | ".join(str(r.get(c, "-")) for c in columns) + " |" for r in rows]
     return "\n".join(lines)
 
 
@@ -151,6 +151,8 @@ def _segmenter_options(args: argparse.Namespace) -> dict[str, Any]:
         "spacing": args.spacing,
         "robot_radius": args.robot_radius,
         "clutter_size": args.clutter_size,
+        "method": args.method,
+        "contrast": args.contrast,
     }
 
 
@@ -230,6 +232,10 @@ def cmd_segment(args: argparse.Namespace) -> int:
         "spectral_clusters": topo.segmenter.n_regions_,
         "keyframes": len(topo.keyframes),
         "conditioning": topo.conditioned.summary(),
+        "coverage": {
+            "filled_cells": topo.found.coverage.filled_cells,
+            "rooms_seen_through_doors": topo.found.coverage.seen_rooms,
+        },
         "doors": sum(len(d) for _, _, d in topo.graph.edges(data="doors")),
         "names": {int(r): name for r, name in sorted(topo.graph.nodes(data="name"))},
         "silhouette_by_k": {
@@ -251,16 +257,17 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
     out = Path(args.out)
     _refuse_existing(out, ["results.json"], args.force)
     records = evaluate_all(args.data, progress=args.progress, **_segmenter_options(args))
-    columns = ["map", "furnished", "variant", "keyframes", "segments", "rooms", "recall"]
-    print(_table(records, [*columns, "precision", "mcc", "ari", "seconds", "cpu_seconds"]))
+    columns = ["map", "furnished", "variant", "segments", "rooms", "recall", "precision", "mcc"]
+    columns += ["ari", "rose2_precision", "rose2_recall", "rose2_iou", "seconds"]
+    print(_table(records, columns))
     print()
     summary = means(records, read_anchors(args.data))
     print(
         _table(
             summary,
             [
-                *["method", "furnished", "maps", "recall", "precision", "mcc", "ari"],
-                *["mean_s", "max_s", "mean_cpu_s", "max_cpu_s"],
+                *["method", "furnished", "maps", "recall", "precision", "mcc", "min_mcc", "ari"],
+                *["rose2_precision", "rose2_recall", "rose2_iou", "mean_s", "max_s"],
             ],
         )
     )
@@ -557,7 +564,19 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _add_segmenter_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--method",
+        default="spectral",
+        choices=["spectral", "doors"],
+        help="regions from the spectral partition (default) or the door-rule baseline",
+    )
     parser.add_argument("--criterion", default="nn", choices=["nn", "hausdorff", "features"])
+    parser.add_argument(
+        "--contrast",
+        type=float,
+        default=2.0,
+        help="how much a narrow passage weakens the affinity across it (0: similarity alone)",
+    )
     parser.add_argument(
         "--k", type=int, help="guess of the number of regions (default: clearance basins)"
     )
@@ -635,8 +654,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     evaluation = sub.add_parser("eval", help="evaluations against ground truth")
     eval_sub = evaluation.add_subparsers(dest="evaluation", required=True)
-    eval_seg = eval_sub.add_parser("segment", help="room segmentation on the ipa floor plans")
-    eval_seg.add_argument("data", help="folder of map YAMLs with *_gt_labels.png")
+    eval_seg = eval_sub.add_parser(
+        "segment", help="room segmentation against people's rooms (ipa plans, ROSE² maps)"
+    )
+    eval_seg.add_argument(
+        "data", help="folder of map YAMLs with *_gt_labels.png, or of maps/ and gt/ (ROSE²)"
+    )
     eval_seg.add_argument("--out", default="out/eval-segment")
     eval_seg.add_argument("--force", action="store_true", help="overwrite existing results")
     _add_segmenter_options(eval_seg)

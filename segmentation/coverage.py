@@ -1,0 +1,85 @@
+"""Every cell of the building in a region: furniture, thin rays and rooms seen through doors.
+
+The regions are found in the robot's space (free cells a robot disc fits in, clutter counted as
+free). People draw more: a room's furniture, the free cells between chairs, the laser rays that
+reach into it. :func:`cover` gives each such cell the region it belongs to:
+
+- the *building* is every free cell of the map and every clutter cell (free-standing
+  obstacles that fit in ``clutter_size``, :func:`~segmentation.conditioning.find_clutter`);
+- a piece of building left without a region (8-connected) that is at least ``min_area`` and
+  meets the regions over at most a door's width is a room seen through its door (a fan of
+  rays into an office nobody entered): a region of its own;
+- every other cell joins the region it reaches first through the building (a geodesic
+  watershed): the furniture of a room joins the room, a ray joins the room it leaves from.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+from skimage.segmentation import watershed
+
+from maps.grid import OccupancyGrid
+from segmentation.regions import consecutive
+
+#: The widest door (double doors), metres: a leftover piece meeting the regions over more
+#: than this is not a room seen through a door.
+DOOR_WIDTH = 2.0
+
+
+@dataclass(frozen=True)
+class Coverage:
+    """The covered labels and what the covering did (counted in ``summary.json``)."""
+
+    labels: NDArray[np.int32]
+    filled_cells: int
+    seen_rooms: int
+
+
+def cover(
+    grid: OccupancyGrid,
+    labels: NDArray[np.integer],
+    clutter: NDArray[np.bool_],
+    *,
+    min_area: float = 1.0,
+    door_width: float = DOOR_WIDTH,
+) -> Coverage:
+    """Regions ``labels`` (of ``grid``'s shape) grown over every building cell (see the module
+    docstring).
+
+    Examples
+    --------
+    >>> free = np.zeros((12, 30), bool)
+    >>> free[1:11, 1:12] = True  # a room the robot drove through
+    >>> free[5:7, 12:15] = True  # its door
+    >>> free[1:11, 15:29] = True  # a room seen only through the door
+    >>> labels = np.zeros((12, 30), np.int32)
+    >>> labels[1:11, 1:12] = 1
+    >>> clutter = np.zeros_like(free)
+    >>> found = cover(OccupancyGrid.from_masks(free, 0.1), labels, clutter)
+    >>> found.labels[3, 3], found.labels[5, 13], found.labels[3, 20], found.seen_rooms  # door: seen room
+    (np.int32(1), np.int32(2), np.int32(2), 1)
+    """
+    building = grid.free | clutter | (labels > 0)
+    left = building & (labels == 0)
+    seeds = labels.astype(np.int32, copy=True)
+    seen = 0
+    if left.any():
+        pieces, count = ndimage.label(left, structure=np.ones((3, 3)))
+        area = np.bincount(pieces.ravel(), minlength=count + 1) * grid.resolution**2
+        touching = cv2.dilate((labels > 0).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        contact = np.bincount(pieces[touching & left], minlength=count + 1) * grid.resolution
+        rooms = (area >= min_area) & (contact <= door_width)
+        rooms[0] = False
+        seen = int(rooms.sum())
+        if seen:
+            new_id = np.zeros(count + 1, np.int32)
+            new_id[rooms] = int(seeds.max(initial=0)) + 1 + np.arange(seen, dtype=np.int32)
+            seeds = np.where(rooms[pieces], new_id[pieces], seeds)
+    grown = watershed(np.zeros(grid.shape, np.uint8), seeds, mask=building, connectivity=2)
+    grown = consecutive(grown)
+    return Coverage(grown, int(((grown > 0) & (labels == 0)).sum()), seen)
