@@ -16,6 +16,10 @@ from maps.errors import MapTooLargeError
 RESOLUTION_RANGE = (1e-3, 100.0)
 #: Metres from the frame's origin a pose, a transform or a map origin may lie (10,000 km).
 MAX_COORDINATE = 1e7
+#: Metres a robot's radius may have.
+MAX_ROBOT_RADIUS = 10.0
+#: Metres any other length option (spacing, clutter size, keyframe distance) may have.
+MAX_LENGTH = 1000.0
 #: Cells a map may have whatever the memory: 2^28 (16384 x 16384).
 MAX_CELLS = 1 << 28
 #: Bytes the pipeline holds per cell of a map at its peak (masks, distances, labels).

@@ -28,7 +28,6 @@ Clutter and dropped cells carry no region (label 0).
 from __future__ import annotations
 
 import logging
-import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -39,6 +38,7 @@ from scipy.spatial import cKDTree
 
 from maps.grid import OccupancyGrid
 from maps.laser_sim import LaserModel
+from maps.limits import MAX_LENGTH, finite_in
 from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
 from segmentation.blocks import BlockMap, BlockSpectralSegmenter, keyframe_blocks
@@ -149,8 +149,8 @@ class MapSegmenter:
     def __post_init__(self) -> None:
         for name in ("place_depth", "spacing", "cell_size"):
             value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ParameterError(f"{name} must be > 0 metres, got {value!r}")
+            if finite_in(value, name, 0.0, MAX_LENGTH, low_open=True) is not None:
+                raise ParameterError(f"{name} must be in (0, {MAX_LENGTH:g}] metres, got {value!r}")
         if not (isinstance(self.block_places, int) and self.block_places >= 2):
             raise ParameterError(f"block_places must be an integer >= 2, got {self.block_places!r}")
 
