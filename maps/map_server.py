@@ -221,6 +221,13 @@ def _number(doc: dict[str, Any], key: str, path: Path, lo: float, hi: float) -> 
     if key not in doc:
         raise MapFormatError("required field is missing", path=path, field=key)
     value = doc[key]
+    if isinstance(value, str):  # map_server's yaml-cpp reads "1e-3" as a number; PyYAML not
+        try:
+            value = float(value)
+        except ValueError:
+            raise MapFormatError(
+                f"expected a number, got {_short(repr(value))}", path=path, field=key
+            ) from None
     problem = finite_in(value, key, lo, hi)
     if problem is not None:
         raise MapFormatError(_short(problem), path=path, field=key)

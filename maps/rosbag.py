@@ -298,13 +298,18 @@ def read_bag_scans(
                 path=path,
                 field="fixed_frame",
             )
-        return _place_by_poses(path, scans, poses, pose_name)
+        try:
+            return _place_by_poses(path, scans, poses, pose_name)
+        except InvalidScanError as err:
+            raise LogFormatError(str(err), path=path, field=pose_name) from err
     try:
         return _place_by_tf(tree, scans, fixed_frame)
     except TransformError as err:
         raise TransformError(
             err.detail, path=path, source=err.source, target=err.target, stamp=err.stamp
         ) from err
+    except InvalidScanError as err:
+        raise LogFormatError(str(err), path=path, field="/tf") from err
 
 
 def _add_transforms(tree: TransformTree, message: Any, *, static: bool) -> None:

@@ -85,7 +85,8 @@ def check_pose(pose: ArrayLike) -> Pose:
         raise InvalidScanError(f"a pose must be three finite numbers (x, y, yaw), got {pose!r}")
     if np.abs(values[:2]).max() > MAX_COORDINATE:
         raise InvalidScanError(
-            f"a pose must lie within {MAX_COORDINATE:g} m of the origin, got {tuple(values)}"
+            f"a pose must lie within {MAX_COORDINATE:g} m of the origin, got "
+            f"({values[0]:g}, {values[1]:g}, {values[2]:g})"
         )
     return float(values[0]), float(values[1]), float(values[2])
 
