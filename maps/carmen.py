@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from maps.errors import InvalidScanError, LogFormatError, MapFileNotFoundError
+from maps.limits import MAX_COORDINATE, finite_in
 from maps.scan import Keyframe, LaserScan
 
 #: Old-style lines: ``FLASER n r1 .. rn x y theta odom_x odom_y odom_theta ipc_ts host log_ts``.
@@ -88,7 +89,28 @@ class _Line:
 
     def pose_at(self, index: int, names: tuple[str, str, str]) -> tuple[float, float, float]:
         x, y, t = (self.number_at(index + i, name) for i, name in enumerate(names))
+        for value, name in ((x, names[0]), (y, names[1])):
+            if abs(value) > MAX_COORDINATE:
+                raise self.error(f"{value:g} m is farther than {MAX_COORDINATE:g} m", name)
         return x, y, t
+
+    def check_numbers(self, expected: int, shortest: int, field: str) -> None:
+        """The line has ``expected`` numbers after its first two tokens and before the host
+        name (``shortest`` to ``expected + 2`` when it has no host name): a count that does
+        not match its values would read ranges as the pose."""
+        numbers = next(
+            (i for i, token in enumerate(self.tokens[2:]) if not _is_number(token)),
+            len(self.tokens) - 2,
+        )
+        all_numbers = numbers == len(self.tokens) - 2  # no host name: the stamps may be cut
+        if numbers == expected or (all_numbers and shortest <= numbers <= expected + 2):
+            return
+        raise self.error(
+            f"{self.tokens[0]} has {numbers} numbers before its host name, but its {field} "
+            f"{self.tokens[1 if field == 'n' else 8]!r} asks for {expected}: the count does not "
+            "match the values",
+            field,
+        )
 
     def stamp_at(self, index: int) -> float | None:
         try:
@@ -127,8 +149,9 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
     path = Path(path)
     if not path.is_file():
         raise MapFileNotFoundError(path, "CARMEN log")
-    if not max_range > 0:
-        raise InvalidScanError(f"max_range must be > 0 metres, got {max_range}")
+    problem = finite_in(max_range, "max_range", 0.0, 1e4, unit="m", low_open=True)
+    if problem is not None:
+        raise InvalidScanError(problem)
     frames: list[Keyframe] = []
     for number, text in _lines(path):
         tokens = text.split()
@@ -143,6 +166,8 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
             remissions = line.count_at(9 + beams, "num_remissions")
             at = 10 + beams + remissions
             pose = line.pose_at(at, ("laser_pose_x", "laser_pose_y", "laser_pose_theta"))
+            # start_angle ... the counts and values, then 12 numbers before the host name
+            line.check_numbers(at - 2 + 12, at - 2 + 3, "num_readings")
             stamp = line.stamp_at(at + 11)
         else:
             beams = line.count_at(1, "n")
@@ -150,6 +175,7 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
                 raise line.error("a scan needs at least one beam", "n")
             ranges = line.ranges(2, beams)
             pose = line.pose_at(2 + beams, ("x", "y", "theta"))
+            line.check_numbers(beams + 7, beams + 3, "n")  # ranges, two poses, the ipc stamp
             start, increment = -math.pi / 2, carmen_angle_increment(beams)
             stamp = line.stamp_at(2 + beams + 6)
         if increment == 0:
@@ -157,4 +183,9 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
         ranges = np.where(ranges >= max_range, np.inf, ranges)
         scan = LaserScan(ranges, start, increment, range_min=0.0, range_max=max_range)
         frames.append(Keyframe(pose, scan, scan_index=len(frames), stamp=stamp))
+    if not frames:
+        raise LogFormatError(
+            f"no laser lines ({', '.join((*OLD_STYLE, ROBOTLASER))}): not a CARMEN laser log",
+            path=path,
+        )
     return frames

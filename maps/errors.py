@@ -62,6 +62,34 @@ class OutputExistsError(TopomapError, _FileError, FileExistsError):
         super().__init__(errno.EEXIST, f"{path} exists; pass {how} to replace it", path, how)
 
 
+class OutputPathError(TopomapError, _FileError):
+    """An output path that cannot be written as asked: a folder where a file goes, a file
+    where a folder goes or on the way to one. Raised before any work, nothing is written.
+
+    Examples
+    --------
+    >>> str(OutputNotAFolderError("out/map.yaml/x", "out/map.yaml is a file, not a folder"))
+    'out/map.yaml is a file, not a folder'
+    """
+
+    code = errno.EIO
+
+    def __init__(self, path: str | Path, message: str) -> None:
+        super().__init__(self.code, message, path, message)
+
+
+class OutputNotAFolderError(OutputPathError, NotADirectoryError):
+    """An output folder, or a folder on the way to an output, that is a file."""
+
+    code = errno.ENOTDIR
+
+
+class OutputIsAFolderError(OutputPathError, IsADirectoryError):
+    """An output file whose place is taken by a folder."""
+
+    code = errno.EISDIR
+
+
 class MapError(TopomapError):
     """Base class of every error raised by :mod:`maps`."""
 
@@ -111,6 +139,11 @@ class FormatError(MapError, ValueError):
 
 class MapFormatError(FormatError):
     """A map_server YAML or map image that cannot be read as a map."""
+
+
+class MapTooLargeError(FormatError):
+    """A map (an image header, a message's width and height, keyframes spread far apart) with
+    more cells than this machine can hold; refused with its size before anything is allocated."""
 
 
 class LogFormatError(FormatError):

@@ -13,6 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
 from maps.errors import InvalidMapError
+from maps.limits import MAX_COORDINATE, RESOLUTION_RANGE, check_map_size, finite_in
 from maps.tf import quaternion_from_yaw, yaw_from_quaternion
 
 if TYPE_CHECKING:
@@ -65,14 +66,16 @@ class OccupancyGrid:
             raise InvalidMapError(
                 f"cells must lie in -1..100, got {int(cells.min())}..{int(cells.max())}"
             )
+        problem = finite_in(self.resolution, "resolution", *RESOLUTION_RANGE, unit="m per cell")
+        if problem is not None:
+            raise InvalidMapError(problem)
         resolution = float(self.resolution)
-        if not np.isfinite(resolution) or resolution <= 0:
+        if len(self.origin) != 3 or any(
+            finite_in(v, "origin", -MAX_COORDINATE, MAX_COORDINATE) for v in self.origin
+        ):
             raise InvalidMapError(
-                f"resolution must be a positive number of metres, got {resolution}"
-            )
-        if len(self.origin) != 3 or not np.all(np.isfinite(np.asarray(self.origin, float))):
-            raise InvalidMapError(
-                f"origin must be three finite numbers (x, y, yaw), got {self.origin}"
+                f"origin must be three finite numbers (x, y, yaw) within {MAX_COORDINATE:g} m, "
+                f"got {self.origin}"
             )
         cells = np.array(cells, dtype=np.int8, copy=True)
         cells.setflags(write=False)
@@ -143,7 +146,10 @@ class OccupancyGrid:
         """
         try:
             info = _field(message, "info")
-            width, height = int(_field(info, "width")), int(_field(info, "height"))
+            width, height = (
+                _size(_field(info, "width"), "width"),
+                _size(_field(info, "height"), "height"),
+            )
             origin = _field(info, "origin")
             position, rotation = _field(origin, "position"), _field(origin, "orientation")
             quaternion = [float(_field(rotation, k)) for k in "xyzw"]
@@ -156,6 +162,17 @@ class OccupancyGrid:
             data = np.asarray(_field(message, "data"))
         except KeyError as err:
             raise InvalidMapError(f"OccupancyGrid message has no field {err.args[0]!r}") from None
+        except InvalidMapError:
+            raise
+        except (TypeError, ValueError, OverflowError) as err:
+            raise InvalidMapError(
+                f"OccupancyGrid message has a field that is not a number: {err}"
+            ) from None
+        if width == 0 or height == 0:
+            raise InvalidMapError(
+                f"OccupancyGrid message is empty: info.width {width}, info.height {height}"
+            )
+        check_map_size(height, width, what="OccupancyGrid message", field="info")
         if data.ndim != 1 or data.size != width * height:
             raise InvalidMapError(
                 f"OccupancyGrid field 'data' holds {data.size} values, expected "
@@ -316,6 +333,15 @@ class OccupancyGrid:
         cells = self.cells.copy()
         cells[blocked] = OCCUPIED
         return OccupancyGrid(cells, self.resolution, self.origin)
+
+
+def _size(value: Any, name: str) -> int:
+    """A message's ``info.width`` or ``info.height``: a whole number >= 0."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+        raise InvalidMapError(
+            f"OccupancyGrid field 'info.{name}' must be a whole number >= 0, got {value!r}"
+        )
+    return int(value)
 
 
 def _field(message: Any, name: str) -> Any:

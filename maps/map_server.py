@@ -8,7 +8,6 @@ raw, ``negate`` inverts the grey values, and a pixel is occupied when
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
@@ -17,8 +16,10 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from maps.errors import MapFileNotFoundError, MapFormatError, OutputExistsError
+from maps.errors import MapFileNotFoundError, MapFormatError
+from maps.files import check_output_file, written
 from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from maps.limits import MAX_COORDINATE, RESOLUTION_RANGE, check_map_size, finite_in
 
 MODES = ("trinary", "scale", "raw")
 #: Grey values map_saver writes for free, occupied and unknown cells in trinary mode.
@@ -66,20 +67,125 @@ def cells_from_image(
     return cells
 
 
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+#: Bytes a map_server YAML may have (a real one has a few hundred).
+MAX_YAML_BYTES = 1 << 20
+
+
+def _pnm_header(data: bytes, path: Path) -> tuple[str, int, int, int, int]:
+    """``(magic, width, height, maxval, offset of the pixels)`` of a PBM/PGM/PPM header."""
+    magic = data[:2].decode("ascii")
+    wanted = 2 if magic in ("P1", "P4") else 3
+    values: list[int] = []
+    at = 2
+    while len(values) < wanted:
+        while at < len(data) and data[at : at + 1].isspace():
+            at += 1
+        if data[at : at + 1] == b"#":
+            while at < len(data) and data[at : at + 1] not in (b"\n", b"\r"):
+                at += 1
+            continue
+        start = at
+        while at < len(data) and data[at : at + 1].isdigit():
+            at += 1
+        if start == at:
+            names = ("width", "height", "maxval")[len(values)]
+            raise MapFormatError(f"{magic} header has no {names}", path=path, field="image")
+        values.append(int(data[start:at]))
+    maxval = values[2] if wanted == 3 else 1
+    if not 1 <= maxval <= 65535:
+        raise MapFormatError(f"maxval must lie in 1..65535, got {maxval}", path=path, field="image")
+    return magic, values[0], values[1], maxval, at + 1
+
+
+def image_size(path: str | Path, *, field: str | None = None) -> tuple[int, int] | None:
+    """``(height, width)`` of a PNG or PBM/PGM/PPM image from its header alone (nothing is
+    decoded), or None for other formats."""
+    path = Path(path)
+    with path.open("rb") as stream:
+        head = stream.read(4096)
+    if head.startswith(PNG_SIGNATURE) and len(head) >= 24 and head[12:16] == b"IHDR":
+        return int.from_bytes(head[20:24], "big"), int.from_bytes(head[16:20], "big")
+    if len(head) >= 2 and head[:1] == b"P" and head[1:2] in b"123456":
+        _, width, height, _, _ = _pnm_header(head, path)
+        return height, width
+    return None
+
+
+def _read_pnm(path: Path, field: str | None) -> NDArray[np.uint8] | None:
+    """A grey or colour PGM/PPM image scaled by its maxval to 0..255 as ROS map_server does
+    (OpenCV reads a binary PGM of maxval 100 unscaled: its white would be occupied); None for
+    other files, which OpenCV reads."""
+    data = path.read_bytes()
+    if data[:2] not in (b"P2", b"P3", b"P5", b"P6"):
+        return None
+    magic, width, height, maxval, offset = _pnm_header(data, path)
+    channels = 3 if magic in ("P3", "P6") else 1
+    count = width * height * channels
+    if count == 0:
+        raise MapFormatError(f"image of {width} x {height} pixels is empty", path=path, field=field)
+    if magic in ("P5", "P6"):
+        dtype = np.dtype(">u2") if maxval > 255 else np.dtype(np.uint8)
+        if len(data) - offset < count * dtype.itemsize:
+            raise MapFormatError(
+                f"image data is cut short: {len(data) - offset} bytes, expected "
+                f"{count * dtype.itemsize} for {width} x {height} pixels",
+                path=path,
+                field=field,
+            )
+        values = np.frombuffer(data, dtype, count, offset).astype(np.int64)
+    else:
+        body = data[offset - 1 :].splitlines()
+        tokens = [token for line in body for token in line.split(b"#")[0].split()]
+        if len(tokens) < count or not all(token.isdigit() for token in tokens[:count]):
+            raise MapFormatError(
+                f"image data is cut short or not numbers: expected {count} values",
+                path=path,
+                field=field,
+            )
+        values = np.array(tokens[:count], dtype=np.int64)
+    if values.max() > maxval:
+        raise MapFormatError(
+            f"pixel value {int(values.max())} is above maxval {maxval}", path=path, field=field
+        )
+    if maxval == 65535:
+        values = values >> 8
+    elif maxval != 255:
+        values = values * 255 // maxval
+    shape = (height, width) if channels == 1 else (height, width, channels)
+    return values.astype(np.uint8).reshape(shape)
+
+
 def read_image(path: str | Path, *, field: str | None = None) -> NDArray[np.uint8]:
-    """An image file as 8-bit pixels (16-bit images keep their high byte).
+    """An image file as 8-bit pixels: 16-bit images keep their high byte, PGM and PPM images
+    are scaled by their maxval (as ROS map_server does).
+
+    The size in the header is checked before anything is decoded
+    (:func:`maps.limits.check_map_size`).
 
     Raises
     ------
     MapFileNotFoundError
         If the file does not exist.
     MapFormatError
-        If it is not an image OpenCV can decode.
+        If it is not an image OpenCV can decode, or is cut short.
+    MapTooLargeError
+        If its header asks for more pixels than this machine can hold.
     """
     path = Path(path)
     if not path.is_file():
         raise MapFileNotFoundError(path, "image")
-    pixels = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    size = image_size(path, field=field)
+    if size is not None:
+        check_map_size(*size, what="image", path=path, field=field)
+    scaled = _read_pnm(path, field)
+    if scaled is not None:
+        return scaled
+    try:
+        pixels = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    except cv2.error as err:  # a header over OpenCV's own limits
+        reason = str(err).strip().splitlines()[-1]
+        raise MapFormatError(f"OpenCV cannot read it: {reason}", path=path, field=field) from None
     if pixels is None:
         raise MapFormatError("not an image OpenCV can read", path=path, field=field)
     if pixels.dtype == np.uint16:
@@ -115,22 +221,54 @@ def _number(doc: dict[str, Any], key: str, path: Path, lo: float, hi: float) -> 
     if key not in doc:
         raise MapFormatError("required field is missing", path=path, field=key)
     value = doc[key]
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise MapFormatError(f"expected a number, got {value!r}", path=path, field=key)
-    if not lo <= value <= hi:
-        raise MapFormatError(f"{value!r} is outside [{lo}, {hi}]", path=path, field=key)
+    if isinstance(value, str):  # map_server's yaml-cpp reads "1e-3" as a number; PyYAML not
+        try:
+            value = float(value)
+        except ValueError:
+            raise MapFormatError(
+                f"expected a number, got {_short(repr(value))}", path=path, field=key
+            ) from None
+    problem = finite_in(value, key, lo, hi)
+    if problem is not None:
+        raise MapFormatError(_short(problem), path=path, field=key)
     return float(value)
 
 
-def _parse_yaml(path: Path) -> dict[str, Any]:
+def _short(text: str, limit: int = 200) -> str:
+    """``text`` on one line, long values cut (a 400-digit number is named, not printed)."""
+    line = " ".join(text.split())
+    return line if len(line) <= limit else line[: limit - 3] + "..."
+
+
+def parse_yaml(path: str | Path, *, limit: int = MAX_YAML_BYTES) -> Any:
+    """The data of a small YAML file (data only: ``safe_load``), every failure a one-line
+    :class:`MapFormatError` naming the file and line."""
+    path = Path(path)
+    size = path.stat().st_size
+    if size > limit:
+        raise MapFormatError(
+            f"{size} bytes is too large for a map YAML (at most {limit})", path=path
+        )
     try:
-        doc = yaml.safe_load(path.read_text())
+        return yaml.safe_load(path.read_text(encoding="utf-8"))
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         line = None if mark is None else mark.line + 1
-        raise MapFormatError(f"not valid YAML ({err})", path=path, line=line) from err
-    except UnicodeDecodeError as err:
-        raise MapFormatError("not a text file", path=path) from err
+        problem = getattr(err, "problem", None) or str(err)
+        context = getattr(err, "context", None)
+        start = getattr(err, "context_mark", None)
+        if context and start is not None:
+            context = f"{context} (from line {start.line + 1})"
+        what = f"{context}, {problem}" if context else problem
+        raise MapFormatError(f"not valid YAML: {_short(what)}", path=path, line=line) from None
+    except RecursionError:
+        raise MapFormatError("not valid YAML: nested too deeply", path=path) from None
+    except UnicodeDecodeError:
+        raise MapFormatError("not a text file", path=path) from None
+
+
+def _parse_yaml(path: Path) -> dict[str, Any]:
+    doc = parse_yaml(path)
     if not isinstance(doc, dict):
         raise MapFormatError("expected a mapping of map_server fields", path=path)
     return doc
@@ -155,7 +293,7 @@ def load_map(path: str | Path) -> OccupancyGrid:
         raise MapFormatError(
             f"expected an image file name, got {image!r}", path=path, field="image"
         )
-    resolution = _number(doc, "resolution", path, 1e-9, math.inf)
+    resolution = _number(doc, "resolution", path, *RESOLUTION_RANGE)
     occupied = _number(doc, "occupied_thresh", path, 0.0, 1.0)
     free = _number(doc, "free_thresh", path, 0.0, 1.0)
     if free > occupied:
@@ -175,9 +313,13 @@ def load_map(path: str | Path) -> OccupancyGrid:
         not isinstance(origin, list)
         or len(origin) != 3
         or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in origin)
-        or not all(math.isfinite(v) for v in origin)
+        or any(finite_in(v, "origin", -MAX_COORDINATE, MAX_COORDINATE) for v in origin)
     ):
-        raise MapFormatError(f"expected [x, y, yaw], got {origin!r}", path=path, field="origin")
+        raise MapFormatError(
+            _short(f"expected [x, y, yaw] within {MAX_COORDINATE:g} m, got {origin!r}"),
+            path=path,
+            field="origin",
+        )
     image_path = Path(image) if Path(image).is_absolute() else path.parent / image
     pixels = read_image(image_path, field="image")
     cells = cells_from_image(
@@ -200,8 +342,7 @@ def save_map(grid: OccupancyGrid, path: str | Path, *, overwrite: bool = False) 
     path = Path(path)
     image_path = path.with_suffix(".pgm")
     for target in (path, image_path):
-        if target.exists() and not overwrite:
-            raise OutputExistsError(target)
+        check_output_file(target, overwrite=overwrite)
     cells = grid.cells
     if np.isin(cells, (UNKNOWN, FREE, OCCUPIED)).all():
         pixels = np.full(cells.shape, SAVED_UNKNOWN, np.uint8)
@@ -211,9 +352,6 @@ def save_map(grid: OccupancyGrid, path: str | Path, *, overwrite: bool = False) 
     else:
         pixels = np.where(cells == UNKNOWN, 255, cells).astype(np.uint8)
         mode, thresholds = "raw", SAVED_THRESHOLDS
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if not cv2.imwrite(str(image_path), pixels):
-        raise OSError(f"could not write {image_path}")
     doc = {
         "image": image_path.name,
         "mode": mode,
@@ -222,5 +360,9 @@ def save_map(grid: OccupancyGrid, path: str | Path, *, overwrite: bool = False) 
         "negate": 0,
         **thresholds,
     }
-    path.write_text(yaml.safe_dump(doc, sort_keys=False))
+    with written(image_path, overwrite=overwrite) as partial:
+        if not cv2.imwrite(str(partial), pixels):
+            raise OSError(f"could not write {image_path}")
+    with written(path, overwrite=overwrite) as partial:
+        partial.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path

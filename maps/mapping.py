@@ -9,8 +9,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.errors import InvalidScanError
+from maps.errors import InvalidScanError, MapTooLargeError
 from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from maps.limits import RESOLUTION_RANGE, check_map_size, finite_in
 from maps.scan import Keyframe, transform_points
 
 #: Sub-pixel bits used when filling scan polygons with OpenCV.
@@ -48,8 +49,13 @@ def grid_from_keyframes(
     """
     if not keyframes:
         raise InvalidScanError("cannot build a map from no keyframes")
-    if not resolution > 0 or not math.isfinite(resolution):
-        raise InvalidScanError(f"resolution must be a positive number of metres, got {resolution}")
+    for problem in (
+        finite_in(resolution, "resolution", *RESOLUTION_RANGE, unit="m per cell"),
+        finite_in(max_range, "max_range", 0.0, 1e4, unit="m", low_open=True),
+        finite_in(margin, "margin", 0.0, 1e3, unit="m"),
+    ):
+        if problem is not None:
+            raise InvalidScanError(problem)
     ends, origins = [], []
     for frame in keyframes:
         scan = frame.scan
@@ -61,8 +67,18 @@ def grid_from_keyframes(
     every = np.vstack([p[k] for p, k in ends] + [np.array(origins)])
     lo = every.min(axis=0) - margin
     hi = every.max(axis=0) + margin
-    width = int(math.ceil((hi[0] - lo[0]) / resolution))
-    height = int(math.ceil((hi[1] - lo[1]) / resolution))
+    width = math.ceil((hi[0] - lo[0]) / resolution)
+    height = math.ceil((hi[1] - lo[1]) / resolution)
+    try:
+        check_map_size(height, width, what=f"map at {resolution:g} m per cell")
+    except MapTooLargeError as err:
+        poses = np.array(origins)
+        far = int(np.argmax(np.hypot(*(poses - np.median(poses, axis=0)).T)))
+        x, y = poses[far]
+        raise MapTooLargeError(
+            f"{err}: the keyframes span {hi[0] - lo[0]:.4g} x {hi[1] - lo[1]:.4g} m; the farthest "
+            f"from the others is scan {keyframes[far].scan_index} at ({x:.4g}, {y:.4g}) m"
+        ) from None
     visits = np.zeros((height, width), np.uint32)
     hits = np.zeros((height, width), np.uint32)
 

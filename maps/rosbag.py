@@ -4,7 +4,8 @@ tf tree (REP-105) or by a pose topic, and nav_msgs/OccupancyGrid maps."""
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterator
+import struct
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +18,7 @@ from maps.errors import (
     InvalidScanError,
     LogFormatError,
     MapFileNotFoundError,
+    TopomapError,
     TransformError,
 )
 from maps.grid import OccupancyGrid
@@ -110,20 +112,78 @@ class BagScans:
         )
 
 
+#: What rosbags and its deserialisers raise on a corrupt or truncated bag (besides their own
+#: ReaderError, AnyReaderError and SerdeError), found by cutting and flipping bytes of bags.
+_CORRUPT = (
+    AssertionError,
+    EOFError,
+    IndexError,
+    KeyError,
+    OSError,
+    OverflowError,
+    UnicodeDecodeError,
+    ValueError,
+    struct.error,
+)
+
+
+def _bag_errors() -> tuple[type[Exception], ...]:
+    from rosbags.highlevel import AnyReaderError
+    from rosbags.rosbag1 import ReaderError as Ros1ReaderError
+    from rosbags.rosbag2 import ReaderError as Ros2ReaderError
+    from rosbags.serde import SerdeError
+
+    return (AnyReaderError, Ros1ReaderError, Ros2ReaderError, SerdeError, *_CORRUPT)
+
+
+def _corrupt(path: Path, err: Exception) -> LogFormatError:
+    reason = " ".join(str(err).split())[:200] or type(err).__name__
+    return LogFormatError(f"cannot read the bag, it is corrupt or cut short ({reason})", path=path)
+
+
 @contextmanager
 def _open(path: Path) -> Iterator[Any]:
     """An ``AnyReader`` on a ROS 1 ``.bag`` or a ROS 2 bag folder; read errors name the bag."""
-    from rosbags.highlevel import AnyReader, AnyReaderError
+    from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
 
     if not path.exists():
         raise MapFileNotFoundError(path, "ROS bag")
+    if path.is_dir() and not (path / "metadata.yaml").is_file():
+        raise LogFormatError("not a ROS 2 bag: a bag folder holds a metadata.yaml", path=path)
     store = Stores.ROS1_NOETIC if path.suffix == ".bag" else Stores.LATEST
     try:
         with AnyReader([path], default_typestore=get_typestore(store)) as reader:
             yield reader
-    except AnyReaderError as err:
-        raise LogFormatError(f"cannot read the bag ({err})", path=path) from err
+    except TopomapError:
+        raise
+    except _bag_errors() as err:
+        raise _corrupt(path, err) from err
+
+
+def _messages(
+    reader: Any, connections: Sequence[Any], path: Path
+) -> Iterator[tuple[Any, int, bytes]]:
+    """``(connection, time_ns, raw message)`` of ``connections``; the errors of a corrupt or
+    truncated bag, raised while iterating, name the bag."""
+    errors = _bag_errors()
+    messages = reader.messages(connections=connections)
+    while True:
+        try:
+            connection, time_ns, raw = next(messages)
+        except StopIteration:
+            return
+        except errors as err:
+            raise _corrupt(path, err) from err
+        yield connection, time_ns, raw
+
+
+def _deserialize(reader: Any, raw: bytes, connection: Any, path: Path) -> Any:
+    """A message of ``connection``; a corrupt one names the bag."""
+    try:
+        return reader.deserialize(raw, connection.msgtype)
+    except _bag_errors() as err:
+        raise _corrupt(path, err) from err
 
 
 def read_rosbag(
@@ -213,8 +273,8 @@ def read_bag_scans(
         by_tf = pose_topic is None and bool(tf_names)
         pose_name = None if by_tf else _pick_topic(topics, POSE_TYPES, pose_topic, path)
         wanted = [c for c in reader.connections if c.topic in {scan_name, pose_name} | tf_names]
-        for connection, _, raw in reader.messages(connections=wanted):
-            message = reader.deserialize(raw, connection.msgtype)
+        for connection, _, raw in _messages(reader, wanted, path):
+            message = _deserialize(reader, raw, connection, path)
             if connection.topic == scan_name:
                 try:
                     scan = _scan_of(message)
@@ -225,7 +285,10 @@ def read_bag_scans(
             elif connection.topic == pose_name:
                 poses.append((_stamp(message), _pose_of(message)))
             else:
-                _add_transforms(tree, message, static=connection.topic.endswith("tf_static"))
+                try:
+                    _add_transforms(tree, message, static=connection.topic.endswith("tf_static"))
+                except TransformError as err:
+                    raise TransformError(err.detail, path=path) from err
     if not scans:
         raise LogFormatError("the scan topic has no messages", path=path, field=scan_name)
     if pose_name is not None:
@@ -235,13 +298,18 @@ def read_bag_scans(
                 path=path,
                 field="fixed_frame",
             )
-        return _place_by_poses(path, scans, poses, pose_name)
+        try:
+            return _place_by_poses(path, scans, poses, pose_name)
+        except InvalidScanError as err:
+            raise LogFormatError(str(err), path=path, field=pose_name) from err
     try:
         return _place_by_tf(tree, scans, fixed_frame)
     except TransformError as err:
         raise TransformError(
             err.detail, path=path, source=err.source, target=err.target, stamp=err.stamp
         ) from err
+    except InvalidScanError as err:
+        raise LogFormatError(str(err), path=path, field="/tf") from err
 
 
 def _add_transforms(tree: TransformTree, message: Any, *, static: bool) -> None:
@@ -360,14 +428,14 @@ def read_rosbag_map(
         wanted = [c for c in reader.connections if c.topic == name]
         chosen = None
         count = first = 0
-        for connection, time_ns, raw in reader.messages(connections=wanted):
+        for connection, time_ns, raw in _messages(reader, wanted, path):
             first = first or time_ns
             if stamp is None or time_ns <= stamp * 1e9:
                 chosen, count = (connection, raw), count + 1
         if chosen is None:
             when = "" if stamp is None else f" at or before {stamp} s (first at {first / 1e9} s)"
             raise LogFormatError(f"no map{when}", path=path, field=name)
-        message = reader.deserialize(chosen[1], chosen[0].msgtype)
+        message = _deserialize(reader, chosen[1], chosen[0], path)
     try:
         return OccupancyGrid.from_msg_fields(message)
     except InvalidMapError as err:

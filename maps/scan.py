@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from maps.errors import InvalidScanError
 from maps.grid import Pose
+from maps.limits import MAX_COORDINATE
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,6 +83,11 @@ def check_pose(pose: ArrayLike) -> Pose:
     values = np.asarray(pose, dtype=float).ravel()
     if values.shape != (3,) or not np.all(np.isfinite(values)):
         raise InvalidScanError(f"a pose must be three finite numbers (x, y, yaw), got {pose!r}")
+    if np.abs(values[:2]).max() > MAX_COORDINATE:
+        raise InvalidScanError(
+            f"a pose must lie within {MAX_COORDINATE:g} m of the origin, got "
+            f"({values[0]:g}, {values[1]:g}, {values[2]:g})"
+        )
     return float(values[0]), float(values[1]), float(values[2])
 
 

@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from maps.errors import TransformError
+from maps.limits import MAX_COORDINATE
 
 log = logging.getLogger(__name__)
 
@@ -189,6 +190,14 @@ class TransformTree:
         """Add the transform of ``child`` in ``parent`` at ``stamp`` (seconds), or a static one
         when ``stamp`` is None. A static link replaces an earlier static one."""
         parent, child = self._name(parent), self._name(child)
+        values = (*translation, *rotation)
+        if not all(math.isfinite(v) for v in values) or max(map(abs, translation)) > MAX_COORDINATE:
+            raise TransformError(
+                f"link {parent} -> {child}: translation {tuple(translation)} and rotation "
+                f"{tuple(rotation)} must be finite, the translation within {MAX_COORDINATE:g} m"
+            )
+        if sum(v * v for v in rotation) < 1e-12:
+            raise TransformError(f"link {parent} -> {child}: rotation {tuple(rotation)} is zero")
         if parent == child:
             raise TransformError(f"frame {child!r} cannot be its own parent")
         link = self._links.get(child)

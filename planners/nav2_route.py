@@ -19,7 +19,7 @@ import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.errors import OutputExistsError
+from maps.files import check_output_file, write_text
 from planners.errors import PlanningError
 from planners.hierarchical import HierarchicalPlanner
 
@@ -138,11 +138,8 @@ def write_nav2_route(
 ) -> Path:
     """Write :func:`nav2_route_graph` to ``path`` (never over an existing file unless
     ``overwrite``)."""
-    path = Path(path)
-    if path.exists() and not overwrite:
-        raise OutputExistsError(path)
-    path.write_text(json.dumps(nav2_route_graph(planner), indent=1))
-    return path
+    check_output_file(path, overwrite=overwrite)  # before the graph is computed
+    return write_text(path, json.dumps(nav2_route_graph(planner), indent=1), overwrite=overwrite)
 
 
 def read_nav2_route(path: str | Path) -> nx.DiGraph:

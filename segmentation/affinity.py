@@ -27,7 +27,7 @@ from scipy import sparse
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
 from segmentation.errors import ParameterError
-from segmentation.passages import boundary_openness, bottleneck_openness
+from segmentation.passages import bottleneck_openness, boundary_openness
 from segmentation.similarity import Criterion, PointsSimilarity, as_criterion
 
 

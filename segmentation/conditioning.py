@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.grid import OccupancyGrid
+from maps.limits import MAX_LENGTH, MAX_ROBOT_RADIUS, finite_in
 from segmentation.errors import ParameterError
 
 
@@ -152,9 +153,13 @@ def condition(
     >>> int(conditioned.free[5:25, 5:25].sum()), conditioned.dropped["thin"]
     (392, 42)
     """
-    for name, value in (("robot_radius", robot_radius), ("clutter_size", clutter_size)):
-        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-            raise ParameterError(f"{name} must be a finite number of metres > 0, got {value!r}")
+    for name, value, most in (
+        ("robot_radius", robot_radius, MAX_ROBOT_RADIUS),
+        ("clutter_size", clutter_size, MAX_LENGTH),
+    ):
+        problem = finite_in(value, name, 0.0, most, unit="m", low_open=True)
+        if problem is not None:
+            raise ParameterError(problem)
     if not (isinstance(min_area, int | float) and min_area >= 0):
         raise ParameterError(f"min_area must be >= 0 square metres, got {min_area!r}")
     free = grid.free

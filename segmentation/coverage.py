@@ -61,8 +61,10 @@ def cover(
     >>> labels[1:11, 1:12] = 1
     >>> clutter = np.zeros_like(free)
     >>> found = cover(OccupancyGrid.from_masks(free, 0.1), labels, clutter)
-    >>> found.labels[3, 3], found.labels[5, 13], found.labels[3, 20], found.seen_rooms  # door: seen room
+    >>> found.labels[3, 3], found.labels[5, 13], found.labels[3, 20], found.seen_rooms
     (np.int32(1), np.int32(2), np.int32(2), 1)
+
+    The door's cells went with the room seen through it.
     """
     building = grid.free | clutter | (labels > 0)
     left = building & (labels == 0)

@@ -18,7 +18,10 @@ import shapely
 from numpy.typing import NDArray
 from shapely.geometry import mapping, shape
 
-from maps.errors import MapFileNotFoundError, OutputExistsError
+from maps.errors import MapFileNotFoundError
+from maps.files import write_text, written
+from maps.limits import check_map_size
+from maps.map_server import image_size
 from segmentation.errors import ExportFormatError
 from segmentation.transitions import Transition
 
@@ -77,16 +80,11 @@ def _decoded(graph: nx.Graph, source: Path) -> nx.Graph:
     return out
 
 
-def _refuse_overwrite(path: Path, overwrite: bool) -> None:
-    if path.exists() and not overwrite:
-        raise OutputExistsError(path)
-
-
 def write_graphml(graph: nx.Graph, path: str | Path, *, overwrite: bool = False) -> Path:
     """Write the region graph as GraphML."""
     path = Path(path)
-    _refuse_overwrite(path, overwrite)
-    nx.write_graphml(_encoded(graph), path)
+    with written(path, overwrite=overwrite) as partial:
+        nx.write_graphml(_encoded(graph), partial)
     return path
 
 
@@ -104,10 +102,8 @@ def read_graphml(path: str | Path) -> nx.Graph:
 
 def write_node_link(graph: nx.Graph, path: str | Path, *, overwrite: bool = False) -> Path:
     """Write the region graph as networkx node-link JSON (key ``edges``)."""
-    path = Path(path)
-    _refuse_overwrite(path, overwrite)
-    path.write_text(json.dumps(nx.node_link_data(_encoded(graph), edges="edges"), indent=1))
-    return path
+    text = json.dumps(nx.node_link_data(_encoded(graph), edges="edges"), indent=1)
+    return write_text(path, text, overwrite=overwrite)
 
 
 def read_node_link(path: str | Path) -> nx.Graph:
@@ -128,8 +124,6 @@ def write_geojson(graph: nx.Graph, path: str | Path, *, overwrite: bool = False)
     Each Feature's properties hold ``id`` (the region's value in the label image), ``area_m2``
     and the node's other scalar attributes. Coordinates are map-frame metres, not WGS84.
     """
-    path = Path(path)
-    _refuse_overwrite(path, overwrite)
     features = []
     for node, data in sorted(graph.nodes(data=True)):
         properties: dict[str, Any] = {"id": int(node)}
@@ -146,8 +140,7 @@ def write_geojson(graph: nx.Graph, path: str | Path, *, overwrite: bool = False)
         },
         "features": features,
     }
-    path.write_text(json.dumps(collection))
-    return path
+    return write_text(path, json.dumps(collection), overwrite=overwrite)
 
 
 def read_geojson(path: str | Path) -> nx.Graph:
@@ -175,20 +168,27 @@ def read_geojson(path: str | Path) -> nx.Graph:
 def write_label_image(labels: NDArray[np.integer], path: str | Path, *, overwrite: bool = False):
     """Write region ids as a 16-bit PNG, row 0 at the top like the map image."""
     path = Path(path)
-    _refuse_overwrite(path, overwrite)
     if labels.max(initial=0) > np.iinfo(np.uint16).max:
         raise ExportFormatError(f"{path}: {labels.max()} regions do not fit a 16-bit PNG")
-    if not cv2.imwrite(str(path), labels.astype(np.uint16)):
-        raise OSError(f"could not write {path}")
+    with written(path, overwrite=overwrite) as partial:
+        if not cv2.imwrite(str(partial), labels.astype(np.uint16)):
+            raise OSError(f"could not write {path}")
     return path
 
 
 def read_label_image(path: str | Path) -> NDArray[np.int32]:
-    """Read a 16-bit label PNG (0 = no region)."""
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    """Read a 16-bit label PNG (0 = no region); its size is checked before it is decoded."""
+    if not Path(path).is_file():
+        raise MapFileNotFoundError(path, "label image")
+    size = image_size(path)
+    if size is not None:
+        check_map_size(*size, what="label image", path=path)
+    try:
+        image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    except cv2.error as err:
+        reason = str(err).strip().splitlines()[-1]
+        raise ExportFormatError(f"{path}: OpenCV cannot read it: {reason}") from None
     if image is None:
-        if not Path(path).exists():
-            raise MapFileNotFoundError(path, "label image")
         raise ExportFormatError(f"{path}: not an image OpenCV can read")
     if image.ndim != 2:
         raise ExportFormatError(f"{path}: a label image has one channel, found {image.shape[2]}")

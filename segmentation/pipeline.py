@@ -27,7 +27,6 @@ Stages, each timed in :attr:`Segmentation.seconds`:
 from __future__ import annotations
 
 import logging
-import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -38,6 +37,7 @@ from scipy.spatial import cKDTree
 
 from maps.grid import OccupancyGrid
 from maps.laser_sim import LaserModel
+from maps.limits import MAX_LENGTH, finite_in
 from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
 from segmentation.affinity import PassageAffinity
@@ -163,8 +163,8 @@ class MapSegmenter:
     def __post_init__(self) -> None:
         for name in ("place_depth", "spacing", "cell_size"):
             value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ParameterError(f"{name} must be > 0 metres, got {value!r}")
+            if finite_in(value, name, 0.0, MAX_LENGTH, low_open=True) is not None:
+                raise ParameterError(f"{name} must be in (0, {MAX_LENGTH:g}] metres, got {value!r}")
         if self.method not in METHODS:
             raise ParameterError(f"method must be one of {', '.join(METHODS)}, got {self.method!r}")
         if not (isinstance(self.block_places, int) and self.block_places >= 2):
@@ -255,7 +255,14 @@ class MapSegmenter:
         lap("cover")
         conditioned = _count_unlabelled(conditioned, regions.labels)
         return Segmentation(
-            conditioned, space, places, keyframes, fitted, spectral_regions, regions, covered,
+            conditioned,
+            space,
+            places,
+            keyframes,
+            fitted,
+            spectral_regions,
+            regions,
+            covered,
             seconds,
         )
 

@@ -16,3 +16,8 @@ class LabelError(TopomapError, ValueError):
 class UsageError(TopomapError, ValueError):
     """Command-line options that do not go together or lie out of their range (the command
     line reports it like argparse does: one line, exit status 2)."""
+
+
+class SchedulerError(TopomapError, ConnectionError):
+    """A Dask scheduler address that is malformed or cannot be reached (``topomap batch
+    --scheduler``)."""

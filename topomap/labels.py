@@ -343,6 +343,8 @@ def rename(graph: nx.Graph, old: int | str, new: str) -> None:
     wanted = normalise_name(new)
     if not wanted:
         raise LabelError("a region name cannot be empty")
+    if wanted.isdigit():
+        raise LabelError(f"a region name cannot be only digits ({new!r} reads as a region id)")
     for other, name in graph.nodes(data="name"):
         if other != region and name is not None and normalise_name(str(name)) == wanted:
             raise LabelError(f"the name {new!r} is taken by region {other}")

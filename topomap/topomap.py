@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import csv
+import hashlib
+import io
 import json
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
@@ -14,7 +17,8 @@ import networkx as nx
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from maps.errors import MapFileNotFoundError, OutputExistsError
+from maps.errors import MapFileNotFoundError
+from maps.files import OutputFolder, write_text
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe
@@ -274,30 +278,23 @@ class TopoMap:
         """
         out = Path(out)
         names = [*SAVED, "map.yaml", "map.pgm"]
-        if not overwrite:
-            for name in names:
-                if (out / name).exists():
-                    raise OutputExistsError(out / name)
-        out.mkdir(parents=True, exist_ok=True)
-        about: dict[str, Any] = {
-            "format": "topomap",
-            "version": 1,
-            "regions": len(self.regions.ids),
-            "seconds": {k: round(v, 4) for k, v in self.seconds.items()},
-        }
-        if self.segmentation is not None:
-            about["conditioning"] = self.conditioned.summary()
-        info = out / "topomap.json"
-        info.write_text(json.dumps(about, indent=2))
-        return [
-            self.grid.save(out / "map.yaml", overwrite=True),
-            out / "map.pgm",
-            write_label_image(self.regions.labels, out / "regions.png", overwrite=True),
-            write_graphml(self.graph, out / "graph.graphml", overwrite=True),
-            write_node_link(self.graph, out / "graph.json", overwrite=True),
-            write_geojson(self.graph, out / "regions.geojson", overwrite=True),
-            info,
-        ]
+        with OutputFolder(out, names, overwrite=overwrite, last="topomap.json") as work:
+            self.grid.save(work / "map.yaml")
+            write_label_image(self.regions.labels, work / "regions.png")
+            write_graphml(self.graph, work / "graph.graphml")
+            write_node_link(self.graph, work / "graph.json")
+            write_geojson(self.graph, work / "regions.geojson")
+            about: dict[str, Any] = {
+                "format": "topomap",
+                "version": 2,
+                "regions": len(self.regions.ids),
+                "seconds": {k: round(v, 4) for k, v in self.seconds.items()},
+                "files": {name: _digest(work / name) for name in names if name != "topomap.json"},
+            }
+            if self.segmentation is not None:
+                about["conditioning"] = self.conditioned.summary()
+            write_text(work / "topomap.json", json.dumps(about, indent=2))
+        return [out / name for name in ("map.yaml", "map.pgm", *SAVED)]
 
     @classmethod
     def load(cls, folder: str | Path) -> TopoMap:
@@ -318,8 +315,13 @@ class TopoMap:
         try:
             about = json.loads(info.read_text())
             seconds = {str(k): float(v) for k, v in about.get("seconds", {}).items()}
-        except (ValueError, AttributeError, TypeError) as err:
-            raise ExportFormatError(f"{info}: not a topomap.json file: {err}") from err
+            files = dict(about.get("files", {}))
+        except (ValueError, AttributeError, TypeError, RecursionError) as err:
+            raise ExportFormatError(f"{info}: not a topomap.json file: {err}") from None
+        if about.get("format") != "topomap":
+            raise ExportFormatError(
+                f"{info}: field 'format' is {about.get('format')!r}, not 'topomap'"
+            )
         grid = OccupancyGrid.load(folder / "map.yaml")
         labels = read_label_image(folder / "regions.png")
         if labels.shape != grid.shape:
@@ -333,21 +335,59 @@ class TopoMap:
             )
         graph = read_graphml(folder / "graph.graphml")
         regions = Regions(grid, labels)
-        if sorted(graph.nodes) != regions.ids:
-            raise ExportFormatError(
-                f"{folder / 'graph.graphml'}: nodes {sorted(graph.nodes)[:10]}... are not the "
-                f"regions of regions.png {regions.ids[:10]}..."
-            )
+        _check_graph(graph, regions, grid, folder / "graph.graphml")
+        for name, digest in files.items():  # version 2: the folder is whole and unchanged
+            if name not in ("map.yaml", "map.pgm", *SAVED):
+                raise ExportFormatError(f"{info}: field 'files' lists {name!r}, not a saved file")
+            if not (folder / name).is_file():
+                raise MapFileNotFoundError(folder / name, f"{name} (listed in topomap.json)")
+            if _digest(folder / name) != digest:
+                raise ExportFormatError(
+                    f"{folder / name}: changed since topomap.json was written (another run's or "
+                    "an edited file): segment the map again"
+                )
         return cls(grid, regions, graph, None, seconds)
 
     def save_keyframes(self, path: str | Path, *, overwrite: bool = False) -> Path:
         """Write ``scan_index,x,y,theta,region``, one row per keyframe."""
-        path = Path(path)
-        if path.exists() and not overwrite:
-            raise OutputExistsError(path)
-        with path.open("w", newline="") as stream:
-            writer = csv.writer(stream)
-            writer.writerow(["scan_index", "x", "y", "theta", "region"])
-            for frame, region in zip(self.keyframes, self.keyframe_regions(), strict=True):
-                writer.writerow([frame.scan_index, *(f"{v:.4f}" for v in frame.pose), region])
-        return path
+        stream = io.StringIO()
+        writer = csv.writer(stream, lineterminator="\r\n")
+        writer.writerow(["scan_index", "x", "y", "theta", "region"])
+        for frame, region in zip(self.keyframes, self.keyframe_regions(), strict=True):
+            writer.writerow([frame.scan_index, *(f"{v:.4f}" for v in frame.pose), region])
+        return write_text(path, stream.getvalue(), overwrite=overwrite)
+
+
+def _digest(path: Path) -> str:
+    """The SHA-256 of a file, hex."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _check_graph(graph: nx.Graph, regions: Regions, grid: OccupancyGrid, source: Path) -> None:
+    """Refuse a region graph that is not the graph of ``regions`` on ``grid``: other node ids,
+    areas that are not the label image's pixel counts, another resolution or origin, or a
+    name that is only digits (it would read as a region id)."""
+    if sorted(graph.nodes) != regions.ids:
+        raise ExportFormatError(
+            f"{source}: nodes {sorted(graph.nodes)[:10]}... are not the "
+            f"regions of regions.png {regions.ids[:10]}..."
+        )
+    resolution, origin = graph.graph.get("resolution"), tuple(graph.graph.get("origin", ()))
+    if resolution != grid.resolution or origin != grid.origin:
+        raise ExportFormatError(
+            f"{source}: resolution {resolution} and origin {origin} are not the map's "
+            f"({grid.resolution}, {grid.origin})"
+        )
+    for region, data in graph.nodes(data=True):
+        area, expected = data.get("area_m2"), regions.area(region)
+        if not isinstance(area, float) or not math.isclose(area, expected, rel_tol=1e-6):
+            raise ExportFormatError(
+                f"{source}: region {region} field 'area_m2' is {area!r}, but regions.png gives "
+                f"it {expected:.6g} m^2"
+            )
+        name = data.get("name")
+        if name is not None and str(name).strip().isdigit():
+            raise ExportFormatError(
+                f"{source}: region {region} field 'name' is {name!r}, only digits: it would "
+                "read as a region id"
+            )

@@ -16,6 +16,7 @@ import io
 import json
 import logging
 import os
+import re
 import shutil
 import sys
 import time
@@ -27,9 +28,9 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-import yaml
-
-from maps.errors import FormatError, MapFileNotFoundError
+from maps.errors import FormatError, MapFileNotFoundError, MapFormatError, OutputExistsError
+from maps.files import check_output_folder, write_text
+from topomap.errors import SchedulerError
 
 log = logging.getLogger(__name__)
 
@@ -76,9 +77,13 @@ def input_kind(path: Path) -> str | None:
     if name.endswith(LOG_SUFFIXES):
         return "log"
     if name.endswith((".yaml", ".yml")) and name != "metadata.yaml":
+        from maps.map_server import parse_yaml
+
         try:
-            content = yaml.safe_load(path.read_text())
-        except (OSError, UnicodeDecodeError, yaml.YAMLError):
+            content = parse_yaml(path)
+        except MapFormatError:  # a broken map: its own input fails with the reason, not the run
+            return "map"
+        except OSError:
             return None
         return "map" if isinstance(content, dict) and "image" in content else None
     return None
@@ -162,6 +167,16 @@ def find_inputs(patterns: Sequence[str]) -> list[Job]:
         names = [
             f"{n}.{input_kind(p)}" if n == name else n for n, p in zip(names, paths, strict=True)
         ]
+    for name in {n for n in names if names.count(n) > 1}:  # a.log beside a.log.gz
+        names = [p.name if n == name else n for n, p in zip(names, paths, strict=True)]
+    taken: set[str] = set()
+    for i, name in enumerate(names):  # still the same: numbered, never one result lost
+        unique, number = name, 1
+        while unique in taken:
+            number += 1
+            unique = f"{name}-{number}"
+        names[i] = unique
+        taken.add(unique)
     return [Job(str(p), str(input_kind(p)), n) for p, n in zip(paths, names, strict=True)]
 
 
@@ -225,7 +240,7 @@ def process(job: Job, out: str, options: BatchOptions) -> dict[str, Any]:
             seconds=round(time.perf_counter() - start, 3),
             error="",
         )
-        (work / "result.json").write_text(json.dumps(record, indent=1))
+        write_text(work / "result.json", json.dumps(record, indent=1))
         final = Path(out) / job.name
         old = final.with_name(f".{job.name}.{uuid.uuid4().hex[:8]}.old")
         if final.exists():
@@ -254,10 +269,22 @@ def finished(out: Path, name: str) -> dict[str, Any] | None:
     return record if isinstance(record, dict) and record.get("status") == "ok" else None
 
 
-def _write_atomic(path: Path, text: str) -> None:
-    partial = path.with_name(f".{path.name}.partial")
-    partial.write_text(text)
-    os.replace(partial, path)
+def _ours(out: Path) -> None:
+    """Refuse an ``index.csv`` or ``summary.json`` in ``out`` that ``topomap batch`` did not
+    write (it would be replaced)."""
+    index, summary = out / "index.csv", out / "summary.json"
+    if index.is_file():
+        with index.open(encoding="utf-8", errors="replace") as stream:
+            if stream.readline().rstrip("\r\n") != ",".join(COLUMNS):
+                raise OutputExistsError(index, "--force (it is not a topomap batch index)")
+    if summary.is_file():
+        try:
+            content = json.loads(summary.read_text())
+            ours = isinstance(content, dict) and {"run", "counts", "inputs"} <= set(content)
+        except (ValueError, UnicodeDecodeError, RecursionError):
+            ours = False
+        if not ours:
+            raise OutputExistsError(summary, "--force (it is not a topomap batch summary)")
 
 
 @dataclass
@@ -292,9 +319,9 @@ class Index:
         writer = csv.DictWriter(stream, COLUMNS, extrasaction="ignore", lineterminator="\n")
         writer.writeheader()
         writer.writerows(rows)
-        _write_atomic(self.out / "index.csv", stream.getvalue())
+        write_text(self.out / "index.csv", stream.getvalue(), overwrite=True)
         summary = {"run": self.run, "counts": self.counts(), "inputs": rows}
-        _write_atomic(self.out / "summary.json", json.dumps(summary, indent=1))
+        write_text(self.out / "summary.json", json.dumps(summary, indent=1), overwrite=True)
 
 
 class Progress(Protocol):
@@ -315,10 +342,19 @@ def dask_client(workers: int = 2, scheduler: str | None = None) -> Iterator[Any]
     pipeline when it is returned."""
     from distributed import Client, LocalCluster
 
+    if scheduler is not None:
+        scheduler = scheduler_address(scheduler)
     # the scheduler and nannies log every start and stop at INFO in this process
     logging.getLogger("distributed").setLevel(logging.WARNING)
     if scheduler is not None:
-        with Client(scheduler) as client:
+        try:
+            client = Client(scheduler, timeout=CONNECT_SECONDS)
+        except (OSError, TimeoutError) as err:
+            reason = " ".join(str(err).split())[:200]
+            raise SchedulerError(
+                f"cannot reach the Dask scheduler at {scheduler}: {reason}"
+            ) from None
+        with client:
             client.run(warm_up)
             yield client
         return
@@ -336,6 +372,29 @@ def dask_client(workers: int = 2, scheduler: str | None = None) -> Iterator[Any]
         yield client
 
 
+#: Seconds to wait for a scheduler given by ``--scheduler``.
+CONNECT_SECONDS = 10
+_ADDRESS = re.compile(r"^(?:(tcp|tls|ws|wss|ucx)://)?(\[[0-9a-fA-F:]+\]|[\w.-]+):(\d{1,5})$")
+
+
+def scheduler_address(text: str) -> str:
+    """A Dask scheduler address ``[tcp://]host:port``, checked before anything connects.
+
+    Examples
+    --------
+    >>> scheduler_address("tcp://127.0.0.1:8786")
+    'tcp://127.0.0.1:8786'
+    >>> scheduler_address("nonsense")
+    Traceback (most recent call last):
+    ...
+    topomap.errors.SchedulerError: --scheduler 'nonsense' is not a Dask address like tcp://host:8786
+    """
+    found = _ADDRESS.match(text.strip())
+    if found is None or not 0 < int(found.group(3)) < 65536:
+        raise SchedulerError(f"--scheduler {text!r} is not a Dask address like tcp://host:8786")
+    return text.strip() if found.group(1) else f"tcp://{text.strip()}"
+
+
 def tqdm_bar(total: int) -> Progress:
     """A tqdm bar over ``total`` inputs on stderr."""
     from tqdm import tqdm
@@ -350,6 +409,21 @@ def worker_count(text: str) -> int:
     if not text.isdigit() or int(text) < 1:
         raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
     return int(text)
+
+
+def check_batch(
+    inputs: Sequence[str], out: str | Path, *, force: bool = False, scheduler: str | None = None
+) -> list[Job]:
+    """Everything :func:`run_batch` refuses, checked before a cluster starts: the inputs
+    (:func:`find_inputs`), the output folder (not a file, its index not another tool's) and
+    the scheduler's address."""
+    jobs = find_inputs(inputs)
+    folder = check_output_folder(out)
+    if not force:
+        _ours(folder)
+    if scheduler is not None:
+        scheduler_address(scheduler)
+    return jobs
 
 
 def run_batch(
@@ -390,7 +464,7 @@ def run_batch(
     ...     records = run_batch(["maps/*.yaml"], "out/batch", client=client)
     """
     out = Path(out)
-    jobs = find_inputs(inputs)
+    jobs = check_batch(inputs, out, force=force)
     options = options or BatchOptions()
     out.mkdir(parents=True, exist_ok=True)
     index = Index.read(out)

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from maps.files import written
 from maps.grid import OccupancyGrid
 
 if TYPE_CHECKING:
@@ -62,7 +63,8 @@ def _save(fig: Figure, ax: Axes, path: str | Path, title: str) -> Path:
     """Title the axes, write the figure as a PNG."""
     ax.set_title(title)
     path = Path(path)
-    fig.savefig(path, dpi=150, bbox_inches="tight")
+    with written(path, overwrite=True) as partial:  # callers refuse existing files first
+        fig.savefig(partial, dpi=150, bbox_inches="tight")
     return path
 
 

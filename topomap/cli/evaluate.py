@@ -92,7 +92,10 @@ def _natural(path: Path) -> tuple[str, int]:
 
 
 def _scores(labels: NDArray[np.integer], truth: NDArray[np.integer]) -> dict[str, Any]:
-    found: dict[str, Any] = {**score(labels, truth).as_dict(), **rose2_score(labels, truth).as_dict()}
+    found: dict[str, Any] = {
+        **score(labels, truth).as_dict(),
+        **rose2_score(labels, truth).as_dict(),
+    }
     return {k: round(v, 4) if isinstance(v, float) else v for k, v in found.items()}
 
 

@@ -10,7 +10,9 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from maps.errors import OutputExistsError, TopomapError
+from maps.errors import TopomapError
+from maps.files import OutputFolder, check_output_file, check_outputs, write_text
+from maps.limits import MAX_LENGTH, MAX_ROBOT_RADIUS, RESOLUTION_RANGE, finite_in
 from topomap.cli.progress import Progress
 from topomap.errors import UsageError
 
@@ -62,10 +64,9 @@ def _add_bag_options(parser: argparse.ArgumentParser, *, map_topic: bool) -> Non
 
 def _refuse_existing(out: Path, names: Iterable[str], force: bool) -> None:
     """Stop before any work when a file the command would write exists and ``--force`` is
-    not given."""
-    for name in names:
-        if (out / name).exists() and not force:
-            raise OutputExistsError(out / name, "--force")
+    not given, or when ``out`` or a file in it cannot be written (a file in the place of the
+    folder, a folder in the place of a file)."""
+    check_outputs(out, names, overwrite=force, how="--force")
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
@@ -90,15 +91,18 @@ def cmd_map(args: argparse.Namespace) -> int:
     from topomap.cli.drawing import draw_map
 
     out = Path(args.out)
-    _refuse_existing(out, ["map.yaml", "map.pgm", "map.png"], args.force)
+    names = ["map.yaml", "map.pgm", "map.png"]
+    _refuse_existing(out, names, args.force)
     args.progress.stage(f"reading {args.log}")
     frames = _read_keyframes(Path(args.log), args)
     keyframes = select_keyframes(frames, distance=args.distance)
     args.progress.stage(f"building the map from {len(keyframes)} keyframes")
     grid = grid_from_keyframes(keyframes, args.resolution, max_range=args.max_range)
-    out.mkdir(parents=True, exist_ok=True)
-    grid.save(out / "map.yaml", overwrite=True)
-    draw_map(out / "map.png", grid, keyframes=poses_array(keyframes), title=Path(args.log).name)
+    with OutputFolder(out, names, overwrite=args.force, how="--force") as work:
+        grid.save(work / "map.yaml")
+        draw_map(
+            work / "map.png", grid, keyframes=poses_array(keyframes), title=Path(args.log).name
+        )
     print(
         f"{len(frames)} scans, {len(keyframes)} keyframes -> {out / 'map.yaml'} "
         f"({grid.shape[1]} x {grid.shape[0]} cells)"
@@ -112,17 +116,17 @@ def cmd_generate(args: argparse.Namespace) -> int:
     from maps.floorplan import generate_floor_plan
 
     out = Path(args.out)
-    _refuse_existing(out, ["map.yaml", "map.pgm", "rooms.png", "rooms.json"], args.force)
+    names = ["map.yaml", "map.pgm", "rooms.png", "rooms.json"]
+    _refuse_existing(out, names, args.force)
     args.progress.stage(f"generating a {args.size} building")
     plan = generate_floor_plan(
         args.size, resolution=args.resolution, furniture=args.furniture, random_state=args.seed
     )
-    out.mkdir(parents=True, exist_ok=True)
-    plan.grid.save(out / "map.yaml", overwrite=True)
-    cv2.imwrite(str(out / "rooms.png"), plan.labels.astype("uint16"))
-    (out / "rooms.json").write_text(
-        json.dumps([{"id": i, "type": t} for i, t in enumerate(plan.types, start=1)], indent=1)
-    )
+    with OutputFolder(out, names, overwrite=args.force, how="--force") as work:
+        plan.grid.save(work / "map.yaml")
+        cv2.imwrite(str(work / "rooms.png"), plan.labels.astype("uint16"))
+        rooms = [{"id": i, "type": t} for i, t in enumerate(plan.types, start=1)]
+        write_text(work / "rooms.json", json.dumps(rooms, indent=1))
     print(f"{plan.n_rooms} spaces, {len(plan.doors)} doors -> {out}")
     return 0
 
@@ -213,19 +217,29 @@ def cmd_segment(args: argparse.Namespace) -> int:
             grid = OccupancyGrid.load(args.map)
         topo = TopoMap.from_grid(grid, on_stage=args.progress.stage, **_segmenter_options(args))
         source = args.map
-    written = topo.save(out, overwrite=args.force)
-    if args.scans is not None:
-        written.append(topo.save_keyframes(out / "keyframes.csv", overwrite=args.force))
-    count = topo.graph.number_of_nodes()
-    written.append(
-        draw_regions(
-            out / "segmentation.png",
-            topo.grid,
-            topo.regions.labels,
-            topo.graph,
-            title=f"{Path(source).name}: {count} regions",
+    folder = OutputFolder(out, written_names, overwrite=args.force, how="--force", last=SAVED[-1])
+    with folder as work:  # every file appears at once; an interrupted run leaves none
+        written = topo.save(work)
+        if args.scans is not None:
+            written.append(topo.save_keyframes(work / "keyframes.csv"))
+        count = topo.graph.number_of_nodes()
+        written.append(
+            draw_regions(
+                work / "segmentation.png",
+                topo.grid,
+                topo.regions.labels,
+                topo.graph,
+                title=f"{Path(source).name}: {count} regions",
+            )
         )
-    )
+        summary = _write_summary(work / "summary.json", topo, source, count)
+    print(summary)
+    print(f"wrote {', '.join(p.name for p in written)}, summary.json to {out}")
+    return 0
+
+
+def _write_summary(path: Path, topo: Any, source: str, count: int) -> str:
+    """Write ``summary.json`` of ``topomap segment``; returns its text."""
     summary = {
         "source": str(source),
         "regions": count,
@@ -243,12 +257,9 @@ def cmd_segment(args: argparse.Namespace) -> int:
         },
         "seconds": {k: round(v, 3) for k, v in topo.seconds.items()},
     }
-    path = out / "summary.json"
-    _refuse_existing(out, [path.name], args.force)
-    path.write_text(json.dumps(summary, indent=2))
-    print(json.dumps(summary, indent=2))
-    print(f"wrote {', '.join(p.name for p in written)}, summary.json to {out}")
-    return 0
+    text = json.dumps(summary, indent=2)
+    write_text(path, text)
+    return text
 
 
 def cmd_eval_segment(args: argparse.Namespace) -> int:
@@ -271,8 +282,7 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
             ],
         )
     )
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "results.json").write_text(json.dumps({"maps": records, "means": summary}, indent=2))
+    write_text(out / "results.json", json.dumps({"maps": records, "means": summary}, indent=2))
     print(f"wrote {out / 'results.json'}")
     return 0
 
@@ -340,7 +350,7 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
             )
         )
         print()
-    (out / "results.json").write_text(json.dumps(results, indent=2))
+    write_text(out / "results.json", json.dumps(results, indent=2), overwrite=args.force)
     print(f"wrote {out / 'results.json'} (features and labels per region) and a picture per map")
     if args.save_model:
         model = train_on_all([m for maps in datasets.values() for m in maps])
@@ -452,7 +462,7 @@ def cmd_bench_plan(args: argparse.Namespace) -> int:
 
 
 def cmd_batch(args: argparse.Namespace) -> int:
-    from topomap.cli.batch import BatchOptions, dask_client, find_inputs, run_batch, tqdm_bar
+    from topomap.cli.batch import BatchOptions, check_batch, dask_client, run_batch, tqdm_bar
 
     options = BatchOptions(
         distance=args.distance,
@@ -463,7 +473,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
         stamp=args.stamp,
         segmenter=_segmenter_options(args),
     )
-    find_inputs(args.inputs)  # a bad input stops the command before a cluster starts
+    # a bad input, output folder or address stops the command before a cluster starts
+    check_batch(args.inputs, args.out, force=args.force, scheduler=args.scheduler)
     bar = None if getattr(args, "quiet", False) else tqdm_bar
     with dask_client(args.workers, args.scheduler) as client:
         records = run_batch(
@@ -497,6 +508,30 @@ def cmd_bench_batch(args: argparse.Namespace) -> int:
         print(_table(campus, list(campus[0])))
     print(f"wrote {args.out}/results.json")
     return 0
+
+
+def _number(lo: float, hi: float, *, low_open: bool = False, unit: str = "m") -> Any:
+    """An argparse type: a finite number in ``[lo, hi]`` (``(lo, hi]`` with ``low_open``),
+    so a bad value is a usage error before any work."""
+
+    def number(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        problem = finite_in(value, "the value", lo, hi, unit=unit, low_open=low_open)
+        if problem is not None:
+            raise argparse.ArgumentTypeError(problem.replace("the value ", "", 1))
+        return value
+
+    return number
+
+
+#: ``--robot-radius``, ``--resolution``, lengths and ranges in metres.
+_RADIUS = _number(0.0, MAX_ROBOT_RADIUS, low_open=True)
+_RESOLUTION = _number(*RESOLUTION_RANGE, unit="m per cell")
+_LENGTH = _number(0.0, MAX_LENGTH, low_open=True)
+_DISTANCE = _number(0.0, MAX_LENGTH)
 
 
 def _point(text: str) -> tuple[float, float]:
@@ -534,6 +569,7 @@ def _map_planner(args: argparse.Namespace) -> Any:
 def cmd_export(args: argparse.Namespace) -> int:
     from planners.nav2_route import write_nav2_route
 
+    check_output_file(args.nav2_route, overwrite=args.force, how="--force")
     planner = _map_planner(args)
     written = write_nav2_route(planner, args.nav2_route, overwrite=args.force)
     doors, edges = len(planner.doors), 2 * len(planner.door_edges())
@@ -546,6 +582,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from topomap.cli.drawing import draw_paths
     from topomap.labels import find_region
 
+    if args.draw is not None:
+        check_output_file(args.draw, overwrite=args.force, how="--force")
     planner = _map_planner(args)
     grid = planner.space.grid
     start, goal = args.start, args.goal
@@ -582,17 +620,17 @@ def _add_segmenter_options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--p", type=float, default=0.3, help="sparsification parameter in [0, 1)")
     parser.add_argument(
-        "--spacing", type=float, default=2.0, help="virtual keyframe lattice on a map, metres"
+        "--spacing", type=_LENGTH, default=2.0, help="virtual keyframe lattice on a map, metres"
     )
     parser.add_argument(
         "--robot-radius",
-        type=float,
+        type=_RADIUS,
         default=0.2,
         help="free space thinner than the robot is dropped, metres",
     )
     parser.add_argument(
         "--clutter-size",
-        type=float,
+        type=_LENGTH,
         default=2.0,
         help="free-standing obstacles smaller than this are clutter, not walls, metres",
     )
@@ -615,9 +653,9 @@ def build_parser() -> argparse.ArgumentParser:
     build = sub.add_parser("map", help="build an occupancy map from a laser log or bag")
     build.add_argument("log", help="CARMEN log (.log, .gz) or ROS bag (.bag file, ROS 2 folder)")
     build.add_argument("--out", required=True)
-    build.add_argument("--resolution", type=float, default=0.05, help="metres per cell")
-    build.add_argument("--distance", type=float, default=0.5, help="keyframe spacing, metres")
-    build.add_argument("--max-range", type=float, default=30.0, help="metres")
+    build.add_argument("--resolution", type=_RESOLUTION, default=0.05, help="metres per cell")
+    build.add_argument("--distance", type=_DISTANCE, default=0.5, help="keyframe spacing, metres")
+    build.add_argument("--max-range", type=_LENGTH, default=30.0, help="metres")
     build.add_argument("--scan-topic")
     build.add_argument("--pose-topic")
     _add_bag_options(build, map_topic=False)
@@ -627,7 +665,7 @@ def build_parser() -> argparse.ArgumentParser:
     gen = sub.add_parser("generate", help="generate a building: map YAML + ground-truth rooms")
     gen.add_argument("--size", default="office", choices=["flat", "office", "campus"])
     gen.add_argument("--seed", type=int, default=0)
-    gen.add_argument("--resolution", type=float, default=0.05)
+    gen.add_argument("--resolution", type=_RESOLUTION, default=0.05)
     gen.add_argument("--furniture", type=float, default=0.0, help="blocks per 10 m^2")
     gen.add_argument("--out", required=True)
     gen.add_argument("--force", action="store_true", help="overwrite existing map files")
@@ -638,7 +676,7 @@ def build_parser() -> argparse.ArgumentParser:
     source.add_argument("map", nargs="?", help="map_server YAML")
     source.add_argument("--scans", help="CARMEN log or ROS bag instead of a map")
     seg.add_argument("--out", required=True)
-    seg.add_argument("--distance", type=float, default=0.5, help="keyframe spacing in a log, m")
+    seg.add_argument("--distance", type=_DISTANCE, default=0.5, help="keyframe spacing in a log, m")
     seg.add_argument("--scan-topic")
     seg.add_argument("--pose-topic")
     _add_bag_options(seg, map_topic=True)
@@ -745,8 +783,12 @@ def build_parser() -> argparse.ArgumentParser:
     batch.add_argument("--workers", type=worker_count, default=2, help="local worker processes")
     batch.add_argument("--scheduler", help="address of a running Dask scheduler (tcp://host:8786)")
     batch.add_argument("--force", action="store_true", help="redo inputs already done")
-    batch.add_argument("--distance", type=float, default=0.5, help="keyframe spacing in a log, m")
-    batch.add_argument("--resolution", type=float, default=0.05, help="maps from logs, m/cell")
+    batch.add_argument(
+        "--distance", type=_DISTANCE, default=0.5, help="keyframe spacing in a log, m"
+    )
+    batch.add_argument(
+        "--resolution", type=_RESOLUTION, default=0.05, help="maps from logs, m/cell"
+    )
     batch.add_argument("--scan-topic")
     _add_bag_options(batch, map_topic=True)
     _add_segmenter_options(batch)
@@ -770,8 +812,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--goal", required=True, type=_goal, help="X,Y in metres, a region id or a name"
     )
     plan.add_argument("--regions", help="folder written by `topomap segment` (else segment now)")
-    plan.add_argument("--robot-radius", type=float, default=0.2, help="metres")
+    plan.add_argument("--robot-radius", type=_RADIUS, default=0.2, help="metres")
     plan.add_argument("--draw", help="write a PNG of the path")
+    plan.add_argument("--force", action="store_true", help="overwrite an existing --draw file")
     plan.add_argument(
         "--compare", action="store_true", help="also draw a flat RRTConnect path (with --draw)"
     )
@@ -783,7 +826,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--nav2-route", required=True, help="OUT.geojson: the door graph for nav2_route"
     )
     export.add_argument("--regions", help="folder written by `topomap segment` (else segment now)")
-    export.add_argument("--robot-radius", type=float, default=0.2, help="metres")
+    export.add_argument("--robot-radius", type=_RADIUS, default=0.2, help="metres")
     export.add_argument("--force", action="store_true", help="overwrite an existing file")
     export.set_defaults(func=cmd_export)
     _add_output_options(parser)
@@ -830,5 +873,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.func(args))
     except TopomapError as err:
-        print(f"topomap: error: {err}", file=sys.stderr)
+        print(f"topomap: error: {' '.join(str(err).split())}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # outputs are written under temporary names: none is half done
+        print("topomap: interrupted; no output was left half-written", file=sys.stderr)
+        return 130

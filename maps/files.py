@@ -1,0 +1,185 @@
+"""Writing outputs safely: paths checked before any work, files written under a temporary name
+and renamed into place, nothing the user has overwritten without asking.
+
+An interrupted write (an error, Ctrl-C) leaves the final name as it was: the old file or
+nothing, never half of a new one. :class:`OutputFolder` does the same for a folder of files.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import uuid
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from maps.errors import OutputExistsError, OutputIsAFolderError, OutputNotAFolderError
+
+
+def _blocking_file(path: Path) -> Path | None:
+    """The first existing non-folder among ``path``'s parents, if any."""
+    for parent in reversed(path.parents):
+        if parent.exists() and not parent.is_dir():
+            return parent
+    return None
+
+
+def check_output_folder(folder: str | Path) -> Path:
+    """Refuse an output folder that is a file or lies under one (it may be missing: it is
+    made, with its parents, when written).
+
+    Raises
+    ------
+    OutputNotAFolderError
+        ``folder`` or one of its parents is a file.
+    """
+    folder = Path(folder)
+    blocking = folder if folder.exists() and not folder.is_dir() else _blocking_file(folder)
+    if blocking is not None:
+        raise OutputNotAFolderError(
+            folder, f"{blocking} is a file, not a folder: cannot write {folder}"
+        )
+    return folder
+
+
+def check_output_file(path: str | Path, *, overwrite: bool, how: str = "overwrite=True") -> Path:
+    """Refuse an output file that exists (unless ``overwrite``), whose place is a folder, or
+    whose folder is a file. ``how`` says how to allow overwriting (``"--force"``).
+
+    Raises
+    ------
+    OutputExistsError
+        The file exists and ``overwrite`` is false.
+    OutputIsAFolderError
+        A folder has the file's name.
+    OutputNotAFolderError
+        A parent of the file is a file.
+    """
+    path = Path(path)
+    check_output_folder(path.parent)
+    if path.is_dir():
+        raise OutputIsAFolderError(path, f"{path} is a folder, not a file: cannot write it")
+    if path.exists() and not overwrite:
+        raise OutputExistsError(path, how)
+    return path
+
+
+def check_outputs(
+    folder: str | Path, names: Iterable[str], *, overwrite: bool, how: str = "overwrite=True"
+) -> Path:
+    """:func:`check_output_folder` and :func:`check_output_file` for every name in it."""
+    folder = check_output_folder(folder)
+    for name in names:
+        check_output_file(folder / name, overwrite=overwrite, how=how)
+    return folder
+
+
+def _temporary(path: Path) -> Path:
+    """A hidden name beside ``path`` that keeps its suffix (OpenCV and matplotlib pick the
+    format from it)."""
+    return path.with_name(f".{path.stem}.{uuid.uuid4().hex[:8]}.partial{path.suffix}")
+
+
+@contextmanager
+def written(
+    path: str | Path, *, overwrite: bool = False, how: str = "overwrite=True"
+) -> Iterator[Path]:
+    """Write a file atomically: yields a temporary path beside ``path`` to write to; on
+    success it is renamed to ``path``, on any error or interruption removed.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = Path(tempfile.mkdtemp()) / "a.txt"
+    >>> with written(out) as partial:
+    ...     _ = partial.write_text("done")
+    >>> out.read_text()
+    'done'
+    """
+    path = check_output_file(path, overwrite=overwrite, how=how)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = _temporary(path)
+    try:
+        yield partial
+        if not partial.exists():
+            raise OSError(f"nothing was written to {path}")
+        os.replace(partial, path)
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise
+
+
+def write_text(
+    path: str | Path, text: str, *, overwrite: bool = False, how: str = "overwrite=True"
+) -> Path:
+    """Write ``text`` to ``path`` atomically (see :func:`written`)."""
+    path = Path(path)
+    with written(path, overwrite=overwrite, how=how) as partial:
+        partial.write_text(text)
+    return path
+
+
+class OutputFolder:
+    """Write a folder of files all at once: a context manager yielding a hidden staging folder
+    beside ``folder``; on success its files move into ``folder``, on any error or interruption
+    it is removed and ``folder`` is as it was.
+
+    A new folder appears whole (one rename). Into an existing folder (``overwrite``) the files
+    move one by one, ``last`` (the file that marks the folder complete, e.g. ``topomap.json``)
+    removed first and moved in last, so a reader never takes a half-moved folder for whole.
+
+    Parameters
+    ----------
+    folder
+        The output folder.
+    names
+        The files that will be written (checked before any work).
+    overwrite, how
+        As for :func:`check_output_file`.
+    last
+        The name written last and removed first, if any.
+    """
+
+    def __init__(
+        self,
+        folder: str | Path,
+        names: Iterable[str],
+        *,
+        overwrite: bool = False,
+        how: str = "overwrite=True",
+        last: str | None = None,
+    ) -> None:
+        self.folder = Path(folder)
+        self.names = list(names)
+        self.overwrite, self.how, self.last = overwrite, how, last
+        check_outputs(self.folder, self.names, overwrite=overwrite, how=how)
+        # beside a new folder (renamed into its place), inside an existing one (same disk)
+        resolved = self.folder.resolve()
+        hidden = f".{resolved.name or 'out'}.{uuid.uuid4().hex[:8]}.partial"
+        self.staging = resolved / hidden if resolved.is_dir() else resolved.parent / hidden
+
+    def __enter__(self) -> Path:
+        self.folder.parent.mkdir(parents=True, exist_ok=True)
+        self.staging.mkdir()
+        return self.staging
+
+    def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:
+        try:
+            if kind is None:
+                self._commit()
+        finally:
+            shutil.rmtree(self.staging, ignore_errors=True)
+
+    def _commit(self) -> None:
+        # checked again: another process may have written there meanwhile
+        check_outputs(self.folder, self.names, overwrite=self.overwrite, how=self.how)
+        if not self.folder.exists():
+            os.rename(self.staging, self.folder)
+            return
+        files = sorted(p.name for p in self.staging.iterdir())
+        if self.last in files:
+            (self.folder / self.last).unlink(missing_ok=True)
+            files = [name for name in files if name != self.last] + [self.last]
+        for name in files:
+            os.replace(self.staging / name, self.folder / name)

@@ -1,0 +1,108 @@
+"""Bounds on every size, count and distance read from a file or given as an option.
+
+Each is checked before anything is allocated, so a hostile header or a typo ends in a typed
+error naming the value, never in an ``OverflowError``, a ``MemoryError`` or a hang.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+from maps.errors import MapTooLargeError
+
+#: Metres per cell a map may have: a millimetre to a hundred metres.
+RESOLUTION_RANGE = (1e-3, 100.0)
+#: Metres from the frame's origin a pose, a transform or a map origin may lie (10,000 km).
+MAX_COORDINATE = 1e7
+#: Metres a robot's radius may have.
+MAX_ROBOT_RADIUS = 10.0
+#: Metres any other length option (spacing, clutter size, keyframe distance) may have.
+MAX_LENGTH = 1000.0
+#: Cells a map may have whatever the memory: 2^28 (16384 x 16384).
+MAX_CELLS = 1 << 28
+#: Bytes the pipeline holds per cell of a map at its peak (masks, distances, labels).
+BYTES_PER_CELL = 48
+
+
+def _memory_bytes() -> int | None:
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def max_cells() -> int:
+    """The most cells a map may have on this machine: :data:`MAX_CELLS`, or fewer when
+    :data:`BYTES_PER_CELL` times them would not fit in its memory."""
+    memory = _memory_bytes()
+    return MAX_CELLS if memory is None else min(MAX_CELLS, memory // BYTES_PER_CELL)
+
+
+def check_map_size(
+    height: float,
+    width: float,
+    *,
+    what: str = "map",
+    path: str | Path | None = None,
+    field: str | None = None,
+) -> None:
+    """Refuse a map of ``height`` x ``width`` cells that this machine cannot hold.
+
+    Raises
+    ------
+    MapTooLargeError
+        Naming the size in cells and what the limit is.
+
+    Examples
+    --------
+    >>> check_map_size(3000, 3000)
+    >>> check_map_size(2e9, 2e9, what="image")
+    Traceback (most recent call last):
+    ...
+    maps.errors.MapTooLargeError: image of 2000000000 x 2000000000 cells (4e+18 cells) is ...
+    """
+    if not (math.isfinite(height) and math.isfinite(width)) or height < 0 or width < 0:
+        raise MapTooLargeError(f"{what} of {width} x {height} cells", path=path, field=field)
+    cells = float(height) * float(width)
+    limit = max_cells()
+    if cells > limit:
+        gib = cells * BYTES_PER_CELL / 2**30
+        raise MapTooLargeError(
+            f"{what} of {int(width)} x {int(height)} cells ({cells:.3g} cells) is larger than "
+            f"memory allows (about {gib:.3g} GiB; at most {limit} cells here)",
+            path=path,
+            field=field,
+        )
+
+
+def finite_in(
+    value: object, name: str, lo: float, hi: float, *, unit: str = "", low_open: bool = False
+) -> str | None:
+    """What is wrong with ``value`` as a number in ``[lo, hi]`` (``(lo, hi]`` with
+    ``low_open``), or None when it is fine. Callers raise their own located error with it.
+
+    Examples
+    --------
+    >>> finite_in(1000.0, "robot_radius", 0, 10, unit="m", low_open=True)
+    'robot_radius must lie in (0, 10] m, got 1000.0'
+    >>> finite_in(float("nan"), "max_range", 0, 1e3, low_open=True)
+    'max_range must be a finite number, got nan'
+    >>> finite_in(0.5, "p", 0, 1) is None
+    True
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return f"{name} must be a number, got {value!r}"
+    try:
+        number = float(value)
+    except OverflowError:
+        return f"{name} must be a finite number, got a {len(str(value))}-digit integer"
+    if not math.isfinite(number):
+        return f"{name} must be a finite number, got {value!r}"
+    if number < lo or number > hi or (low_open and number == lo):
+        left = "(" if low_open else "["
+        return (
+            f"{name} must lie in {left}{lo:g}, {hi:g}]{' ' + unit if unit else ''}, got {value!r}"
+        )
+    return None
