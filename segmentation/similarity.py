@@ -32,6 +32,7 @@ from scipy.spatial import cKDTree
 from maps.scan import Keyframe
 from segmentation.cloud import ScanCloud
 from segmentation.errors import ParameterError
+from segmentation.views import SharedView
 
 PointsSimilarity = Callable[[NDArray[np.float64], NDArray[np.float64]], float]
 
@@ -263,6 +264,7 @@ CRITERIA: dict[str, Callable[[], Criterion]] = {
     "nn": NearestNeighbour,
     "hausdorff": Hausdorff,
     "features": SharedFeatures,
+    "view": SharedView,
 }
 
 
