@@ -118,7 +118,7 @@ class HeadingCSpace:
         packed = np.zeros((*walls.shape, self.headings // 8), np.uint8)
         for k, kernel in enumerate(kernels):
             layer = cv2.dilate(walls, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=1)
-            packed[:, :, k // 8] |= layer << np.uint8(k % 8)
+            packed[:, :, k // 8] |= np.asarray(layer, np.uint8) << np.uint8(k % 8)
         return packed
 
     # ------------------------------------------------------------------ lookups
@@ -164,10 +164,13 @@ class HeadingCSpace:
 
     def free_headings(self, x: float, y: float) -> NDArray[np.float64]:
         """The middles of the heading bins valid at ``(x, y)``, radians (none off the map)."""
-        yaws = np.arange(self.headings) * (2 * math.pi / self.headings)
-        return yaws[self.valid_many(np.column_stack([np.full_like(yaws, x), np.full_like(yaws, y), yaws]))]
+        yaws = np.arange(self.headings, dtype=np.float64) * (2 * math.pi / self.headings)
+        poses = np.column_stack([np.full_like(yaws, x), np.full_like(yaws, y), yaws])
+        return yaws[self.valid_many(poses)]
 
-    def crop(self, rows: slice, cols: slice, keep: NDArray[np.bool_] | None = None) -> HeadingCSpace:
+    def crop(
+        self, rows: slice, cols: slice, keep: NDArray[np.bool_] | None = None
+    ) -> HeadingCSpace:
         """The part of this space in cells ``[rows, cols]``, blocked where ``keep`` (the
         part's shape) is false: states outside are invalid; map-frame coordinates unchanged."""
         grid = crop_grid(self.grid, rows, cols)
