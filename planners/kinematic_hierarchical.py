@@ -107,9 +107,9 @@ class KinematicHierarchicalPlanner:
         """Region id at map point ``(x, y)`` (0 when off the map or in no region)."""
         return self.doors.region_at(x, y)
 
-    def plan(self, start: ArrayLike, goal: ArrayLike) -> Path:
+    def plan(self, start: ArrayLike, goal: ArrayLike | int) -> Path:
         """Plan from ``start`` to ``goal``: poses ``(x, y, yaw)`` or points ``(x, y)`` (the
-        valid heading nearest 0).
+        valid heading nearest 0); ``goal`` may be a region id (its most open point).
 
         The first route is the door graph's shortest path for a disc as wide as the
         narrowest door the robot takes, its submaps the near-convex parts it crosses; the next
@@ -122,6 +122,10 @@ class KinematicHierarchicalPlanner:
         NoPathError
             No route through doors the robot fits, or OMPL failed on every route tried.
         """
+        if isinstance(goal, int | np.integer):
+            if goal not in self.graph:
+                raise InvalidQueryError(f"no region {goal}; ids: {sorted(self.graph.nodes)}")
+            goal = self.doors.centre(int(goal))
         s, g = check_pose(self.cspace, start, "start"), check_pose(self.cspace, goal, "goal")
         for what, pose in (("start", s), ("goal", g)):
             if self.region_at(pose[0], pose[1]) not in self.graph:
