@@ -500,7 +500,9 @@ def _pose(text: str) -> tuple[float, ...]:
     except ValueError:
         values = ()
     if len(values) not in (2, 3):
-        raise argparse.ArgumentTypeError(f"expected X,Y or X,Y,YAW, got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"expected X,Y in metres, got {text!r} (or X,Y,YAW, radians)"
+        )
     return values
 
 
