@@ -132,9 +132,10 @@ class HeadingCSpace:
     def valid_many(self, poses: ArrayLike) -> NDArray[np.bool_]:
         """Whether each pose ``(x, y, yaw)`` is valid (vectorised :meth:`valid`)."""
         p = np.asarray(poses, float).reshape(-1, 3)
-        rows, cols = self.grid.world_to_cell(p[:, 0], p[:, 1])
-        rows, cols = np.asarray(rows), np.asarray(cols)
-        h, w = self.grid.shape
+        _, w, h, _, ox, oy, c, s, _ = self._scalar  # the arithmetic of :meth:`valid`
+        dx, dy = p[:, 0] - ox, p[:, 1] - oy
+        cols = np.floor(c * dx + s * dy).astype(np.intp)
+        rows = h - 1 - np.floor(c * dy - s * dx).astype(np.intp)
         inside = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
         k = self.bin_of(p[:, 2])
         out = np.zeros(len(p), bool)
