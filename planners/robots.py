@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from planners.errors import PlannerParameterError
 
@@ -223,10 +223,3 @@ def parse_robot(spec: str | Robot) -> Robot:
         return model(polygon, _positive(options["radius"], "turning radius"))
     raise RobotSpecError(f"unknown robot spec {spec!r}; known forms: {', '.join(SPECS)}")
 
-
-def footprint_points(robot: Footprint, poses: ArrayLike) -> NDArray[np.float64]:
-    """The footprint's corners at each pose ``(x, y, yaw)``: ``(n, corners, 2)``, map frame."""
-    p = np.asarray(poses, float).reshape(-1, 3)
-    c, s = np.cos(p[:, 2])[:, None], np.sin(p[:, 2])[:, None]
-    fx, fy = robot.polygon[:, 0], robot.polygon[:, 1]
-    return np.stack([p[:, :1] + c * fx - s * fy, p[:, 1:2] + s * fx + c * fy], axis=-1)
