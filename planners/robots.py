@@ -222,4 +222,3 @@ def parse_robot(spec: str | Robot) -> Robot:
         polygon = rectangle(*_size(options["footprint"], "footprint"))
         return model(polygon, _positive(options["radius"], "turning radius"))
     raise RobotSpecError(f"unknown robot spec {spec!r}; known forms: {', '.join(SPECS)}")
-
