@@ -86,15 +86,21 @@ def run_queries(
     *,
     budget: float = math.inf,
     progress: Callable[[Any], Any] = iter,
+    collisions: Callable[[PlannedPath], int] | None = None,
+    paths: list[dict[str, Any]] | None = None,
 ) -> tuple[list[dict[str, Any]], dict[str, int]]:
     """Run every planner on every query; one record per planner and query run.
 
     Records hold ``map``, ``planner``, ``query``, ``success``, ``seconds`` (wall time of the
     ``plan`` call), ``length_m``, ``optimal_m`` (``optimal[query]``, the exact shortest
-    path), ``collisions`` (samples off the free space) and ``error`` (why it failed, or None).
-    A planner whose query time on this map passes ``budget`` seconds runs no more queries;
-    the second result counts the queries each planner skipped.
+    path, or a reference length), ``collisions`` (samples off the free space, or what
+    ``collisions`` counts on the path: e.g. a footprint sweep) and ``error`` (why it failed,
+    or None). A planner whose query time on this map passes ``budget`` seconds runs no more
+    queries; the second result counts the queries each planner skipped. Found paths are
+    appended to ``paths`` when given (``map``, ``query``, ``planner``, ``poses``).
     """
+    if collisions is None:
+        collisions = lambda path: space.collisions(path.waypoints)  # noqa: E731
     records = []
     spent = dict.fromkeys((p.name for p in planners), 0.0)
     skipped = dict.fromkeys(spent, 0)
@@ -114,13 +120,19 @@ def run_queries(
             spent[planner.name] += seconds
             records.append(_record(map_name, planner.name, index, seconds, optimal[index], error))
             if path is not None:
-                joins = np.allclose(path.waypoints[[0, -1]], [start, goal], atol=1e-9)
+                ends = np.asarray([start, goal], float)[:, :2]
+                joins = np.allclose(path.waypoints[[0, -1]], ends, atol=1e-9)
                 records[-1].update(
                     success=bool(joins),
                     length_m=round(path.length, 4),
-                    collisions=space.collisions(path.waypoints),
+                    collisions=collisions(path),
                     error=None if joins else "the path does not join start and goal",
                 )
+                if paths is not None:
+                    poses = np.round(path.poses, 4).tolist()
+                    paths.append(
+                        {"map": map_name, "query": index, "planner": planner.name, "poses": poses}
+                    )
     return records, skipped
 
 

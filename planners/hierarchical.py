@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage, sparse
 from scipy.sparse.csgraph import dijkstra
 
+from maps.grid import OccupancyGrid
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
 from planners.path import Path, shortcut, tighten
 from planners.submaps import convex_parts
@@ -109,7 +110,7 @@ class HierarchicalPlanner:
                 f"labels have shape {labels.shape}, the map {space.grid.shape}"
             )
         self.space, self.graph = space, graph
-        self.labels = _fill_unlabelled(labels, space.grid.free)
+        self.labels = fill_unlabelled(labels, space.grid.free)
         # cut where the robot's free space (not the map's) is concave: thin walls count
         self.parts, self.region_of = convex_parts(np.where(space.free, self.labels, 0))
         if space.free.any() and not self.region_of:
@@ -282,7 +283,8 @@ class HierarchicalPlanner:
             "graph_search": searched - local,
             "smoothing": time.perf_counter() - searched,
         }
-        return Path(waypoints, self.name, self._regions_along(waypoints), seconds)
+        crossed = regions_along(self.space.grid, self.labels, waypoints)
+        return Path(waypoints, self.name, crossed, seconds)
 
     def reach(self, point: Point) -> Reach:
         """The open doors of ``point``'s part and the shortest distances to them inside the
@@ -396,14 +398,17 @@ class HierarchicalPlanner:
         inside = ndimage.binary_dilation(labels[rows, cols] == index, iterations=m)
         return self.space.crop(rows, cols, inside)
 
-    def _regions_along(self, waypoints: NDArray[np.float64]) -> tuple[int, ...]:
-        """Regions a polyline passes through, in order."""
-        points = sample_polyline(waypoints, self.space.grid.resolution)
-        rows, cols = self.space.grid.world_to_cell(points[:, 0], points[:, 1])
-        found = self.labels[rows, cols]
-        found = found[found > 0]
-        keep = np.concatenate([[len(found) > 0], found[1:] != found[:-1]])
-        return tuple(int(r) for r in found[keep[: len(found)]])
+
+def regions_along(
+    grid: OccupancyGrid, labels: NDArray[np.integer], waypoints: ArrayLike
+) -> tuple[int, ...]:
+    """Regions of ``labels`` (aligned with ``grid``) a polyline passes through, in order."""
+    points = sample_polyline(waypoints, grid.resolution)
+    rows, cols = grid.world_to_cell(points[:, 0], points[:, 1])
+    found = labels[rows, cols]
+    found = found[found > 0]
+    keep = np.concatenate([[len(found) > 0], found[1:] != found[:-1]])
+    return tuple(int(r) for r in found[keep[: len(found)]])
 
 
 def _length(waypoints: NDArray[np.float64]) -> float:
@@ -414,7 +419,7 @@ def _point(xy: NDArray[np.float64]) -> Point:
     return (float(xy[0]), float(xy[1]))
 
 
-def _fill_unlabelled(labels: NDArray[np.integer], free: NDArray[np.bool_]) -> NDArray[np.int32]:
+def fill_unlabelled(labels: NDArray[np.integer], free: NDArray[np.bool_]) -> NDArray[np.int32]:
     """Labels where free cells in no region take the label of the nearest labelled cell."""
     labels = labels.astype(np.int32)
     missing = free & (labels == 0)

@@ -32,12 +32,34 @@ class Path:
         Regions crossed, in order (empty for planners that do not know regions).
     seconds
         Time per stage of the query, e.g. ``graph_search``, ``local_planning``, ``smoothing``.
+    headings
+        ``(n,)`` yaw of the robot at each waypoint, radians, for robots with a footprint
+        (None for a disc, which has no heading).
     """
 
     waypoints: NDArray[np.float64]
     planner: str
     regions: tuple[int, ...] = ()
     seconds: dict[str, float] = field(default_factory=dict)
+    headings: NDArray[np.float64] | None = None
+
+    @classmethod
+    def from_poses(
+        cls,
+        poses: ArrayLike,
+        planner: str,
+        regions: tuple[int, ...] = (),
+        seconds: dict[str, float] | None = None,
+    ) -> Path:
+        """A path of ``(n, 3)`` poses ``(x, y, yaw)``."""
+        p = np.asarray(poses, float).reshape(-1, 3)
+        return cls(p[:, :2], planner, regions, dict(seconds or {}), p[:, 2])
+
+    @property
+    def poses(self) -> NDArray[np.float64]:
+        """``(n, 3)`` poses ``(x, y, yaw)``; a disc's path has yaw 0."""
+        yaw = np.zeros(len(self.waypoints)) if self.headings is None else self.headings
+        return np.column_stack([self.waypoints, yaw])
 
     @property
     def length(self) -> float:
@@ -50,14 +72,17 @@ class Path:
         return float(sum(self.seconds.values()))
 
     def to_dict(self) -> dict[str, Any]:
-        """A JSON-ready description."""
-        return {
+        """A JSON-ready description (with ``poses`` ``[x, y, yaw]`` for a footprint robot)."""
+        found: dict[str, Any] = {
             "planner": self.planner,
             "length_m": round(self.length, 4),
             "waypoints": [[round(float(x), 4), round(float(y), 4)] for x, y in self.waypoints],
             "regions": list(self.regions),
             "seconds": {k: round(v, 6) for k, v in self.seconds.items()},
         }
+        if self.headings is not None:
+            found["poses"] = [[round(float(v), 4) for v in pose] for pose in self.poses]
+        return found
 
 
 def shortcut(space: Workspace, waypoints: ArrayLike) -> NDArray[np.intp]:

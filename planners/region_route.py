@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 import networkx as nx
@@ -65,6 +65,7 @@ def region_route(
     target: int | str,
     *,
     closed: Iterable[tuple[int, int]] = (),
+    min_width: float = 0.0,
 ) -> RegionRoute:
     """The shortest sequence of regions and doors from ``source`` to ``target``.
 
@@ -77,6 +78,8 @@ def region_route(
         Region ids or names.
     closed
         Region pairs whose doors are closed.
+    min_width
+        Metres a door must be wide for the robot (a narrower opening is no door).
 
     Raises
     ------
@@ -95,30 +98,72 @@ def region_route(
     >>> route = region_route(graph, "room 1", "hall 1")
     >>> route.regions, route.names, route.length
     ((1, 2), ('room 1', 'hall 1'), 1.0)
+    >>> region_route(graph, 1, 2, min_width=1.2)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    planners.errors.NoPathError: no route from region 1 to region 2 ... at least 1.2 m wide
+    """
+    return next(region_routes(graph, source, target, closed=closed, min_width=min_width))
+
+
+def region_routes(
+    graph: nx.Graph,
+    source: int | str,
+    target: int | str,
+    *,
+    closed: Iterable[tuple[int, int]] = (),
+    min_width: float = 0.0,
+) -> Iterator[RegionRoute]:
+    """Routes from ``source`` to ``target``, shortest first, each visiting a region at most
+    once (the next-best routes, for when the best one fails); arguments as for
+    :func:`region_route`, which is the first of them.
+
+    Raises
+    ------
+    InvalidQueryError
+        An unknown region (when the first route is asked for).
+    NoPathError
+        No route at all through open doors wide enough.
     """
     a, b = resolve_region(graph, source), resolve_region(graph, target)
     shut = {(min(u, v), max(u, v)) for u, v in closed}
 
-    def weight(u: int, v: int, data: dict) -> float | None:
-        if (min(u, v), max(u, v)) in shut or not data.get("doors"):
+    def usable(u: int, v: int) -> Transition | None:
+        doors = [d for d in graph.edges[u, v].get("doors") or () if d.width >= min_width]
+        if (min(u, v), max(u, v)) in shut or not doors:
             return None
-        return _through(graph, u, v, _widest(data))
+        return max(doors, key=lambda door: door.width)
 
-    try:
-        regions = nx.dijkstra_path(graph, a, b, weight=weight)
-    except nx.NetworkXNoPath:
-        raise NoPathError(f"no route from region {a} to region {b} through open doors") from None
-    doors = tuple(_widest(graph.edges[u, v]) for u, v in itertools.pairwise(regions))
-    length = sum(
-        _through(graph, u, v, door)
-        for (u, v), door in zip(itertools.pairwise(regions), doors, strict=True)
-    )
-    names = tuple(str(graph.nodes[r].get("name", r)) for r in regions)
-    return RegionRoute(tuple(int(r) for r in regions), names, doors, float(length))
+    def weight(u: int, v: int, data: dict) -> float | None:
+        door = usable(u, v)
+        return None if door is None else _through(graph, u, v, door)
 
-
-def _widest(data: dict) -> Transition:
-    return max(data["doors"], key=lambda door: door.width)
+    paths = nx.shortest_simple_paths(graph, a, b, weight=weight)
+    found = False
+    while True:
+        try:
+            regions = next(paths)
+        except (nx.NetworkXNoPath, StopIteration):
+            if found:
+                return
+            wide = f" at least {min_width:g} m wide" if min_width > 0 else ""
+            raise NoPathError(
+                f"no route from region {a} to region {b} through open doors{wide}"
+            ) from None
+        found = True
+        doors = tuple(usable(u, v) for u, v in itertools.pairwise(regions))
+        length = sum(
+            _through(graph, u, v, door)
+            for (u, v), door in zip(itertools.pairwise(regions), doors, strict=True)
+            if door is not None
+        )
+        names = tuple(str(graph.nodes[r].get("name", r)) for r in regions)
+        yield RegionRoute(
+            tuple(int(r) for r in regions),
+            names,
+            tuple(d for d in doors if d is not None),
+            float(length),
+        )
 
 
 def _through(graph: nx.Graph, u: int, v: int, door: Transition) -> float:

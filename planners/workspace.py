@@ -71,14 +71,8 @@ class Workspace:
     def crop(self, rows: slice, cols: slice, keep: NDArray[np.bool_] | None = None) -> Workspace:
         """The part of this workspace in cells ``[rows, cols]``, optionally only where
         ``keep`` (same shape as the part) is true; map-frame coordinates are unchanged."""
-        cells = self.grid.cells[rows, cols]
-        h, _ = self.grid.shape
-        corner = self.from_lattice([(cols.start or 0, h - (rows.stop or h))])[0]
-        origin = (float(corner[0]), float(corner[1]), self.grid.origin[2])
         free = self.free[rows, cols] if keep is None else self.free[rows, cols] & keep
-        return Workspace(
-            OccupancyGrid(cells, self.grid.resolution, origin), self.robot_radius, free
-        )
+        return Workspace(crop_grid(self.grid, rows, cols), self.robot_radius, free)
 
     @cached_property
     def components(self) -> NDArray[np.int32]:
@@ -310,6 +304,17 @@ class Workspace:
             f"{what} ({x:g}, {y:g}) lies within the robot radius "
             f"({self.robot_radius:g} m) of a wall or unknown space"
         )
+
+
+def crop_grid(grid: OccupancyGrid, rows: slice, cols: slice) -> OccupancyGrid:
+    """The cells ``[rows, cols]`` of ``grid`` as a grid of their own, at the same place in
+    the map frame."""
+    h, _ = grid.shape
+    u, v = (cols.start or 0) * grid.resolution, (h - (rows.stop or h)) * grid.resolution
+    ox, oy, yaw = grid.origin
+    c, s = math.cos(yaw), math.sin(yaw)
+    origin = (ox + c * u - s * v, oy + s * u + c * v, yaw)
+    return OccupancyGrid(grid.cells[rows, cols], grid.resolution, origin)
 
 
 def sample_polyline(waypoints: ArrayLike, step: float) -> NDArray[np.float64]:

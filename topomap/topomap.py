@@ -42,8 +42,10 @@ from topomap.labels import Classifier, find_region, label_graph, rename
 
 if TYPE_CHECKING:
     from planners.hierarchical import HierarchicalPlanner
+    from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
     from planners.path import Path as PlannedPath
     from planners.region_route import RegionRoute
+    from planners.robots import Footprint, Robot
 
 #: The files :meth:`TopoMap.save` writes besides the map's YAML and image.
 SAVED = ["regions.png", "graph.graphml", "graph.json", "regions.geojson", "topomap.json"]
@@ -109,6 +111,9 @@ class TopoMap:
     segmentation: Segmentation | None = None
     seconds: dict[str, float] = field(default_factory=dict)
     _planners: dict[tuple, HierarchicalPlanner] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+    _kinematic: dict[tuple, KinematicHierarchicalPlanner] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
 
@@ -238,6 +243,35 @@ class TopoMap:
             )
         return self._planners[key]
 
+    def kinematic_planner(
+        self, robot: str | Footprint, **options: Any
+    ) -> KinematicHierarchicalPlanner:
+        """The hierarchical planner with OMPL inside submaps for a footprint robot: a spec
+        (``"rect:0.9x0.6"``, ``"dubins:radius=1,footprint=0.9x0.6"``,
+        ``"reeds-shepp:radius=1,footprint=0.9x0.6"``) or a :mod:`planners.robots` model;
+        made once per spec and kept. ``options`` go to
+        :class:`~planners.kinematic_hierarchical.KinematicHierarchicalPlanner`.
+
+        Raises
+        ------
+        RobotSpecError
+            A spec that cannot be read, or a disc (:meth:`planner` plans for discs).
+        """
+        from planners.cspace import HeadingCSpace
+        from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
+        from planners.robots import Footprint, RobotSpecError, parse_robot
+
+        model = parse_robot(robot)
+        if not isinstance(model, Footprint):
+            raise RobotSpecError(f"robot {robot!r} is a disc: use planner(robot_radius)")
+        key = (robot if isinstance(robot, str) else id(robot), tuple(sorted(options.items())))
+        if key not in self._kinematic:
+            cspace = HeadingCSpace(self.grid, model)
+            self._kinematic[key] = KinematicHierarchicalPlanner(
+                cspace, self.regions.labels, self.graph, **options
+            )
+        return self._kinematic[key]
+
     def route(self, source: int | str, target: int | str) -> RegionRoute:
         """The regions and doors from ``source`` to ``target`` (region ids or names): a
         topological route, no geometry (:func:`planners.region_route.region_route`)."""
@@ -254,12 +288,27 @@ class TopoMap:
         return nav2_route_graph(self.planner(robot_radius))
 
     def plan(
-        self, start: ArrayLike, goal: ArrayLike | int | str, *, robot_radius: float = 0.2
+        self,
+        start: ArrayLike,
+        goal: ArrayLike | int | str,
+        *,
+        robot_radius: float = 0.2,
+        robot: str | Robot | None = None,
     ) -> PlannedPath:
-        """Plan from ``start`` to ``goal`` (a point, a region id or a region name) with
-        :meth:`planner`."""
+        """Plan from ``start`` to ``goal`` (a point, a pose ``(x, y, yaw)`` for a footprint
+        robot, a region id or a region name): with :meth:`planner` for a disc of
+        ``robot_radius`` (``robot`` None, a :class:`~planners.robots.Disc` or ``"disc:R"``),
+        with :meth:`kinematic_planner` for a footprint robot."""
+        from planners.robots import Disc, parse_robot
+
         target = self.region(goal) if isinstance(goal, int | str) else goal
-        return self.planner(robot_radius).plan(start, target)
+        model = None if robot is None else parse_robot(robot)
+        if model is None or isinstance(model, Disc):
+            radius = robot_radius if model is None else model.radius
+            return self.planner(radius).plan(start, target)
+        return self.kinematic_planner(robot if isinstance(robot, str) else model).plan(
+            start, target
+        )
 
     def keyframe_regions(self) -> NDArray[np.int64]:
         """Region of each keyframe's position (0 if it is not on a labelled cell)."""

@@ -6,6 +6,7 @@ import hashlib
 import json
 import time
 from collections.abc import Callable, Iterator
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -19,9 +20,15 @@ from maps.laser_sim import LaserModel, RayCaster, simulate_keyframes, simulate_s
 from maps.scan import Keyframe
 from maps.wander import wander
 from planners.benchmark import Planner, far_queries, run_queries, summarise, write_report
+from planners.cspace import HeadingCSpace
 from planners.flat import FlatPlanner
 from planners.grid_astar import GridAStar
 from planners.grid_mcp import GridMCP
+from planners.kinematic import FlatKinematicPlanner
+from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
+from planners.path import Path as PlannedPath
+from planners.robots import Disc, Footprint, parse_robot
+from planners.sweep import footprint_collisions
 from planners.visibility import VisibilityGraph
 from planners.workspace import Point, Workspace
 from segmentation.errors import ParameterError
@@ -177,6 +184,7 @@ def bench_plan(
     budget: float = PLAN_BUDGET,
     python_astar: bool = False,
     cache: str | Path | None = "out/cache/exact",
+    robot: str | None = None,
     seed: int = 0,
     progress: Callable[[Any], Any] = iter,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
@@ -192,7 +200,18 @@ def bench_plan(
     shortest paths (visibility graph) are cached per map and query set in ``cache`` (None:
     no cache), so a rerun does not rebuild them. Writes the files of
     :func:`planners.benchmark.write_report` to ``out``; returns the records and the summary.
+
+    A footprint ``robot`` (a :func:`planners.robots.parse_robot` spec other than a disc) runs
+    :func:`bench_plan_robot` instead.
     """
+    model = None if robot is None else parse_robot(robot)
+    if model is not None and not isinstance(model, Disc):
+        return bench_plan_robot(
+            out, model, sizes=sizes, maps_dir=maps_dir, queries=queries,
+            time_limit=time_limit, budget=budget, seed=seed, progress=progress,
+        )  # fmt: skip
+    if isinstance(model, Disc):
+        robot_radius = model.radius
     records: list[dict[str, Any]] = []
     preprocessing: dict[str, dict[str, Any]] = {}
     for name, grid in plan_maps(sizes, maps_dir, seed):
@@ -229,6 +248,85 @@ def bench_plan(
     summary = summarise(records)
     write_report(out, records, summary, preprocessing, time_limit, seed)
     return records, summary
+
+
+#: Flat OMPL planners of the footprint benchmark.
+ROBOT_BASELINES = ("RRTConnect", "KPIECE1")
+
+
+def bench_plan_robot(
+    out: str | Path,
+    robot: Footprint,
+    *,
+    sizes: tuple[str, ...] = ("office", "campus"),
+    maps_dir: str | Path | None = None,
+    queries: int = 10,
+    time_limit: float = 10.0,
+    budget: float = PLAN_BUDGET,
+    seed: int = 0,
+    progress: Callable[[Any], Any] = iter,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Hierarchical planning with OMPL inside submaps against flat OMPL on the whole map for a
+    footprint robot: the same configuration space (computed once per map, timed as
+    preprocessing), state space, validity and motion checks, simplification and
+    ``time_limit`` per query (the hierarchical planner's per route); flat planners
+    :data:`ROBOT_BASELINES`, RRTConnect for the hierarchical one. Queries are far-apart
+    points where a disc as wide as the narrowest door the robot takes stands, each at the
+    valid heading nearest 0. Collisions are counted by the independent footprint sweep
+    (:func:`planners.sweep.footprint_collisions`); lengths are compared with the disc's
+    door-graph path. Writes :func:`planners.benchmark.write_report`'s files and
+    ``paths.json`` (footprint, maps, every path's poses).
+    """
+    records: list[dict[str, Any]] = []
+    preprocessing: dict[str, dict[str, Any]] = {}
+    found_paths: list[dict[str, Any]] = []
+    maps: dict[str, str] = {}
+    for name, grid in plan_maps(sizes, maps_dir, seed):
+        clock = time.perf_counter()
+        topo = TopoMap.from_grid(grid, random_state=seed)
+        pre: dict[str, Any] = {"segmentation": time.perf_counter() - clock}
+        clock = time.perf_counter()
+        cspace = HeadingCSpace(grid, robot)
+        pre["cspace"] = time.perf_counter() - clock
+        hierarchical = KinematicHierarchicalPlanner(
+            cspace, topo.regions.labels, topo.graph, time_limit=time_limit, random_state=seed
+        )
+        pre["submaps"] = hierarchical.build_seconds
+        pre["door_graph"] = hierarchical.prepare()
+        planners: list[Planner] = [hierarchical]
+        for baseline in ROBOT_BASELINES:
+            planners.append(
+                FlatKinematicPlanner(cspace, baseline, time_limit=time_limit, random_state=seed)
+            )
+        guide = hierarchical.doors
+        pairs = far_queries(guide.space, queries, random_state=seed)
+        pairs = [
+            (s, g)
+            for s, g in pairs
+            if len(cspace.free_headings(*s)) and len(cspace.free_headings(*g))
+        ]
+        reference = [guide.plan(s, g).length for s, g in pairs]
+        found, skipped = run_queries(
+            name, guide.space, planners, reference, pairs, budget=budget, progress=progress,
+            collisions=partial(_sweep, grid, robot), paths=found_paths,
+        )  # fmt: skip
+        records += found
+        preprocessing[name] = {k: round(v, 3) for k, v in pre.items()}
+        preprocessing[name]["robot"] = robot.name
+        preprocessing[name]["skipped_queries"] = {k: v for k, v in skipped.items() if v}
+        if maps_dir is not None and (Path(maps_dir) / f"{name}.yaml").exists():
+            maps[name] = str(Path(maps_dir) / f"{name}.yaml")
+        else:
+            maps[name] = str(grid.save(Path(out) / "maps" / f"{name}.yaml", overwrite=True))
+    summary = summarise(records)
+    write_report(out, records, summary, preprocessing, time_limit, seed)
+    about = {"footprint": robot.polygon.tolist(), "maps": maps, "paths": found_paths}
+    (Path(out) / "paths.json").write_text(json.dumps(about))
+    return records, summary
+
+
+def _sweep(grid: OccupancyGrid, robot: Footprint, path: PlannedPath) -> int:
+    return footprint_collisions(grid, robot.polygon, path.poses)
 
 
 def exact_lengths(

@@ -53,7 +53,7 @@ def _labels(path: Path) -> NDArray[np.int32]:
         image = cv2.imread(str(path), cv2.IMREAD_COLOR)
         if image is None:
             raise MapFileNotFoundError(path, "colour label image")
-        return colour_labels(image)
+        return colour_labels(np.asarray(image, np.uint8))
     return read_label_image(path)
 
 

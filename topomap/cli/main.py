@@ -449,6 +449,7 @@ def cmd_bench_plan(args: argparse.Namespace) -> int:
         budget=args.budget,
         python_astar=args.python_astar,
         cache=None if args.no_cache else args.cache,
+        robot=args.robot,
         progress=args.progress,
     )
     print(markdown_table(summary))
@@ -534,25 +535,30 @@ _LENGTH = _number(0.0, MAX_LENGTH, low_open=True)
 _DISTANCE = _number(0.0, MAX_LENGTH)
 
 
-def _point(text: str) -> tuple[float, float]:
-    """``"X,Y"`` as two floats (an argparse type: a bad value is a usage error, exit 2)."""
+def _pose(text: str) -> tuple[float, ...]:
+    """``"X,Y"`` or ``"X,Y,YAW"`` (metres, radians) as floats (an argparse type)."""
     try:
-        x, y = (float(p) for p in text.split(","))
+        values = tuple(float(p) for p in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected X,Y in metres, got {text!r}") from None
-    return x, y
+        values = ()
+    if len(values) not in (2, 3):
+        raise argparse.ArgumentTypeError(
+            f"expected X,Y in metres, got {text!r} (or X,Y,YAW, radians)"
+        )
+    return values
 
 
-def _goal(text: str) -> tuple[float, float] | int | str:
-    """``--goal``: ``X,Y`` is a point, a whole number a region id, anything else a name."""
+def _goal(text: str) -> tuple[float, ...] | int | str:
+    """``--goal``: ``X,Y`` (or ``X,Y,YAW``) is a point, a whole number a region id, anything
+    else a name."""
     if "," in text:
-        return _point(text)
+        return _pose(text)
     return int(text) if text.strip().isdigit() else text
 
 
-def _map_planner(args: argparse.Namespace) -> Any:
-    """The hierarchical planner of ``args.map``, on the regions in ``args.regions`` (a folder
-    written by ``topomap segment``) or on a segmentation made now."""
+def _map(args: argparse.Namespace) -> Any:
+    """The :class:`TopoMap` of ``args.map``: the regions in ``args.regions`` (a folder
+    written by ``topomap segment``) or a segmentation made now."""
     from maps.grid import OccupancyGrid
     from topomap.topomap import TopoMap
 
@@ -561,9 +567,14 @@ def _map_planner(args: argparse.Namespace) -> Any:
         topo = TopoMap.load(args.regions)
         if topo.grid != grid:
             raise UsageError(f"{args.regions} holds the regions of another map than {args.map}")
-        return topo.planner(args.robot_radius)
+        return topo
     args.progress.stage(f"segmenting {args.map}")
-    return TopoMap.from_grid(grid).planner(args.robot_radius)
+    return TopoMap.from_grid(grid)
+
+
+def _map_planner(args: argparse.Namespace) -> Any:
+    """The disc robot's hierarchical planner of ``args.map`` (see :func:`_map`)."""
+    return _map(args).planner(args.robot_radius)
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -579,26 +590,44 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 def cmd_plan(args: argparse.Namespace) -> int:
     from planners.flat import FlatPlanner
+    from planners.robots import Disc, parse_robot
     from topomap.cli.drawing import draw_paths
     from topomap.labels import find_region
 
     if args.draw is not None:
         check_output_file(args.draw, overwrite=args.force, how="--force")
-    planner = _map_planner(args)
-    grid = planner.space.grid
+    robot = Disc(args.robot_radius) if args.robot is None else parse_robot(args.robot)
+    topo = _map(args)
     start, goal = args.start, args.goal
     if not isinstance(goal, tuple):
-        goal = find_region(planner.graph, goal)
+        goal = find_region(topo.graph, goal)
+    if isinstance(robot, Disc):
+        if len(start) == 3 or (isinstance(goal, tuple) and len(goal) == 3):
+            raise UsageError("a disc robot has no heading: give --start and --goal as X,Y")
+        planner: Any = topo.planner(robot.radius)
+        flat: Any = FlatPlanner(planner.space) if args.compare else None
+    else:
+        from planners.kinematic import FlatKinematicPlanner
+
+        planner = topo.kinematic_planner(args.robot)
+        flat = FlatKinematicPlanner(planner.cspace) if args.compare else None
     path = planner.plan(start, goal)
     result = path.to_dict()
-    result["region_names"] = [planner.graph.nodes[r].get("name", str(r)) for r in path.regions]
+    result["region_names"] = [topo.graph.nodes[r].get("name", str(r)) for r in path.regions]
     if args.draw is not None:
         paths = {"hierarchical": path}
-        if args.compare:
-            paths["flat RRTConnect"] = FlatPlanner(planner.space).plan(start, path.waypoints[-1])
-        draw_paths(args.draw, grid, planner.labels, paths, title=Path(args.map).name)
+        if flat is not None:
+            ends = path.poses if path.headings is not None else path.waypoints
+            paths["flat RRTConnect"] = flat.plan(ends[0], ends[-1])
+        draw_paths(args.draw, topo.grid, planner.labels, paths, title=Path(args.map).name)
     print(json.dumps(result))
     return 0
+
+
+ROBOT_HELP = (
+    "robot model: disc:R, rect:LxW (turns in place), dubins:radius=R,footprint=LxW, "
+    "reeds-shepp:radius=R,footprint=LxW (metres; a disc of --robot-radius by default)"
+)
 
 
 def _add_segmenter_options(parser: argparse.ArgumentParser) -> None:
@@ -773,6 +802,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     plan_bench.add_argument("--cache", default="out/cache/exact", help="exact-reference cache")
     plan_bench.add_argument("--no-cache", action="store_true", help="recompute the reference")
+    plan_bench.add_argument("--robot", help=ROBOT_HELP)
     plan_bench.set_defaults(func=cmd_bench_plan)
 
     from topomap.cli.batch import worker_count
@@ -807,12 +837,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     plan = sub.add_parser("plan", help="plan a path on a map, print it as JSON")
     plan.add_argument("map", help="map_server YAML")
-    plan.add_argument("--start", required=True, type=_point, help="X,Y in metres")
     plan.add_argument(
-        "--goal", required=True, type=_goal, help="X,Y in metres, a region id or a name"
+        "--start", required=True, type=_pose, help="X,Y in metres (X,Y,YAW with --robot)"
     )
+    plan.add_argument("--goal", required=True, type=_goal, help="X,Y[,YAW], a region id or a name")
     plan.add_argument("--regions", help="folder written by `topomap segment` (else segment now)")
-    plan.add_argument("--robot-radius", type=_RADIUS, default=0.2, help="metres")
+    plan.add_argument("--robot-radius", type=_RADIUS, default=0.2, help="disc robot, metres")
+    plan.add_argument("--robot", help=ROBOT_HELP)
     plan.add_argument("--draw", help="write a PNG of the path")
     plan.add_argument("--force", action="store_true", help="overwrite an existing --draw file")
     plan.add_argument(

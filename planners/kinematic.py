@@ -1,0 +1,198 @@
+"""OMPL planners for footprint robots (SE(2), Dubins, Reeds-Shepp) on a configuration space.
+
+:class:`KinematicOMPL` is one OMPL set-up: the robot's state space bounded by a
+:class:`~planners.cspace.HeadingCSpace` (the whole map, or the crop of a few submaps), a state
+valid when the configuration space says so, motions checked by OMPL's discrete motion
+validator at states whose footprint points are at most a cell apart (the configuration space
+is grown by half a cell, so a checked motion is collision-free between its states). Both the
+flat baseline (:class:`FlatKinematicPlanner`) and the hierarchical planner
+(:mod:`planners.kinematic_hierarchical`) plan with it, so they share the state space, the
+validity and motion checks, the planner and the simplification.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from ompl import base as ob
+from ompl import geometric as og
+from ompl import util as ou
+
+from maps.seeding import RandomState
+from planners.cspace import HeadingCSpace
+from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
+from planners.flat import PLANNERS, ROADMAP_PLANNERS, _first_solution, _seed_once
+from planners.path import Path
+
+Pose = tuple[float, float, float]
+#: Largest distance between two poses of a returned path, metres.
+POSE_SPACING = 0.05
+
+
+class KinematicOMPL:
+    """One OMPL geometric planner on a robot's state space over ``cspace``.
+
+    Parameters
+    ----------
+    cspace
+        Valid poses; the state space's bounds are its grid's.
+    planner
+        Name of an OMPL geometric planner (:data:`planners.flat.PLANNERS`).
+    random_state
+        Seeds OMPL's process-wide generator (only the first planner made in a process
+        does).
+    """
+
+    def __init__(
+        self, cspace: HeadingCSpace, planner: str = "RRTConnect", random_state: RandomState = 0
+    ) -> None:
+        if planner not in PLANNERS:
+            raise PlannerParameterError(
+                f"unknown OMPL planner {planner!r}; known: {', '.join(PLANNERS)}"
+            )
+        ou.setLogLevel(ou.LOG_WARN)
+        _seed_once(random_state)
+        self.cspace = cspace
+        self._space = cspace.robot.state_space()
+        xmin, ymin, xmax, ymax = cspace.grid.bounds()
+        box = ob.RealVectorBounds(2)
+        box.setLow(0, xmin)
+        box.setLow(1, ymin)
+        box.setHigh(0, xmax)
+        box.setHigh(1, ymax)
+        self._space.setBounds(box)
+        self._si = ob.SpaceInformation(self._space)
+        valid = cspace.valid
+        self._si.setStateValidityChecker(lambda s: valid(s.getX(), s.getY(), s.getYaw()))
+        step = cspace.robot.motion_step(cspace.grid.resolution)
+        self._si.setStateValidityCheckingResolution(step / self._space.getMaximumExtent())
+        self._si.setup()
+        self._planner = getattr(og, planner)(self._si)
+        self._keeps_roadmap = planner in ROADMAP_PLANNERS
+        if self._keeps_roadmap:
+            self._planner.setProblemDefinition(ob.ProblemDefinition(self._si))
+            self._planner.setup()
+
+    def grow_roadmap(self, seconds: float) -> None:
+        """Grow a roadmap planner's graph for ``seconds`` before any query."""
+        if not self._keeps_roadmap:
+            raise PlannerParameterError("only PRM planners keep a roadmap")
+        self._planner.growRoadmap(seconds)
+
+    def solve(
+        self, start: Pose, goal: Pose, time_limit: float, simplify: bool = True
+    ) -> tuple[NDArray[np.float64] | None, dict[str, float]]:
+        """Poses ``(n, 3)`` from ``start`` to ``goal``, at most :data:`POSE_SPACING` apart, or
+        None when no exact solution was found in ``time_limit`` seconds; and the seconds of
+        planning and simplification."""
+        clock = time.perf_counter()
+        problem = ob.ProblemDefinition(self._si)
+        problem.setStartAndGoalStates(self._state(start), self._state(goal))
+        if self._keeps_roadmap:
+            self._planner.clearQuery()
+            problem.setOptimizationObjective(_first_solution(self._si))
+        else:
+            self._planner.clear()
+        self._planner.setProblemDefinition(problem)
+        self._planner.solve(time_limit)
+        seconds = {"planning": time.perf_counter() - clock}
+        if not problem.hasExactSolution():
+            return None, seconds
+        path = problem.getSolutionPath()
+        clock = time.perf_counter()
+        if simplify:
+            og.PathSimplifier(self._si).simplifyMax(path)
+        path.interpolate(max(2, math.ceil(path.length() / POSE_SPACING) + 1))
+        poses = np.array(
+            [
+                (path.getState(i).getX(), path.getState(i).getY(), path.getState(i).getYaw())
+                for i in range(path.getStateCount())
+            ]
+        )
+        seconds["simplification"] = time.perf_counter() - clock
+        return poses, seconds
+
+    def _state(self, pose: Pose) -> Any:
+        state = self._space.allocState()
+        state.setXY(pose[0], pose[1])
+        state.setYaw(pose[2])
+        return state
+
+
+def check_pose(cspace: HeadingCSpace, pose: ArrayLike, what: str) -> Pose:
+    """``pose`` as ``(x, y, yaw)`` if the robot may stand there. Two numbers ``(x, y)`` take
+    the valid heading nearest 0.
+
+    Raises
+    ------
+    InvalidQueryError
+        Not two or three finite numbers, or a pose (or every heading at a point) in
+        collision.
+    """
+    p = np.asarray(pose, float).ravel()
+    if p.shape not in ((2,), (3,)) or not np.all(np.isfinite(p)):
+        raise InvalidQueryError(f"{what} must be finite (x, y) or (x, y, yaw), got {pose!r}")
+    x, y = float(p[0]), float(p[1])
+    if len(p) == 3:
+        if not cspace.valid(x, y, float(p[2])):
+            raise InvalidQueryError(
+                f"{what} ({x:g}, {y:g}, {p[2]:g}) puts the footprint in collision or off the map"
+            )
+        return x, y, float(p[2])
+    yaws = cspace.free_headings(x, y)
+    if len(yaws) == 0:
+        raise InvalidQueryError(
+            f"{what} ({x:g}, {y:g}): the footprint collides at every heading or is off the map"
+        )
+    wrapped = np.angle(np.exp(1j * yaws))
+    return x, y, float(wrapped[np.argmin(np.abs(wrapped))])
+
+
+class FlatKinematicPlanner:
+    """The flat baseline: one OMPL planner on the whole map's configuration space.
+
+    Parameters
+    ----------
+    cspace
+        Valid poses on the whole map.
+    planner
+        OMPL planner name.
+    time_limit
+        Seconds per query.
+    random_state
+        OMPL's seed (process-wide).
+    """
+
+    def __init__(
+        self,
+        cspace: HeadingCSpace,
+        planner: str = "RRTConnect",
+        *,
+        time_limit: float = 10.0,
+        random_state: RandomState = 0,
+    ) -> None:
+        if not time_limit > 0:
+            raise PlannerParameterError(f"time_limit must be > 0 seconds, got {time_limit}")
+        self.cspace, self.time_limit = cspace, float(time_limit)
+        self.name = f"flat_{planner.lower()}"
+        self.ompl = KinematicOMPL(cspace, planner, random_state)
+
+    def plan(self, start: ArrayLike, goal: ArrayLike) -> Path:
+        """Plan from ``start`` to ``goal`` (poses, or points: see :func:`check_pose`).
+
+        Raises
+        ------
+        InvalidQueryError
+            A start or goal in collision.
+        NoPathError
+            No exact solution within the time limit.
+        """
+        s, g = check_pose(self.cspace, start, "start"), check_pose(self.cspace, goal, "goal")
+        poses, seconds = self.ompl.solve(s, g, self.time_limit)
+        if poses is None:
+            raise NoPathError(f"{self.name} found no path from {s} to {g} in {self.time_limit:g} s")
+        return Path.from_poses(poses, self.name, seconds=seconds)

@@ -1,0 +1,189 @@
+"""Footprint robots: specs, the configuration space against an independent footprint sweep,
+and the hierarchical and flat OMPL planners (collision-free, continuous, door-fit, fallback
+routes, seeds, typed errors)."""
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from maps.grid import OCCUPIED, OccupancyGrid
+from planners.cspace import HeadingCSpace
+from planners.errors import InvalidQueryError, NoPathError, PlanningError
+from planners.kinematic import POSE_SPACING, FlatKinematicPlanner
+from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
+from planners.robots import Dubins, Footprint, ReedsShepp, RobotSpecError, parse_robot, rectangle
+from planners.sweep import footprint_collisions
+from segmentation.graph import region_graph
+from segmentation.regions import Regions
+
+ROOT = Path(__file__).resolve().parents[2]
+ROBOTS = [
+    "rect:0.6x0.4",
+    "dubins:radius=0.5,footprint=0.6x0.4",
+    "reeds-shepp:radius=0.5,footprint=0.6x0.4",
+]
+
+
+@pytest.mark.parametrize(
+    ("spec", "kind"),
+    [("rect:0.6x0.4", Footprint), (ROBOTS[1], Dubins), (ROBOTS[2], ReedsShepp)],
+)
+def test_specs_give_their_models(spec, kind):
+    robot = parse_robot(spec)
+    assert type(robot) is kind and robot.width == pytest.approx(0.4)
+
+
+@pytest.mark.parametrize(
+    ("spec", "named"),
+    [
+        ("rect:0.6", "'0.6'"),
+        ("rect:0x0.4", "'0'"),
+        ("dubins:radius=nan,footprint=0.6x0.4", "'nan'"),
+        ("dubins:footprint=0.6x0.4", "radius=R"),
+        ("reeds-shepp:radius=1,footprint=1x1,speed=2", "speed"),
+        ("tank:1", "'tank:1'"),
+    ],
+)
+def test_bad_specs_are_typed_errors_naming_the_value(spec, named):
+    with pytest.raises(RobotSpecError, match=named) as caught:
+        parse_robot(spec)
+    assert isinstance(caught.value, PlanningError) and isinstance(caught.value, ValueError)
+
+
+def _blobs(seed: int) -> OccupancyGrid:
+    rng = np.random.default_rng(seed)
+    cells = np.zeros((30, 30), np.int8)
+    for r, c in rng.integers(0, 30, size=(6, 2)):
+        cells[r : r + rng.integers(1, 4), c : c + rng.integers(1, 4)] = OCCUPIED
+    return OccupancyGrid(cells, resolution=0.1, origin=(1.0, -2.0, float(rng.uniform(-1, 1))))
+
+
+@given(
+    seed=st.integers(0, 10_000),
+    u=st.floats(0.1, 0.9),
+    v=st.floats(0.1, 0.9),
+    yaw=st.floats(-math.pi, math.pi),
+)
+def test_valid_states_pass_the_sweep_and_clear_ones_are_valid(seed, u, v, yaw):
+    grid = _blobs(seed)
+    robot = Footprint(rectangle(0.7, 0.3))
+    space = HeadingCSpace(grid, robot, headings=32)
+    xmin, ymin, xmax, ymax = grid.bounds()
+    x, y = xmin + u * (xmax - xmin), ymin + v * (ymax - ymin)
+    valid = space.valid(x, y, yaw)
+    assert valid == space.valid_many([(x, y, yaw)])[0]
+    if valid:  # sound: the footprint touches no blocked cell
+        assert footprint_collisions(grid, robot.polygon, [(x, y, yaw)]) == 0
+    # not far from exact: a footprint clear by the bin, the margin and a cell's diagonal is valid
+    slack = 0.7 / 2 * 2 * math.pi / 32 + 0.05 + 0.1 * math.sqrt(2) + 0.01
+    grown = Footprint(rectangle(0.7 + 2 * slack, 0.3 + 2 * slack))
+    if footprint_collisions(grid, grown.polygon, [(x, y, yaw)]) == 0:
+        assert valid
+
+
+def _rooms(door: float, width: float = 4.0) -> tuple[OccupancyGrid, np.ndarray]:
+    """Two rooms ``width`` m wide and a 0.1 m wall between them with a ``door``, labelled."""
+    res = 0.05
+    h, w = round(width / res), round(8.2 / res)
+    cells = np.full((h, w), OCCUPIED, np.int8)
+    cells[2:-2, 2:-2] = 0
+    cells[:, w // 2 - 1 : w // 2 + 1] = OCCUPIED
+    top = h // 2 - round(door / res) // 2
+    cells[top : top + round(door / res), w // 2 - 1 : w // 2 + 1] = 0
+    grid = OccupancyGrid(cells, res)
+    labels = np.where(np.arange(w) < w // 2, 1, 2)[None].repeat(h, 0) * grid.free
+    return grid, labels.astype(np.int32)
+
+
+def _planner(spec, door=1.0, **options):
+    grid, labels = _rooms(door)
+    graph = region_graph(Regions(grid, labels))
+    space = HeadingCSpace(grid, parse_robot(spec))
+    return KinematicHierarchicalPlanner(space, labels, graph, time_limit=5.0, **options)
+
+
+def _check(path, grid, robot, start, goal):
+    poses = path.poses
+    assert np.allclose(poses[0], start) and np.allclose(poses[-1], goal)
+    steps = np.hypot(*np.diff(poses[:, :2], axis=0).T)
+    assert steps.max() <= POSE_SPACING + 1e-9  # continuous
+    assert footprint_collisions(grid, robot.polygon, poses) == 0
+
+
+@pytest.mark.parametrize("spec", ROBOTS)
+def test_hierarchical_paths_cross_the_door_without_collision(spec):
+    planner = _planner(spec)
+    start, goal = (1.0, 1.0, 0.0), (7.0, 3.0, math.pi / 2)
+    path = planner.plan(start, goal)
+    _check(path, planner.cspace.grid, planner.cspace.robot, start, goal)
+    assert path.regions == (1, 2)
+    assert {"route_search", "submaps", "planning", "simplification"} <= set(path.seconds)
+    flat = FlatKinematicPlanner(planner.cspace, time_limit=5.0).plan(start, goal)
+    _check(flat, planner.cspace.grid, planner.cspace.robot, start, goal)
+
+
+def test_a_door_narrower_than_the_robot_is_no_door():
+    planner = _planner("rect:0.6x0.5", door=0.55)  # 0.55 m < 0.5 m + the 0.1 m margin
+    with pytest.raises(NoPathError, match=r"at least 0\.6 m wide"):
+        planner.plan((1.0, 2.0), (7.0, 2.0))
+
+
+def test_a_failed_route_falls_back_to_the_next(monkeypatch):
+    planner = _planner("rect:0.6x0.4")
+    calls = []
+    inside = KinematicHierarchicalPlanner._inside
+
+    def first_fails(self, labels, boxes, ids, *rest):
+        calls.append(list(ids))
+        return None if len(calls) == 1 else inside(self, labels, boxes, ids, *rest)
+
+    monkeypatch.setattr(KinematicHierarchicalPlanner, "_inside", first_fails)
+    path = planner.plan((1.0, 1.0, 0.0), (7.0, 3.0, 0.0))
+    assert len(calls) == 2 and calls[1] == [1, 2]  # then the region route, whole regions
+    _check(path, planner.cspace.grid, planner.cspace.robot, (1.0, 1.0, 0.0), (7.0, 3.0, 0.0))
+    monkeypatch.setattr(KinematicHierarchicalPlanner, "_inside", lambda *args: None)
+    with pytest.raises(NoPathError, match=r"routes tried: door graph .*; regions \[1, 2\]"):
+        planner.plan((1.0, 1.0, 0.0), (7.0, 3.0, 0.0))
+
+
+def test_bad_queries_are_typed_errors():
+    planner = _planner("rect:0.6x0.4")
+    with pytest.raises(InvalidQueryError, match=r"start \(4\.1, 0\.5, 0\)"):
+        planner.plan((4.1, 0.5, 0.0), (7.0, 2.0))  # in the wall
+    with pytest.raises(InvalidQueryError, match="goal must be finite"):
+        planner.plan((1.0, 2.0), (7.0, math.inf))
+    with pytest.raises(InvalidQueryError, match="no region 9"):
+        planner.plan((1.0, 2.0), 9)
+
+
+_SEEDED = """
+import json, math, sys
+sys.path[:0] = [".", "tests/planners"]
+from test_kinematic import _planner
+path = _planner("dubins:radius=0.5,footprint=0.6x0.4", random_state=7).plan(
+    (1.0, 1.0, 0.0), (7.0, 3.0, math.pi / 2))
+print(json.dumps(path.poses.round(9).tolist()))
+"""
+
+
+def test_the_same_seed_gives_the_same_path():
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", _SEEDED],
+            capture_output=True,
+            text=True,
+            check=True,
+            timeout=120,
+            cwd=ROOT,
+        )
+        for _ in range(2)
+    ]
+    assert json.loads(runs[0].stdout) == json.loads(runs[1].stdout)
+    assert "leaked" not in runs[0].stderr  # OMPL's bindings report nothing at exit
