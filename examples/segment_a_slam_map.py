@@ -18,8 +18,9 @@ print("conditioning:", topo.conditioned.summary())  # clutter kept, rays and isl
 topo.save(out, overwrite=True)
 
 again = TopoMap.load(out)  # the map, regions, graph, labels and names
-names = sorted(name for _, name in again.graph.nodes(data="name"))
-start, goal = names[0], names[-1]  # e.g. "corridor 1" and "room 9"
+# regions the robot drove through (rooms seen only through their doors are regions too)
+visited = sorted(again.graph.nodes[r]["name"] for r, k in again.graph.nodes(data="keyframes") if k)
+start, goal = visited[0], visited[-1]  # e.g. "corridor 1" and "room 9"
 node = again.graph.nodes[again.region(start)]
 path = again.plan((node["x"], node["y"]), goal, robot_radius=0.25)
 crossed = " -> ".join(again.graph.nodes[r]["name"] for r in path.regions)

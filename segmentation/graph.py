@@ -6,8 +6,10 @@ import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 
+from segmentation.conditioning import clearance_of
 from segmentation.regions import Regions
 from segmentation.transitions import Transition, find_transitions
+from segmentation.virtual import most_open_cells
 
 
 def region_graph(regions: Regions, keyframe_regions: NDArray[np.integer] | None = None) -> nx.Graph:
@@ -24,7 +26,9 @@ def region_graph(regions: Regions, keyframe_regions: NDArray[np.integer] | None 
     -------
     networkx.Graph
         Node ``id`` (the region's value in the label image) with ``area_m2``, ``polygon``
-        (shapely, map-frame metres), ``x``, ``y`` (a point inside the region) and ``keyframes``.
+        (shapely, map-frame metres), ``x``, ``y`` (the region's most open free cell: farthest
+        from walls, furniture and unknown space, so a robot can stand there) and
+        ``keyframes``.
         Edge ``(a, b)`` with ``doors``: a tuple of :class:`Transition`, widest first, and
         ``width``, the widest door's width. Graph attributes: ``resolution``, ``origin``.
 
@@ -42,14 +46,22 @@ def region_graph(regions: Regions, keyframe_regions: NDArray[np.integer] | None 
         found = np.bincount(np.asarray(keyframe_regions, np.int64), minlength=len(counts))
         counts[: len(found)] = found[: len(counts)]
     graph = nx.Graph(resolution=regions.grid.resolution, origin=tuple(regions.grid.origin))
+    grid = regions.grid
+    on_free = np.where(grid.free, regions.labels, 0)
+    ids = np.unique(on_free[on_free > 0])
+    rows, cols = most_open_cells(clearance_of(grid.free, grid.resolution), on_free, ids)
+    xs, ys = grid.cell_to_world(rows, cols)
+    open_point = {int(r): (float(x), float(y)) for r, x, y in zip(on_free[rows, cols], xs, ys)}
     for region, polygon in regions.polygons.items():
-        point = polygon.representative_point()
+        if region not in open_point:  # no free cell: a point inside the polygon
+            point = polygon.representative_point()
+            open_point[region] = (float(point.x), float(point.y))
         graph.add_node(
             region,
             area_m2=regions.area(region),
             polygon=polygon,
-            x=float(point.x),
-            y=float(point.y),
+            x=open_point[region][0],
+            y=open_point[region][1],
             keyframes=int(counts[region]),
         )
     doors: dict[tuple[int, int], list[Transition]] = {}

@@ -248,10 +248,10 @@ class MapSegmenter:
         lap("regions")
         stage("cover")
         covered = self._cover(conditioned, unpool(dense, factor, conditioned.free))
-        spectral_regions = Regions(grid, covered.labels)
+        spectral_regions = regions = Regions(grid, covered.labels)
         if self.method == "doors":
             covered = self._cover(conditioned, unpool(doors, factor, conditioned.free))
-        regions = Regions(grid, covered.labels)
+            regions = Regions(grid, covered.labels)
         lap("cover")
         conditioned = _count_unlabelled(conditioned, regions.labels)
         return Segmentation(
@@ -276,8 +276,8 @@ class MapSegmenter:
         keyframes: list[Keyframe],
         spectral: SpectralSegmenter,
     ) -> SpectralSegmenter | BlockSpectralSegmenter:
-        if spectral.k is not None:
-            return spectral.fit(keyframes)
+        if spectral.k is not None:  # the user's k: the partition must be able to reach it
+            return replace(spectral, connected=True).fit(keyframes)
         count = count_basins(space, places, self.min_area)
         if count > self.block_places:
             blocks, per_block = keyframe_blocks(space, places, keyframes, self.block_places)

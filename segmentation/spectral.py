@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import sparse
 from scipy.sparse import linalg as splinalg
-from scipy.sparse.csgraph import connected_components, laplacian
+from scipy.sparse.csgraph import connected_components, laplacian, minimum_spanning_tree
 from sklearn.cluster import KMeans
 from sklearn.metrics import pairwise_distances, silhouette_score
 from threadpoolctl import threadpool_limits
@@ -43,10 +43,19 @@ SILHOUETTE_SAMPLE = 1500
 DENSE_UP_TO = 600
 
 
-def sparsify(affinity: sparse.spmatrix, p: float) -> sparse.csr_matrix:
+def sparsify(affinity: sparse.spmatrix, p: float, *, connected: bool = False) -> sparse.csr_matrix:
     """Drop the similarities at or below ``S_min + p (S_max - S_min)`` (eqs. 4-5).
 
     ``S_min`` and ``S_max`` are taken over the entries present (the pairs that can be similar).
+    With ``connected``, the links of a maximum spanning forest stay: sparsifying then removes
+    weak links without cutting the graph into more pieces than it had (parts of the graph
+    never share a cluster, so a given ``k`` could not be reached below their count).
+
+    Examples
+    --------
+    >>> chain = sparse.csr_matrix(np.array([[0, 0.9, 0], [0.9, 0, 0.1], [0, 0.1, 0]]))
+    >>> sparsify(chain, 0.5).nnz, sparsify(chain, 0.5, connected=True).toarray()[1, 2]
+    (2, np.float64(0.1))
     """
     if not 0 <= p < 1:
         raise ParameterError(f"p must lie in [0, 1), got {p!r}")
@@ -55,7 +64,14 @@ def sparsify(affinity: sparse.spmatrix, p: float) -> sparse.csr_matrix:
         return matrix
     low, high = matrix.data.min(), matrix.data.max()
     if high > low:
-        matrix.data[matrix.data <= low + p * (high - low)] = 0.0
+        keep = matrix.data > low + p * (high - low)
+        if connected:
+            inverted = matrix.copy()
+            inverted.data = 2 * high - inverted.data  # > 0: its minimum tree is our maximum
+            forest = minimum_spanning_tree(inverted)
+            forest = sparse.csr_matrix((forest + forest.T).astype(bool), dtype=float)
+            keep |= np.asarray(forest[matrix.nonzero()]).ravel() > 0
+        matrix.data[~keep] = 0.0
         matrix.eliminate_zeros()
     return matrix
 
@@ -128,6 +144,10 @@ class SpectralSegmenter:
         Cap on ``k`` (and on the eigenvalues computed to estimate it).
     n_init
         k-means runs per ``k``; the best silhouette wins.
+    connected
+        Sparsify without cutting the graph into more parts than it had (see
+        :func:`sparsify`): parts never share a cluster, so a ``k`` below their count can only be
+        reached with this.
     random_state
         Seed or Generator; the same seed gives the same labels.
 
@@ -150,6 +170,7 @@ class SpectralSegmenter:
     spread: int = 2
     max_regions: int = 100
     n_init: int = 3
+    connected: bool = False
     random_state: RandomState = None
     labels_: NDArray[np.int64] = field(init=False, repr=False)
     n_regions_: int = field(init=False, repr=False)
@@ -183,7 +204,7 @@ class SpectralSegmenter:
         n = affinity.shape[0]
         self._check(n)
         rng = as_generator(self.random_state)
-        self.affinity_ = sparsify(affinity, self.p)
+        self.affinity_ = sparsify(affinity, self.p, connected=self.connected)
         count, component = connected_components(self.affinity_, directed=False)
         sizes = np.bincount(component)
         main = np.flatnonzero(sizes[component] >= 3)

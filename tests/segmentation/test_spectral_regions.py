@@ -1,0 +1,189 @@
+"""The pieces that make the spectral partition the regions: passage openness, the shared-view
+similarity, covering the building, ROSE²'s scores; each against an independent reference."""
+
+from __future__ import annotations
+
+import math
+
+import networkx as nx
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from maps.grid import OccupancyGrid
+from maps.scan import Keyframe, LaserScan
+from segmentation.affinity import PassageAffinity
+from segmentation.coverage import cover
+from segmentation.errors import ParameterError
+from segmentation.metrics import colour_labels, rose2_score
+from segmentation.passages import bottleneck_openness, boundary_openness
+from segmentation.pipeline import MapSegmenter
+from segmentation.spectral import SpectralSegmenter
+from segmentation.views import SharedView, view_cells
+
+
+@st.composite
+def place_graphs(draw):
+    count = draw(st.integers(3, 9))
+    pairs = [(a, b) for a in range(1, count) for b in range(a + 1, count)]
+    chosen = draw(st.lists(st.sampled_from(pairs), unique=True, max_size=len(pairs)))
+    openness = draw(st.lists(st.floats(0.01, 1.0), min_size=len(chosen), max_size=len(chosen)))
+    return count, chosen, openness
+
+
+@given(place_graphs())
+@settings(max_examples=60, deadline=None)
+def test_the_route_openness_is_the_widest_bottleneck_of_any_path(graph):
+    count, chosen, openness = graph
+    a = np.array([p[0] for p in chosen], np.int64)
+    b = np.array([p[1] for p in chosen], np.int64)
+    route = bottleneck_openness(count, a, b, np.array(openness))
+    reference = nx.Graph()
+    reference.add_nodes_from(range(count))
+    reference.add_weighted_edges_from((x, y, o) for (x, y), o in zip(chosen, openness))
+    for x in range(count):
+        for y in range(count):
+            if x == y:
+                assert route[x, y] == 1.0
+                continue
+            if not nx.has_path(reference, x, y):
+                assert route[x, y] == 0.0
+                continue
+            # brute force: the best over all simple paths of the narrowest edge on it
+            best = max(
+                min(reference.edges[u, v]["weight"] for u, v in nx.utils.pairwise(path))
+                for path in nx.all_simple_paths(reference, x, y)
+            )
+            assert route[x, y] == pytest.approx(best)
+
+
+def test_a_door_is_less_open_than_a_cut_across_a_corridor():
+    free = np.zeros((60, 200), bool)
+    free[10:30, 10:190] = True  # a 2 m corridor
+    free[30:32, 95:104] = True  # a 0.9 m door south
+    free[32:58, 70:130] = True  # a room behind it
+    places = np.zeros(free.shape, np.int32)
+    places[:, :100] = 1  # the corridor cut in two at x = 10 m
+    places[:, 100:] = 2
+    places[31:, :] = 3  # the room
+    places[~free] = 0
+    a, b, openness = boundary_openness(OccupancyGrid.from_masks(free, 0.1), places)
+    by_pair = dict(zip(zip(a.tolist(), b.tolist()), openness.tolist()))
+    assert by_pair[(1, 2)] > 0.9
+    assert max(v for k, v in by_pair.items() if 3 in k) < 0.6
+
+
+def test_passage_affinity_weakens_only_pairs_across_narrow_passages():
+    free = np.zeros((40, 90), bool)
+    free[2:38, 2:40] = free[2:38, 50:88] = True
+    free[18:24, 40:50] = True  # a 0.6 m door
+    places = np.where(free, np.where(np.arange(90) < 45, 1, 2), 0).astype(np.int32)
+    grid = OccupancyGrid.from_masks(free, 0.1)
+    ring = LaserScan(np.full(360, 2.0), -math.pi, 2 * math.pi / 360, 0.0, 10.0)
+    frames = [Keyframe((x, 2.0, 0.0), ring) for x in (1.5, 2.5, 5.5)]
+
+    def similar(p, q):  # every pair alike: only the geometry differs
+        return 1.0
+
+    weighed = PassageAffinity(grid, places, similar, contrast=2.0).affinity(frames).toarray()
+    assert weighed[0, 1] == pytest.approx(1.0)
+    assert 0 < weighed[0, 2] < 0.2 and weighed[0, 2] == pytest.approx(weighed[1, 2])
+    with pytest.raises(ParameterError, match="contrast"):
+        PassageAffinity(grid, places, contrast=-1)
+
+
+@given(st.lists(st.tuples(st.floats(-3, 3), st.floats(-3, 3)), min_size=2, max_size=5))
+@settings(max_examples=30, deadline=None)
+def test_shared_view_is_the_overlap_of_the_cells_each_scan_saw(positions):
+    ring = LaserScan(np.full(90, 2.5), -math.pi, 2 * math.pi / 90, 0.0, 10.0)
+    frames = [Keyframe((x, y, 0.3), ring) for x, y in positions]
+    criterion = SharedView(resolution=0.25, reach=5.0)
+    found = criterion.affinity(frames).toarray()
+    views = [set(map(tuple, view_cells(f, 0.25, 5.0).tolist())) for f in frames]
+    for i, vi in enumerate(views):
+        assert found[i, i] == 0
+        for j, vj in enumerate(views):
+            if i != j:
+                expected = min(1.0, len(vi & vj) / math.sqrt(len(vi) * len(vj)))
+                assert found[i, j] == pytest.approx(expected)
+
+
+def test_cover_gives_furniture_and_rays_the_room_they_are_in():
+    cells = np.full((50, 80), 100, np.int8)
+    cells[5:45, 5:45] = 0  # a room
+    cells[20:24, 20:24] = 100  # a table in it
+    cells[25, 45:75] = 0  # a one-cell ray out through the wall
+    grid = OccupancyGrid(cells, 0.1)
+    labels = np.zeros(grid.shape, np.int32)
+    labels[5:45, 5:45] = 7
+    labels[20:24, 20:24] = 0
+    clutter = np.zeros(grid.shape, bool)
+    clutter[20:24, 20:24] = True
+    found = cover(grid, labels, clutter)
+    assert (found.labels[20:24, 20:24] == 1).all() and (found.labels[25, 45:75] == 1).all()
+    assert found.labels.max() == 1 and found.seen_rooms == 0
+    assert found.filled_cells == 16 + 30
+    assert (found.labels[cells == 100] == 0).sum() == (cells == 100).sum() - 16
+
+
+@given(
+    st.integers(0, 2**31 - 1),
+    st.integers(1, 5),
+    st.integers(1, 6),
+)
+@settings(max_examples=40, deadline=None)
+def test_rose2_scores_match_a_per_segment_reference(seed, rooms, segments):
+    rng = np.random.default_rng(seed)
+    truth = rng.integers(0, rooms + 1, (30, 30))
+    truth = np.repeat(np.repeat(truth, 6, axis=0), 6, axis=1)  # blocks of 36 pixels
+    found = rng.integers(0, segments + 1, truth.shape)
+    scores = rose2_score(found, truth)
+    kept = [g for g in range(1, rooms + 1) if (truth == g).sum() > 200]
+    precisions, ious, recalls = [], [], []
+    for s in range(1, segments + 1):
+        seg = found == s
+        if not seg.any():
+            continue
+        overlaps = [(seg & (truth == g)).sum() for g in kept]
+        if not kept or max(overlaps) == 0:
+            precisions.append(0.0)
+            ious.append(0.0)
+            continue
+        g = kept[int(np.argmax(overlaps))]
+        o = max(overlaps)
+        precisions.append(o / seg.sum())
+        ious.append(o / (seg.sum() + (truth == g).sum() - o))
+    for g in kept:
+        room = truth == g
+        recalls.append(
+            max(((found == s) & room).sum() for s in range(1, segments + 1)) / room.sum()
+        )
+    if precisions and recalls:
+        assert scores.precision == pytest.approx(100 * np.mean(precisions), abs=1e-3)
+        assert scores.iou == pytest.approx(100 * np.mean(ious), abs=1e-3)
+        assert scores.recall == pytest.approx(100 * np.mean(recalls), abs=1e-3)
+
+
+def test_colour_ground_truth_gives_one_room_per_colour():
+    image = np.zeros((4, 4, 3), np.uint8)
+    image[:2, :2] = (10, 20, 30)
+    image[2:, 2:] = (10, 20, 30)  # the same room in two pieces
+    image[:2, 2:] = (200, 0, 0)
+    labels = colour_labels(image)
+    assert labels[0, 0] == labels[3, 3] > 0 and labels[0, 3] not in (0, labels[0, 0])
+    assert (labels[2:, :2] == 0).all()
+
+
+def test_method_is_checked_and_k_gives_about_k_regions():
+    with pytest.raises(ParameterError, match="method"):
+        MapSegmenter(method="watershed")
+    import maps
+
+    plan = maps.generate_floor_plan("flat", random_state=2)
+    rooms = len(np.unique(plan.labels[plan.labels > 0]))
+    for k in (2, rooms):
+        # the silhouette chooses within k +- spread; covering may add rooms seen through doors
+        spectral = SpectralSegmenter(k=k, spread=1, random_state=0)
+        found = MapSegmenter(spectral=spectral).segment(plan.grid)
+        assert abs(len(found.regions.ids) - found.coverage.seen_rooms - k) <= 1
