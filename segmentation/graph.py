@@ -51,7 +51,9 @@ def region_graph(regions: Regions, keyframe_regions: NDArray[np.integer] | None 
     ids = np.unique(on_free[on_free > 0])
     rows, cols = most_open_cells(clearance_of(grid.free, grid.resolution), on_free, ids)
     xs, ys = grid.cell_to_world(rows, cols)
-    open_point = {int(r): (float(x), float(y)) for r, x, y in zip(on_free[rows, cols], xs, ys)}
+    open_point = {
+        int(r): (float(x), float(y)) for r, x, y in zip(on_free[rows, cols], xs, ys, strict=True)
+    }
     for region, polygon in regions.polygons.items():
         if region not in open_point:  # no free cell: a point inside the polygon
             point = polygon.representative_point()

@@ -41,7 +41,7 @@ def test_the_route_openness_is_the_widest_bottleneck_of_any_path(graph):
     route = bottleneck_openness(count, a, b, np.array(openness))
     reference = nx.Graph()
     reference.add_nodes_from(range(count))
-    reference.add_weighted_edges_from((x, y, o) for (x, y), o in zip(chosen, openness))
+    reference.add_weighted_edges_from((x, y, o) for (x, y), o in zip(chosen, openness, strict=True))
     for x in range(count):
         for y in range(count):
             if x == y:
@@ -69,7 +69,7 @@ def test_a_door_is_less_open_than_a_cut_across_a_corridor():
     places[31:, :] = 3  # the room
     places[~free] = 0
     a, b, openness = boundary_openness(OccupancyGrid.from_masks(free, 0.1), places)
-    by_pair = dict(zip(zip(a.tolist(), b.tolist()), openness.tolist()))
+    by_pair = dict(zip(zip(a.tolist(), b.tolist(), strict=True), openness.tolist(), strict=True))
     assert by_pair[(1, 2)] > 0.9
     assert max(v for k, v in by_pair.items() if 3 in k) < 0.6
 
