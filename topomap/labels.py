@@ -22,7 +22,6 @@ from numpy.typing import NDArray
 from scipy import ndimage
 from skimage.measure import perimeter
 from skimage.morphology import disk, skeletonize
-from sklearn.ensemble import RandomForestClassifier
 
 from segmentation.regions import Regions
 from topomap.errors import LabelError
@@ -367,7 +366,7 @@ class ForestClassifier:
         self.n_estimators, self.random_state = n_estimators, random_state
         self._x = np.zeros((0, len(FEATURES)))
         self._y: list[str] = []
-        self._forest: RandomForestClassifier | None = None
+        self._forest: Any = None
 
     def fit(self, features: NDArray[np.float64], labels: Sequence[str]) -> ForestClassifier:
         """Learn from a feature matrix (:func:`feature_matrix`) and one place type per row."""
@@ -377,6 +376,8 @@ class ForestClassifier:
         if len(labels) != len(features):
             raise LabelError(f"{len(labels)} labels for {len(features)} rows")
         self._x, self._y = features, [str(label) for label in labels]
+        from sklearn.ensemble import RandomForestClassifier  # only a learned model needs it
+
         self._forest = RandomForestClassifier(
             self.n_estimators, class_weight="balanced", random_state=self.random_state
         ).fit(self._x, self._y)
