@@ -86,6 +86,8 @@ class Segmentation:
         doors.
     seconds
         Time per stage.
+    method
+        How ``regions`` were made (:data:`METHODS`).
     """
 
     conditioned: ConditionedMap
@@ -97,6 +99,7 @@ class Segmentation:
     regions: Regions
     coverage: Coverage
     seconds: dict[str, float]
+    method: str = "spectral"
 
     def keyframe_regions(self) -> NDArray[np.int64]:
         """Region of each keyframe's position (0 if it is not on a labelled cell)."""
@@ -264,6 +267,7 @@ class MapSegmenter:
             regions,
             covered,
             seconds,
+            self.method,
         )
 
     def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:

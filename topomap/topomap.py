@@ -81,6 +81,16 @@ def _pipeline(pipeline: MapSegmenter | None, options: dict[str, Any]) -> MapSegm
     return pipeline or pipeline_from_options(options)
 
 
+@dataclass(frozen=True)
+class SavedPartition:
+    """The fitted spectral partition as :meth:`TopoMap.save` keeps it: the attributes of a
+    fitted :class:`~segmentation.spectral.SpectralSegmenter` a reader needs."""
+
+    labels_: NDArray[np.int64]
+    n_regions_: int
+    silhouette_by_k_: dict[int, float]
+
+
 @dataclass
 class TopoMap:
     """A map segmented into regions, with the region adjacency graph.
@@ -94,15 +104,21 @@ class TopoMap:
     grid
         The occupancy map.
     regions
-        The regions (refined unless the pipeline ran with ``refine=False``).
+        The regions: the spectral partition covering the building (the door-rule baseline's
+        with ``method="doors"``).
     segmentation
         Everything the pipeline found: the conditioned map, places, keyframes, the fitted
-        spectral partition, the spectral and refined regions, seconds per stage; None for a
-        map read back with :meth:`load` (only the regions and the graph are saved).
+        spectral partition, the regions, what covering added, seconds per stage; None for a
+        map read back with :meth:`load` (the regions, the graph and the partition's labels
+        are saved, not the keyframes' scans).
     graph
         Region adjacency graph of :attr:`regions` (see :func:`segmentation.graph.region_graph`).
     seconds
         Time per stage, the graph and labels included.
+    method
+        How the regions were made: ``"spectral"`` or ``"doors"``.
+    partition
+        For a map read back with :meth:`load`: the saved partition (:attr:`segmenter`).
     """
 
     grid: OccupancyGrid
@@ -110,6 +126,8 @@ class TopoMap:
     graph: nx.Graph
     segmentation: Segmentation | None = None
     seconds: dict[str, float] = field(default_factory=dict)
+    method: str = "spectral"
+    partition: SavedPartition | None = None
     _planners: dict[tuple, HierarchicalPlanner] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -163,7 +181,7 @@ class TopoMap:
         start = time.perf_counter()
         graph = region_graph(found.regions, found.keyframe_regions())
         seconds["graph"] = time.perf_counter() - start
-        topo = cls(grid, found.regions, graph, found, seconds)
+        topo = cls(grid, found.regions, graph, found, seconds, found.method)
         start = time.perf_counter()
         topo.label()
         seconds["labels"] = time.perf_counter() - start
@@ -181,7 +199,10 @@ class TopoMap:
 
     @property
     def spectral(self) -> Regions:
-        """The spectral partition alone, made dense."""
+        """The spectral partition made dense (the regions themselves unless they were made by
+        the door-rule baseline, ``method="doors"``)."""
+        if self.segmentation is None and self.method == "spectral":
+            return self.regions
         return self.found.spectral
 
     @property
@@ -190,8 +211,11 @@ class TopoMap:
         return self.found.keyframes
 
     @property
-    def segmenter(self) -> SpectralSegmenter | BlockSpectralSegmenter:
-        """The fitted spectral partition."""
+    def segmenter(self) -> SpectralSegmenter | BlockSpectralSegmenter | SavedPartition:
+        """The fitted spectral partition (for a map read back with :meth:`load`, its labels,
+        cluster count and silhouette by k)."""
+        if self.segmentation is None and self.partition is not None:
+            return self.partition
         return self.found.segmenter
 
     @property
@@ -340,8 +364,15 @@ class TopoMap:
                 "seconds": {k: round(v, 4) for k, v in self.seconds.items()},
                 "files": {name: _digest(work / name) for name in names if name != "topomap.json"},
             }
+            about["method"] = self.method
             if self.segmentation is not None:
                 about["conditioning"] = self.conditioned.summary()
+                fitted = self.segmenter
+                about["partition"] = {
+                    "labels": [int(v) for v in fitted.labels_],
+                    "clusters": int(fitted.n_regions_),
+                    "silhouette_by_k": {str(k): v for k, v in fitted.silhouette_by_k_.items()},
+                }
             write_text(work / "topomap.json", json.dumps(about, indent=2))
         return [out / name for name in ("map.yaml", "map.pgm", *SAVED)]
 
@@ -365,8 +396,10 @@ class TopoMap:
             about = json.loads(info.read_text())
             seconds = {str(k): float(v) for k, v in about.get("seconds", {}).items()}
             files = dict(about.get("files", {}))
-        except (ValueError, AttributeError, TypeError, RecursionError) as err:
-            raise ExportFormatError(f"{info}: not a topomap.json file: {err}") from None
+            method = str(about.get("method", "doors"))  # folders from before kept no method
+            partition = _partition(about.get("partition"))
+        except (ValueError, AttributeError, TypeError, KeyError, RecursionError) as err:
+            raise ExportFormatError(f"{info}: not a topomap.json file: {err!r}") from None
         if about.get("format") != "topomap":
             raise ExportFormatError(
                 f"{info}: field 'format' is {about.get('format')!r}, not 'topomap'"
@@ -392,7 +425,7 @@ class TopoMap:
                     f"{folder / name}: changed since topomap.json was written (another run's or "
                     "an edited file): segment the map again"
                 )
-        return cls(grid, regions, graph, None, seconds)
+        return cls(grid, regions, graph, None, seconds, method, partition)
 
     def save_keyframes(self, path: str | Path, *, overwrite: bool = False) -> Path:
         """Write ``scan_index,x,y,theta,region``, one row per keyframe."""
@@ -407,6 +440,17 @@ class TopoMap:
 def _digest(path: Path) -> str:
     """The SHA-256 of a file, hex."""
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _partition(saved: Any) -> SavedPartition | None:
+    """The ``partition`` field of ``topomap.json`` (None when absent)."""
+    if saved is None:
+        return None
+    return SavedPartition(
+        np.asarray(saved["labels"], np.int64),
+        int(saved["clusters"]),
+        {int(k): float(v) for k, v in dict(saved["silhouette_by_k"]).items()},
+    )
 
 
 def _check_graph(graph: nx.Graph, regions: Regions, grid: OccupancyGrid, source: Path) -> None:

@@ -89,10 +89,20 @@ def test_a_saved_map_reads_back_equal(tmp_path_factory, seed, furniture):
         assert (loaded["name"], loaded["label"]) == (data["name"], data["label"])
         assert loaded["polygon"].equals(data["polygon"])
     assert again.region("kitchen") == topo.region("kitchen")
+    # the regions are the spectral partition, and the fitted partition survives too
+    assert again.method == "spectral"
+    assert np.array_equal(again.spectral.labels, topo.spectral.labels)
+    assert np.array_equal(again.segmenter.labels_, topo.segmenter.labels_)
+    assert again.segmenter.n_regions_ == topo.segmenter.n_regions_
+    assert again.segmenter.silhouette_by_k_ == pytest.approx(topo.segmenter.silhouette_by_k_)
     with pytest.raises(SegmentationError, match="read back from files"):
-        again.spectral  # noqa: B018
+        again.keyframes  # noqa: B018
     with pytest.raises(OutputExistsError):
         topo.save(folder)
+    doors = TopoMap.from_grid(plan.grid, random_state=seed, method="doors")
+    doors.save(folder / "doors")
+    with pytest.raises(SegmentationError, match="read back from files"):
+        TopoMap.load(folder / "doors").spectral  # noqa: B018
 
 
 def test_files_that_do_not_belong_together_are_refused(tmp_path, flat):
@@ -100,7 +110,7 @@ def test_files_that_do_not_belong_together_are_refused(tmp_path, flat):
     topo.save(tmp_path)
     other = generate_floor_plan("flat", random_state=5)
     other.grid.save(tmp_path / "map.yaml", overwrite=True)
-    with pytest.raises(ExportFormatError, match=r"regions\.png"):
+    with pytest.raises(ExportFormatError, match=r"map\.pgm: changed|regions\.png"):
         TopoMap.load(tmp_path)
     with pytest.raises(MapFileNotFoundError):
         TopoMap.load(tmp_path / "nothing")
