@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
-from sklearn.cluster import KMeans
 
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
@@ -55,6 +54,8 @@ def keyframe_blocks(
     count = max(1, math.ceil(len(ids) / places))
     block_of_basin = np.zeros(len(sizes), np.int64)
     if count > 1:
+        from sklearn.cluster import KMeans  # only large maps are divided into blocks
+
         model = KMeans(count, n_init=3, random_state=random_state)
         block_of_basin[ids] = model.fit_predict(centre[ids], sample_weight=sizes[ids])
         small = np.setdiff1d(np.arange(1, len(sizes)), ids)

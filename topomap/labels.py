@@ -23,6 +23,7 @@ from scipy import ndimage
 from skimage.measure import perimeter
 from skimage.morphology import disk, skeletonize
 
+from segmentation.conditioning import clearance_of
 from segmentation.regions import Regions
 from topomap.errors import LabelError
 
@@ -82,7 +83,7 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
         kernel = disk(gap).astype(np.uint8)
         filled = cv2.morphologyEx(filled.astype(np.uint8), cv2.MORPH_CLOSE, kernel).astype(bool)
         area = float(filled.sum()) * res**2
-        distance = ndimage.distance_transform_edt(filled)
+        distance = clearance_of(filled, 1.0).astype(np.float64)  # cells; the mask is padded
         depth = distance[filled] * res
         width = 2 * float(np.percentile(depth, 95))
         step = max(1, int(SKELETON_CELL_M / res))

@@ -2,12 +2,17 @@
 
 Each map is segmented from the map alone (conditioning, places, virtual keyframes, the spectral
 partition, regions); the table gives wall-clock and CPU seconds and seconds per million free
-cells, so growth with the map's size shows at a glance.
+cells, so growth with the map's size shows at a glance. With ``--command DATA_DIR`` it times
+the command users run instead, ``topomap segment MAP.yaml`` in a new process on every map of a
+data folder, split into start-up, segmentation and outputs.
 """
 
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
@@ -79,4 +84,54 @@ def bench_maps(
     ]
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps(records, indent=2))
+    return records
+
+
+#: What ``topomap segment`` imports before it reads the map: its start-up.
+STARTUP = "import topomap.cli.main, topomap.topomap, topomap.cli.drawing"
+
+
+def _wall(command: list[str]) -> float:
+    start = time.perf_counter()
+    subprocess.run(command, check=True, capture_output=True)
+    return time.perf_counter() - start
+
+
+def time_command(yaml: Path, out: Path, startup: float) -> dict[str, Any]:
+    """Run ``topomap segment YAML`` as a user does (a new process, every output written) and
+    split its wall time into start-up (``startup``: the imports, timed apart), segmentation
+    (the stages in its ``summary.json``, graph and names included) and the rest (reading the
+    map, writing the files and the picture)."""
+    command = [sys.executable, "-m", "topomap", "-q", "segment", str(yaml), "--out", str(out)]
+    total = _wall([*command, "--force"])
+    stages = json.loads((out / "summary.json").read_text())["seconds"]
+    segmentation = sum(stages.values())
+    return {
+        "map": yaml.stem,
+        "seconds": round(total, 3),
+        "startup_s": round(startup, 3),
+        "segmentation_s": round(segmentation, 3),
+        "outputs_s": round(max(0.0, total - startup - segmentation), 3),
+    }
+
+
+def bench_command(
+    data_dir: str | Path, out: str | Path, progress: Callable[[Any], Any] = iter
+) -> list[dict[str, Any]]:
+    """:func:`time_command` on every map of ``data_dir`` (the layouts
+    :func:`topomap.cli.evaluate.floor_plans` reads; ROSE²'s images are given a map_server YAML
+    first); start-up is the median of three runs of the imports alone."""
+    from topomap.cli.evaluate import floor_plans
+
+    out = Path(out)
+    startup = sorted(_wall([sys.executable, "-c", STARTUP]) for _ in range(3))[1]
+    records = []
+    with tempfile.TemporaryDirectory() as scratch:
+        for plan in progress(floor_plans(data_dir)):
+            yaml = plan.yaml
+            if yaml.suffix != ".yaml":
+                yaml = plan.grid().save(Path(scratch) / f"{plan.name}.yaml")
+            records.append(time_command(yaml, Path(scratch) / plan.name, startup))
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "command.json").write_text(json.dumps(records, indent=2))
     return records

@@ -360,8 +360,16 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
 
 def cmd_bench_maps(args: argparse.Namespace) -> int:
     from maps.errors import MapFileNotFoundError
-    from topomap.cli.bench_maps import bench_maps
+    from topomap.cli.bench_maps import bench_command, bench_maps
 
+    if args.command is not None:
+        _refuse_existing(Path(args.out), ["command.json"], args.force)
+        records = bench_command(args.command, args.out, progress=args.progress)
+        columns = ["map", "seconds", "startup_s", "segmentation_s", "outputs_s"]
+        mean = {c: round(sum(r[c] for r in records) / len(records), 3) for c in columns[1:]}
+        print(_table([*records, {"map": "mean", **mean}], columns))
+        print(f"wrote {args.out}/command.json")
+        return 0
     _refuse_existing(Path(args.out), ["results.json"], args.force)
     logs = Path(args.logs) if args.logs else None
     if logs is not None and not logs.is_dir():
@@ -766,6 +774,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--sizes", nargs="*", default=["flat", "office", "campus"], help="generated buildings"
     )
     maps_bench.add_argument("--logs", help="a folder of CARMEN *.log.gz: maps built from them")
+    maps_bench.add_argument(
+        "--command",
+        metavar="DATA_DIR",
+        help="time `topomap segment` itself on every map of DATA_DIR (ipa or ROSE² layout)",
+    )
     maps_bench.set_defaults(func=cmd_bench_maps)
     online_bench = bench_sub.add_parser("online", help="online segmentation: latency, agreement")
     online_bench.add_argument("--out", default="out/bench-online")
