@@ -115,7 +115,9 @@ def silhouette(distances: NDArray[np.float64], labels: NDArray[np.integer]) -> f
     members = np.bincount(labels, minlength=count).astype(float)
     sums = distances @ np.eye(count)[labels]  # (n, k): distance from each point to each cluster
     own = np.arange(len(labels)), labels
-    inside = np.divide(sums[own], members[labels] - 1, where=members[labels] > 1)
+    inside = np.divide(
+        sums[own], members[labels] - 1, out=np.zeros(len(labels)), where=members[labels] > 1
+    )
     mean = sums / members
     mean[own] = np.inf
     nearest = mean.min(axis=1)

@@ -1,6 +1,6 @@
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
@@ -89,3 +89,21 @@ def test_bad_input_is_named(flat):
         SpectralSegmenter(n_init=0).fit(keyframes[:5])
     with pytest.raises(ValueError, match="finite"):
         Keyframe((float("nan"), 0.0, 0.0), keyframes[0].scan)
+
+
+@given(st.integers(0, 2**31 - 1), st.integers(2, 6), st.integers(8, 40))
+@settings(max_examples=40, deadline=None)
+def test_silhouette_equals_scikit_learns(seed, k, n):
+    from scipy.spatial.distance import pdist, squareform
+    from sklearn.metrics import silhouette_score
+
+    from segmentation.spectral import silhouette
+
+    rng = np.random.default_rng(seed)
+    points = rng.normal(size=(n, 3))
+    labels = rng.integers(0, k, n)
+    if len(np.unique(labels)) < 2:
+        labels[0], labels[1] = 0, 1
+    distances = squareform(pdist(points))
+    expected = silhouette_score(distances, labels, metric="precomputed")
+    assert silhouette(distances, labels) == pytest.approx(expected, abs=1e-9)

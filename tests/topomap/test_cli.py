@@ -7,6 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
+import maps
 from maps.grid import OccupancyGrid
 from topomap.cli import main
 
@@ -203,6 +204,24 @@ def test_bench_segment_writes_records(tmp_path, capsys):
     ]
     assert all(r["seconds"] > 0 for r in records)
     assert "speed-up" in capsys.readouterr().out
+
+
+def test_bench_maps_command_times_the_segment_command_in_parts(tmp_path, capsys):
+    from segmentation.export import write_label_image
+
+    plan = maps.generate_floor_plan("flat", random_state=0)
+    data = tmp_path / "data"
+    data.mkdir()
+    plan.grid.save(data / "flat.yaml")
+    write_label_image(plan.labels, data / "flat_gt_labels.png")
+    out = tmp_path / "out"
+    assert main(["-q", "bench", "maps", "--command", str(data), "--out", str(out)]) == 0
+    (record,) = json.loads((out / "command.json").read_text())
+    assert record["map"] == "flat" and record["seconds"] > 0
+    parts = record["startup_s"] + record["segmentation_s"] + record["outputs_s"]
+    assert record["startup_s"] > 0 and record["segmentation_s"] > 0
+    assert parts == pytest.approx(record["seconds"], abs=0.01) or parts > record["seconds"]
+    assert "| mean |" in capsys.readouterr().out
 
 
 def test_segment_bad_input(tmp_path, capsys):
