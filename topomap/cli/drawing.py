@@ -122,8 +122,8 @@ def draw_regions(
     The map is scaled so that its longer side has at least 1,600 pixels. Each door is a red
     segment; an edge is a line from the centre of its widest door to the smaller of its two
     regions' nodes (a hall with many doors is not hidden under a star of lines); each node is
-    a dot at the region's inside point with its name (or id). ``title`` is written at the top
-    left.
+    a dot at the region's most open point with its name (or id). ``title`` is written on a
+    band above the map.
     """
     import cv2
 
@@ -153,9 +153,10 @@ def draw_regions(
         at = (int(x) - w // 2, int(y) - 4 - thick)
         cv2.putText(image, text, at, font, size, (255, 255, 255), 3, cv2.LINE_AA)
         cv2.putText(image, text, at, font, size, (0, 0, 0), 1, cv2.LINE_AA)
-    if title:
-        cv2.putText(image, title, (8, 20), font, 0.6, (255, 255, 255), 4, cv2.LINE_AA)
-        cv2.putText(image, title, (8, 20), font, 0.6, (0, 0, 0), 1, cv2.LINE_AA)
+    if title:  # on a band of its own above the map
+        band = np.full((32, image.shape[1], 3), 255, np.uint8)
+        cv2.putText(band, title, (8, 22), font, 0.6, (0, 0, 0), 1, cv2.LINE_AA)
+        image = np.vstack([band, image])
     path = Path(path)
     ok, encoded = cv2.imencode(".png", image)
     if not ok:
