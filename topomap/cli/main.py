@@ -645,7 +645,9 @@ def _add_segmenter_options(parser: argparse.ArgumentParser) -> None:
         choices=["spectral", "doors"],
         help="regions from the spectral partition (default) or the door-rule baseline",
     )
-    parser.add_argument("--criterion", default="nn", choices=["nn", "hausdorff", "features", "view"])
+    parser.add_argument(
+        "--criterion", default="nn", choices=["nn", "hausdorff", "features", "view"]
+    )
     parser.add_argument(
         "--contrast",
         type=float,
