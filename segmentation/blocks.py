@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
 from segmentation.errors import ParameterError
-from segmentation.spectral import SpectralSegmenter
+from segmentation.spectral import SpectralSegmenter, kmeans
 
 #: ``map_blocks(function, items) -> results in item order``.
 BlockMap = Callable[[Callable[[Any], Any], Sequence[Any]], list[Any]]
@@ -54,10 +54,8 @@ def keyframe_blocks(
     count = max(1, math.ceil(len(ids) / places))
     block_of_basin = np.zeros(len(sizes), np.int64)
     if count > 1:
-        from sklearn.cluster import KMeans  # only large maps are divided into blocks
-
-        model = KMeans(count, n_init=3, random_state=random_state)
-        block_of_basin[ids] = model.fit_predict(centre[ids], sample_weight=sizes[ids])
+        rng = np.random.default_rng(random_state)
+        block_of_basin[ids] = kmeans(centre[ids], count, rng, weights=sizes[ids].astype(float))
         small = np.setdiff1d(np.arange(1, len(sizes)), ids)
         if len(small):
             nearest = cKDTree(centre[ids]).query(_centres(basin, small))[1]

@@ -26,7 +26,6 @@ from numpy.typing import NDArray
 from scipy import sparse
 from scipy.sparse import linalg as splinalg
 from scipy.sparse.csgraph import connected_components, laplacian, minimum_spanning_tree
-from scipy.spatial.distance import pdist, squareform
 from threadpoolctl import threadpool_limits
 
 from maps.scan import Keyframe
@@ -125,10 +124,15 @@ def silhouette(distances: NDArray[np.float64], labels: NDArray[np.integer]) -> f
 
 
 def kmeans(
-    points: NDArray[np.float64], k: int, rng: np.random.Generator, max_iter: int = 100
+    points: NDArray[np.float64],
+    k: int,
+    rng: np.random.Generator,
+    max_iter: int = 100,
+    weights: NDArray[np.float64] | None = None,
 ) -> NDArray[np.int64]:
     """Labels of ``points`` by k-means: k-means++ seeds (Arthur and Vassilvitskii, 2007), then
-    Lloyd's iterations until no label changes (or ``max_iter``).
+    Lloyd's iterations until no label changes (or ``max_iter``); ``weights`` (one per point)
+    weigh the seeding and the centres.
 
     Distances are one matrix product per iteration (BLAS), and the seeding keeps each point's
     distance to its nearest seed up to date in one pass per seed: the partition of a large map
@@ -144,12 +148,14 @@ def kmeans(
     True
     """
     n = len(points)
+    weight = np.ones(n) if weights is None else np.asarray(weights, float)
     squared = (points**2).sum(axis=1)
-    chosen = [int(rng.integers(n))]
+    chosen = [int(rng.choice(n, p=weight / weight.sum()))]
     nearest = np.maximum(squared - 2 * points @ points[chosen[0]] + squared[chosen[0]], 0.0)
     for _ in range(1, k):
-        total = nearest.sum()
-        pick = int(rng.choice(n, p=nearest / total)) if total > 0 else int(rng.integers(n))
+        total = (weight * nearest).sum()
+        chance = weight * nearest / total if total > 0 else weight / weight.sum()
+        pick = int(rng.choice(n, p=chance))
         chosen.append(pick)
         distance = np.maximum(squared - 2 * points @ points[pick] + squared[pick], 0.0)
         nearest = np.minimum(nearest, distance)
@@ -161,9 +167,9 @@ def kmeans(
         if np.array_equal(new, labels):
             break
         labels = new
-        counts = np.bincount(labels, minlength=k)
-        sums = np.zeros_like(centres)
-        np.add.at(sums, labels, points)
+        member = np.zeros((n, k))
+        member[np.arange(n), labels] = weight
+        counts, sums = member.sum(axis=0), member.T @ points
         filled = counts > 0  # an emptied cluster keeps its centre
         centres[filled] = sums[filled] / counts[filled, None]
     return labels
@@ -184,7 +190,11 @@ def best_clustering(
     sample = np.arange(len(rows))
     if len(rows) > SILHOUETTE_SAMPLE:
         sample = np.sort(rng.choice(len(rows), SILHOUETTE_SAMPLE, replace=False))
-    distances = squareform(pdist(rows[sample]))
+    chosen = rows[sample]
+    squared = (chosen**2).sum(axis=1)
+    gram = squared[:, None] + squared[None, :] - 2 * chosen @ chosen.T  # BLAS, not pdist
+    distances = np.sqrt(np.maximum(gram, 0.0))
+    np.fill_diagonal(distances, 0.0)
     for _ in range(n_init):
         labels = kmeans(rows, k, rng)
         if len(np.unique(labels[sample])) < 2:
