@@ -179,6 +179,12 @@ def test_eval_segment_scores_against_ground_truth(tmp_path, data_dir):
     for found in results["maps"]:
         assert found["mcc"] > 0.5 and found["rooms"] == 10
         assert 0 < found["rose2_iou"] <= 100
+    # a second run refuses to overwrite, unless --force; with it the results are new
+    assert main(["eval", "segment", str(data), "--out", str(out)]) == 2
+    (out / "results.json").write_text("{}")
+    assert main(["eval", "segment", str(data), "--out", str(out), "--force"]) == 0
+    again = json.loads((out / "results.json").read_text())["maps"]
+    assert [r["mcc"] for r in again] == [r["mcc"] for r in results["maps"]]
 
 
 def test_bench_segment_writes_records(tmp_path, capsys):

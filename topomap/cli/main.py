@@ -282,7 +282,8 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
             ],
         )
     )
-    write_text(out / "results.json", json.dumps({"maps": records, "means": summary}, indent=2))
+    text = json.dumps({"maps": records, "means": summary}, indent=2)
+    write_text(out / "results.json", text, overwrite=args.force)
     print(f"wrote {out / 'results.json'}")
     return 0
 
