@@ -50,6 +50,28 @@ class _ExactMotion(ob.MotionValidator):
         return self._space.segment_free((s1[0], s1[1]), (s2[0], s2[1]))
 
 
+def plane_bounds(xmin: float, ymin: float, xmax: float, ymax: float) -> Any:
+    """OMPL bounds of the plane part of a state space: ``x`` in ``[xmin, xmax]``, ``y`` in
+    ``[ymin, ymax]`` (metres)."""
+    box = ob.RealVectorBounds(2)
+    box.setLow(0, xmin)
+    box.setLow(1, ymin)
+    box.setHigh(0, xmax)
+    box.setHigh(1, ymax)
+    return box
+
+
+def make_planner(si: Any, name: str) -> tuple[Any, bool]:
+    """The OMPL planner ``name`` on space information ``si``, and whether it keeps a roadmap
+    between queries (PRM planners: then its problem definition is set up already)."""
+    planner = getattr(og, name)(si)
+    keeps_roadmap = name in ROADMAP_PLANNERS
+    if keeps_roadmap:
+        planner.setProblemDefinition(ob.ProblemDefinition(si))
+        planner.setup()
+    return planner, keeps_roadmap
+
+
 class FlatPlanner:
     """An OMPL geometric planner over the whole workspace (or a box of it).
 
@@ -97,12 +119,7 @@ class FlatPlanner:
         self.name = f"flat_{planner.lower()}"
         xmin, ymin, xmax, ymax = space.grid.bounds() if bounds is None else bounds
         self._state_space = ob.RealVectorStateSpace(2)
-        box = ob.RealVectorBounds(2)
-        box.setLow(0, xmin)
-        box.setLow(1, ymin)
-        box.setHigh(0, xmax)
-        box.setHigh(1, ymax)
-        self._state_space.setBounds(box)
+        self._state_space.setBounds(plane_bounds(xmin, ymin, xmax, ymax))
         self._si = ob.SpaceInformation(self._state_space)
         free = space.point_free
         self._si.setStateValidityChecker(lambda s: free(s[0], s[1]))
@@ -111,11 +128,7 @@ class FlatPlanner:
         extent = max(xmax - xmin, ymax - ymin, space.grid.resolution)
         self._si.setStateValidityCheckingResolution(space.grid.resolution / extent)
         self._si.setup()
-        self._planner = getattr(og, planner)(self._si)
-        self._keeps_roadmap = planner in ROADMAP_PLANNERS
-        if self._keeps_roadmap:
-            self._planner.setProblemDefinition(ob.ProblemDefinition(self._si))
-            self._planner.setup()
+        self._planner, self._keeps_roadmap = make_planner(self._si, planner)
 
     def grow_roadmap(self, seconds: float) -> None:
         """Grow a roadmap planner's graph for ``seconds`` before any query (preprocessing)."""

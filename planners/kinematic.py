@@ -25,7 +25,13 @@ from ompl import util as ou
 from maps.seeding import RandomState
 from planners.cspace import HeadingCSpace
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
-from planners.flat import PLANNERS, ROADMAP_PLANNERS, _first_solution, _seed_once
+from planners.flat import (
+    PLANNERS,
+    _first_solution,
+    _seed_once,
+    make_planner,
+    plane_bounds,
+)
 from planners.path import Path
 
 Pose = tuple[float, float, float]
@@ -59,23 +65,14 @@ class KinematicOMPL:
         self.cspace = cspace
         self._space = cspace.robot.state_space()
         xmin, ymin, xmax, ymax = cspace.grid.bounds()
-        box = ob.RealVectorBounds(2)
-        box.setLow(0, xmin)
-        box.setLow(1, ymin)
-        box.setHigh(0, xmax)
-        box.setHigh(1, ymax)
-        self._space.setBounds(box)
+        self._space.setBounds(plane_bounds(xmin, ymin, xmax, ymax))
         self._si = ob.SpaceInformation(self._space)
         valid = cspace.valid
         self._si.setStateValidityChecker(lambda s: valid(s.getX(), s.getY(), s.getYaw()))
         step = cspace.robot.motion_step(cspace.grid.resolution)
         self._si.setStateValidityCheckingResolution(step / self._space.getMaximumExtent())
         self._si.setup()
-        self._planner = getattr(og, planner)(self._si)
-        self._keeps_roadmap = planner in ROADMAP_PLANNERS
-        if self._keeps_roadmap:
-            self._planner.setProblemDefinition(ob.ProblemDefinition(self._si))
-            self._planner.setup()
+        self._planner, self._keeps_roadmap = make_planner(self._si, planner)
 
     def grow_roadmap(self, seconds: float) -> None:
         """Grow a roadmap planner's graph for ``seconds`` before any query."""
