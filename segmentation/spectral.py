@@ -19,7 +19,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -240,7 +240,7 @@ class SpectralSegmenter:
     silhouette_by_k_ : dict of int to float
         Best silhouette per ``k`` tried.
     affinity_ : scipy.sparse.csr_matrix
-        The sparsified similarity matrix.
+        The sparsified similarity matrix (of the distinct keyframes, see :meth:`fit`).
     eigenvalues_ : ndarray
         The smallest eigenvalues of ``L_sym`` of the keyframes in components of 3 or more.
     """
@@ -275,10 +275,29 @@ class SpectralSegmenter:
             raise ParameterError(f"k must be an integer in 1..{n} (the keyframes), got {self.k!r}")
 
     def fit(self, keyframes: Sequence[Keyframe]) -> SpectralSegmenter:
-        """Compute the affinity of ``keyframes`` and cluster them (see the module docstring)."""
+        """Compute the affinity of ``keyframes`` and cluster them (see the module docstring).
+
+        Keyframes with the same pose and the same scan (a robot standing still) are clustered
+        once and share their cluster; ``k`` is capped at the number of distinct keyframes.
+        """
         criterion = as_criterion(self.criterion)
         self._check(len(keyframes))
-        return self.fit_affinity(criterion.affinity(keyframes))
+        keys = [(tuple(k.pose), k.scan.ranges.tobytes()) for k in keyframes]
+        first: dict[tuple, int] = {}
+        index = np.array([first.setdefault(key, len(first)) for key in keys], np.int64)
+        if len(first) == len(keyframes):
+            return self.fit_affinity(criterion.affinity(keyframes))
+        distinct = [keyframes[i] for i in np.unique(index, return_index=True)[1]]
+        k = self.k if self.k is None else min(self.k, len(distinct))
+        if len(distinct) == 1:
+            fitted = replace(self, k=1).fit_affinity(sparse.csr_matrix((1, 1)))
+        else:
+            fitted = replace(self, k=k).fit_affinity(criterion.affinity(distinct))
+        self.affinity_, self.eigenvalues_ = fitted.affinity_, fitted.eigenvalues_
+        self.silhouette_by_k_ = fitted.silhouette_by_k_
+        self.labels_ = fitted.labels_[index]
+        self.n_regions_ = fitted.n_regions_
+        return self
 
     def fit_affinity(self, affinity: sparse.spmatrix) -> SpectralSegmenter:
         """Cluster from a precomputed symmetric affinity matrix."""

@@ -187,3 +187,27 @@ def test_method_is_checked_and_k_gives_about_k_regions():
         spectral = SpectralSegmenter(k=k, spread=1, random_state=0)
         found = MapSegmenter(spectral=spectral).segment(plan.grid)
         assert abs(len(found.regions.ids) - found.coverage.seen_rooms - k) <= 1
+
+
+def test_degenerate_keyframes_give_a_typed_error_or_a_defined_result():
+    import maps
+    from segmentation.errors import SegmentationError
+    from segmentation.virtual import virtual_keyframes
+
+    plan = maps.generate_floor_plan("flat", random_state=0)
+    frames = virtual_keyframes(plan.grid, 2.0, random_state=0)
+    pipeline = MapSegmenter(spectral=SpectralSegmenter(random_state=0))
+    with pytest.raises(SegmentationError, match="1 of 1 keyframes"):
+        pipeline.segment(plan.grid, frames[:1])
+    too_many = MapSegmenter(spectral=SpectralSegmenter(k=len(frames) + 1, random_state=0))
+    with pytest.raises(ParameterError, match="k must be"):
+        too_many.segment(plan.grid, frames)
+    # all keyframes alike: one cluster, every building cell still in a region
+    same = [Keyframe(frames[0].pose, frames[0].scan, scan_index=i) for i in range(6)]
+    found = pipeline.segment(plan.grid, same)
+    assert found.segmenter.n_regions_ == 1
+    assert (found.regions.labels[plan.grid.free] > 0).mean() > 0.99
+    # keyframes in two rooms that share no wall: a graph in two parts, never one cluster
+    far = [frames[0], frames[-1]]
+    parted = SpectralSegmenter(random_state=0).fit(far)
+    assert parted.n_regions_ == (1 if parted.affinity_.nnz else 2)
