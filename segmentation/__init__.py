@@ -4,8 +4,10 @@ The whole map -> regions pipeline is :class:`MapSegmenter` (its result a
 :class:`Segmentation`); its parts: map conditioning (:func:`condition`), the similarity
 criteria (:mod:`segmentation.similarity`), the spectral partition (:class:`SpectralSegmenter`,
 block by block on large maps: :class:`BlockSpectralSegmenter`), virtual keyframes for a map
-alone, regions (:class:`Regions`) with their refinement, doors (:class:`Transition`), the
-region graph (:func:`region_graph`), its exports and the benchmark metrics (:func:`score`);
+alone, the affinity weighed by the passages (:class:`PassageAffinity`), regions (:class:`Regions`)
+covering the building (:func:`cover`), doors (:class:`Transition`), the
+region graph (:func:`region_graph`), its exports and the benchmark metrics (:func:`score`,
+:func:`rose2_score`);
 keyframes arriving one by one go to :class:`OnlineSegmenter`. Names are imported lazily, the
 first time they are used.
 """
@@ -17,9 +19,12 @@ from typing import TYPE_CHECKING, Any
 from maps import _exports
 
 if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
+    from segmentation.affinity import PassageAffinity as PassageAffinity
     from segmentation.blocks import BlockSpectralSegmenter as BlockSpectralSegmenter
     from segmentation.conditioning import ConditionedMap as ConditionedMap
     from segmentation.conditioning import condition as condition
+    from segmentation.coverage import Coverage as Coverage
+    from segmentation.coverage import cover as cover
     from segmentation.errors import ExportFormatError as ExportFormatError
     from segmentation.errors import ParameterError as ParameterError
     from segmentation.errors import SegmentationError as SegmentationError
@@ -33,6 +38,9 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from segmentation.export import write_node_link as write_node_link
     from segmentation.graph import region_graph as region_graph
     from segmentation.metrics import Scores as Scores
+    from segmentation.metrics import Rose2Scores as Rose2Scores
+    from segmentation.metrics import colour_labels as colour_labels
+    from segmentation.metrics import rose2_score as rose2_score
     from segmentation.metrics import score as score
     from segmentation.online import OnlineSegmenter as OnlineSegmenter
     from segmentation.online import OnlineStateError as OnlineStateError
@@ -43,30 +51,38 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from segmentation.spectral import SpectralSegmenter as SpectralSegmenter
     from segmentation.transitions import Transition as Transition
     from segmentation.transitions import find_transitions as find_transitions
+    from segmentation.views import SharedView as SharedView
     from segmentation.virtual import virtual_keyframes as virtual_keyframes
 
 _EXPORTS = {
     "BlockSpectralSegmenter": "segmentation.blocks",
     "ConditionedMap": "segmentation.conditioning",
+    "Coverage": "segmentation.coverage",
     "ExportFormatError": "segmentation.errors",
     "MapSegmenter": "segmentation.pipeline",
     "OnlineRegions": "segmentation.online_regions",
     "OnlineSegmenter": "segmentation.online",
     "OnlineStateError": "segmentation.online",
     "ParameterError": "segmentation.errors",
+    "PassageAffinity": "segmentation.affinity",
     "Regions": "segmentation.regions",
+    "Rose2Scores": "segmentation.metrics",
     "Scores": "segmentation.metrics",
     "Segmentation": "segmentation.pipeline",
     "SegmentationError": "segmentation.errors",
+    "SharedView": "segmentation.views",
     "SpectralSegmenter": "segmentation.spectral",
     "Transition": "segmentation.transitions",
+    "colour_labels": "segmentation.metrics",
     "condition": "segmentation.conditioning",
+    "cover": "segmentation.coverage",
     "find_transitions": "segmentation.transitions",
     "read_geojson": "segmentation.export",
     "read_graphml": "segmentation.export",
     "read_label_image": "segmentation.export",
     "read_node_link": "segmentation.export",
     "region_graph": "segmentation.graph",
+    "rose2_score": "segmentation.metrics",
     "score": "segmentation.metrics",
     "virtual_keyframes": "segmentation.virtual",
     "write_geojson": "segmentation.export",
