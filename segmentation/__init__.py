@@ -37,8 +37,8 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from segmentation.export import write_label_image as write_label_image
     from segmentation.export import write_node_link as write_node_link
     from segmentation.graph import region_graph as region_graph
-    from segmentation.metrics import Scores as Scores
     from segmentation.metrics import Rose2Scores as Rose2Scores
+    from segmentation.metrics import Scores as Scores
     from segmentation.metrics import colour_labels as colour_labels
     from segmentation.metrics import rose2_score as rose2_score
     from segmentation.metrics import score as score
