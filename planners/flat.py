@@ -72,6 +72,24 @@ def make_planner(si: Any, name: str) -> tuple[Any, bool]:
     return planner, keeps_roadmap
 
 
+def solve_query(
+    si: Any, planner: Any, keeps_roadmap: bool, start: Any, goal: Any, time_limit: float
+) -> Any:
+    """One query of ``planner`` from state ``start`` to ``goal``: its problem definition, after
+    solving for at most ``time_limit`` seconds. A roadmap planner keeps its roadmap (only the
+    query is cleared) and accepts the first path it finds; any other starts afresh."""
+    problem = ob.ProblemDefinition(si)
+    problem.setStartAndGoalStates(start, goal)
+    if keeps_roadmap:
+        planner.clearQuery()
+        problem.setOptimizationObjective(_first_solution(si))
+    else:
+        planner.clear()
+    planner.setProblemDefinition(problem)
+    planner.solve(time_limit)
+    return problem
+
+
 class FlatPlanner:
     """An OMPL geometric planner over the whole workspace (or a box of it).
 
@@ -150,16 +168,10 @@ class FlatPlanner:
         s, g = self.space.check(start, "start"), self.space.check(goal, "goal")
         if self.space.component_at(s) != self.space.component_at(g):
             raise NoPathError(f"start {s} and goal {g} lie in different parts of the free space")
-        problem = ob.ProblemDefinition(self._si)
-        problem.setStartAndGoalStates(self._state(s, "start"), self._state(g, "goal"))
-        if self._keeps_roadmap:
-            self._planner.clearQuery()
-            # any path is accepted: PRM returns the first one its roadmap finds
-            problem.setOptimizationObjective(_first_solution(self._si))
-        else:
-            self._planner.clear()
-        self._planner.setProblemDefinition(problem)
-        self._planner.solve(self.time_limit)
+        start_state, goal_state = self._state(s, "start"), self._state(g, "goal")
+        problem = solve_query(
+            self._si, self._planner, self._keeps_roadmap, start_state, goal_state, self.time_limit
+        )
         if not problem.hasExactSolution():
             raise NoPathError(f"{self.name} found no path from {s} to {g} in {self.time_limit:g} s")
         solution = problem.getSolutionPath()

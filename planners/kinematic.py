@@ -27,10 +27,10 @@ from planners.cspace import HeadingCSpace
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
 from planners.flat import (
     PLANNERS,
-    _first_solution,
     _seed_once,
     make_planner,
     plane_bounds,
+    solve_query,
 )
 from planners.path import Path
 
@@ -87,15 +87,14 @@ class KinematicOMPL:
         None when no exact solution was found in ``time_limit`` seconds; and the seconds of
         planning and simplification."""
         clock = time.perf_counter()
-        problem = ob.ProblemDefinition(self._si)
-        problem.setStartAndGoalStates(self._state(start), self._state(goal))
-        if self._keeps_roadmap:
-            self._planner.clearQuery()
-            problem.setOptimizationObjective(_first_solution(self._si))
-        else:
-            self._planner.clear()
-        self._planner.setProblemDefinition(problem)
-        self._planner.solve(time_limit)
+        problem = solve_query(
+            self._si,
+            self._planner,
+            self._keeps_roadmap,
+            self._state(start),
+            self._state(goal),
+            time_limit,
+        )
         seconds = {"planning": time.perf_counter() - clock}
         if not problem.hasExactSolution():
             return None, seconds
