@@ -64,8 +64,8 @@ class PassageAffinity:
     True
     """
 
-    grid: OccupancyGrid
-    places: NDArray[np.integer]
+    grid: OccupancyGrid = field(repr=False)
+    places: NDArray[np.integer] = field(repr=False)
     base: str | Criterion | PointsSimilarity = "nn"
     contrast: float = 2.0
     route_: NDArray[np.float64] = field(init=False, repr=False)
@@ -80,6 +80,7 @@ class PassageAffinity:
         as_criterion(self.base)
         count = int(self.places.max(initial=0)) + 1
         self.route_ = bottleneck_openness(count, *boundary_openness(self.grid, self.places))
+        self.route_[0, :] = self.route_[:, 0] = 1.0  # a keyframe on no place: nothing between
 
     def keyframe_places(self, keyframes: Sequence[Keyframe]) -> NDArray[np.int64]:
         """The place each keyframe stands in (0 if it stands on none)."""
@@ -95,9 +96,7 @@ class PassageAffinity:
         place keep the base similarity."""
         similarity = as_criterion(self.base).affinity(keyframes).tocoo()
         place = self.keyframe_places(keyframes)
-        route = self.route_.copy()
-        route[0, :] = route[:, 0] = 1.0
-        weight = route[place[similarity.row], place[similarity.col]] ** self.contrast
+        weight = self.route_[place[similarity.row], place[similarity.col]] ** self.contrast
         return sparse.csr_matrix(
             (similarity.data * weight, (similarity.row, similarity.col)), shape=similarity.shape
         )

@@ -363,11 +363,12 @@ class TopoMap:
                 "regions": len(self.regions.ids),
                 "seconds": {k: round(v, 4) for k, v in self.seconds.items()},
                 "files": {name: _digest(work / name) for name in names if name != "topomap.json"},
+                "method": self.method,
             }
-            about["method"] = self.method
             if self.segmentation is not None:
                 about["conditioning"] = self.conditioned.summary()
-                fitted = self.segmenter
+            if self.segmentation is not None or self.partition is not None:
+                fitted = self.segmenter  # a map read back keeps its saved partition
                 about["partition"] = {
                     "labels": [int(v) for v in fitted.labels_],
                     "clusters": int(fitted.n_regions_),

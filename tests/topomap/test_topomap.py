@@ -97,6 +97,9 @@ def test_a_saved_map_reads_back_equal(tmp_path_factory, seed, furniture):
     assert again.segmenter.silhouette_by_k_ == pytest.approx(topo.segmenter.silhouette_by_k_)
     with pytest.raises(SegmentationError, match="read back from files"):
         again.keyframes  # noqa: B018
+    again.save(folder / "again")  # saved once more, the partition stays
+    twice = TopoMap.load(folder / "again")
+    assert np.array_equal(twice.segmenter.labels_, topo.segmenter.labels_)
     with pytest.raises(OutputExistsError):
         topo.save(folder)
     doors = TopoMap.from_grid(plan.grid, random_state=seed, method="doors")

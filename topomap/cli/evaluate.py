@@ -49,12 +49,12 @@ class FloorPlan:
 
 
 def _labels(path: Path) -> NDArray[np.int32]:
-    if path.parent.name in ("gt", "rose2_seg"):
-        image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-        if image is None:
-            raise MapFileNotFoundError(path, "colour label image")
-        return colour_labels(np.asarray(image, np.uint8))
-    return read_label_image(path)
+    """People's rooms from a 16-bit label image (ipa) or a colour image (ROSE²: one colour a
+    room, black none), told apart by their channels."""
+    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if image is not None and image.ndim == 3:
+        return colour_labels(np.asarray(image[..., :3], np.uint8))
+    return read_label_image(path)  # the labels, or the error that names the file
 
 
 def floor_plans(data_dir: str | Path) -> list[FloorPlan]:
