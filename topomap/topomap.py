@@ -9,7 +9,7 @@ import json
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -35,6 +35,7 @@ from segmentation.export import (
     write_node_link,
 )
 from segmentation.graph import region_graph
+from segmentation.growing import MapMismatchError, align, carry_ids
 from segmentation.pipeline import MapSegmenter, Segmentation
 from segmentation.regions import Regions
 from segmentation.spectral import SpectralSegmenter
@@ -119,6 +120,11 @@ class TopoMap:
         How the regions were made: ``"spectral"`` or ``"doors"``.
     partition
         For a map read back with :meth:`load`: the saved partition (:attr:`segmenter`).
+    next_id
+        The lowest id no region of this map had, nor of the maps :meth:`update` made it from.
+    changes
+        For a map made by :meth:`update`: what happened to each region (the events of
+        :func:`segmentation.growing.carry_ids`).
     """
 
     grid: OccupancyGrid
@@ -128,6 +134,8 @@ class TopoMap:
     seconds: dict[str, float] = field(default_factory=dict)
     method: str = "spectral"
     partition: SavedPartition | None = None
+    next_id: int = 0
+    changes: list[dict[str, Any]] = field(default_factory=list)
     _planners: dict[tuple, HierarchicalPlanner] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -175,13 +183,54 @@ class TopoMap:
             topo.seconds = {"map": mapped, **topo.seconds}
         return topo
 
+    def update(
+        self,
+        grid: OccupancyGrid,
+        keyframes: Sequence[Keyframe] | None = None,
+        *,
+        random_state: RandomState = 0,
+        pipeline: MapSegmenter | None = None,
+        **options: Any,
+    ) -> TopoMap:
+        """Segment a later, larger map of the same building (in the same frame); regions that
+        continue one of this map's keep its id, and its name when their label is the same
+        (:mod:`segmentation.growing`). Options as for :meth:`from_grid`.
+
+        Raises
+        ------
+        MapMismatchError
+            ``grid`` has another resolution or frame, or is not a map of this building (less
+            than half of this map's free cells are free in it).
+        """
+        previous = align(self.grid, self.regions.labels, grid)
+        free = align(self.grid, self.grid.free, grid).astype(bool)
+        kept = int(np.count_nonzero(free & grid.free)) / max(
+            1, int(np.count_nonzero(self.grid.free))
+        )
+        if kept < 0.5:
+            raise MapMismatchError(
+                f"only {kept:.0%} of the previous map's free cells are free in this one: another "
+                "building, or a map in another frame"
+            )
+        pipeline = _pipeline(pipeline, options)
+        found = pipeline.segment(grid, keyframes, random_state=random_state)
+        carried = carry_ids(previous, found.regions.labels, self.next_id or None)
+        regions = Regions(grid, carried.labels)
+        same = found.spectral is found.regions
+        found = replace(found, regions=regions, spectral=regions if same else found.spectral)
+        topo = self._build(grid, found)
+        topo.next_id, topo.changes = carried.next_id, carried.events
+        _carry_names(topo.graph, self.graph)
+        return topo
+
     @classmethod
     def _build(cls, grid: OccupancyGrid, found: Segmentation) -> TopoMap:
         seconds = dict(found.seconds)
         start = time.perf_counter()
         graph = region_graph(found.regions, found.keyframe_regions())
         seconds["graph"] = time.perf_counter() - start
-        topo = cls(grid, found.regions, graph, found, seconds, found.method)
+        next_id = max(found.regions.ids, default=0) + 1
+        topo = cls(grid, found.regions, graph, found, seconds, found.method, next_id=next_id)
         start = time.perf_counter()
         topo.label()
         seconds["labels"] = time.perf_counter() - start
@@ -364,6 +413,7 @@ class TopoMap:
                 "seconds": {k: round(v, 4) for k, v in self.seconds.items()},
                 "files": {name: _digest(work / name) for name in names if name != "topomap.json"},
                 "method": self.method,
+                "next_id": self.next_id,
             }
             if self.segmentation is not None:
                 about["conditioning"] = self.conditioned.summary()
@@ -399,6 +449,7 @@ class TopoMap:
             files = dict(about.get("files", {}))
             method = str(about.get("method", "doors"))  # folders from before kept no method
             partition = _partition(about.get("partition"))
+            next_id = int(about.get("next_id", 0))
         except (ValueError, AttributeError, TypeError, KeyError, RecursionError) as err:
             raise ExportFormatError(f"{info}: not a topomap.json file: {err!r}") from None
         if about.get("format") != "topomap":
@@ -426,7 +477,8 @@ class TopoMap:
                     f"{folder / name}: changed since topomap.json was written (another run's or "
                     "an edited file): segment the map again"
                 )
-        return cls(grid, regions, graph, None, seconds, method, partition)
+        next_id = max(next_id, max(regions.ids, default=0) + 1)
+        return cls(grid, regions, graph, None, seconds, method, partition, next_id)
 
     def save_keyframes(self, path: str | Path, *, overwrite: bool = False) -> Path:
         """Write ``scan_index,x,y,theta,region``, one row per keyframe."""
@@ -441,6 +493,29 @@ class TopoMap:
 def _digest(path: Path) -> str:
     """The SHA-256 of a file, hex."""
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _carry_names(graph: nx.Graph, previous: nx.Graph) -> None:
+    """Regions of ``graph`` that continue a region of ``previous`` (same id) with the same
+    label take its name back; a region whose name one of them took gets the first free number
+    of its label."""
+    carried = {
+        r: previous.nodes[r]["name"]
+        for r, label in graph.nodes(data="label")
+        if r in previous and previous.nodes[r].get("label") == label
+    }
+    for region, name in carried.items():
+        graph.nodes[region]["name"] = name
+    used = {str(name) for _, name in graph.nodes(data="name")}
+    for region in sorted(graph.nodes):
+        data = graph.nodes[region]
+        if region in carried or data["name"] not in carried.values():
+            continue
+        number = 1  # a name a continued region took back: the first free number of its label
+        while f"{data['label']} {number}" in used:
+            number += 1
+        data["name"] = f"{data['label']} {number}"
+        used.add(data["name"])
 
 
 def _partition(saved: Any) -> SavedPartition | None:

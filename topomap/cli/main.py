@@ -167,6 +167,8 @@ def _segment_online(args: argparse.Namespace, out: Path) -> int:
 
     if args.scans is None:
         raise UsageError("--online needs --scans LOG: keyframes arrive one by one from a log")
+    if args.previous is not None:
+        raise UsageError("--previous is for maps segmented whole, not with --online")
     args.progress.stage(f"reading {args.scans}")
     keyframes = select_keyframes(_read_keyframes(Path(args.scans), args), distance=args.distance)
     args.progress.stage(f"online segmentation of {len(keyframes)} keyframes")
@@ -200,13 +202,20 @@ def cmd_segment(args: argparse.Namespace) -> int:
     written_names = [*SAVED, "map.yaml", "map.pgm", "segmentation.png", "summary.json"]
     if args.scans is not None:
         written_names.append("keyframes.csv")
+    if args.previous is not None:
+        written_names.append("changes.json")
     _refuse_existing(out, written_names, args.force)
+    previous = None if args.previous is None else TopoMap.load(args.previous)
     if args.scans is not None:
         frames = _read_keyframes(Path(args.scans), args)
         keyframes = select_keyframes(frames, distance=args.distance)
-        topo = TopoMap.from_keyframes(
-            keyframes, on_stage=args.progress.stage, **_segmenter_options(args)
-        )
+        options = {"on_stage": args.progress.stage, **_segmenter_options(args)}
+        if previous is not None:
+            from maps.mapping import grid_from_keyframes
+
+            topo = previous.update(grid_from_keyframes(keyframes, 0.05), keyframes, **options)
+        else:
+            topo = TopoMap.from_keyframes(keyframes, **options)
         source = args.scans
     else:
         if args.map_topic is not None or _is_bag(Path(args.map)):
@@ -215,7 +224,12 @@ def cmd_segment(args: argparse.Namespace) -> int:
             grid = read_rosbag_map(args.map, topic=args.map_topic, stamp=args.stamp)
         else:
             grid = OccupancyGrid.load(args.map)
-        topo = TopoMap.from_grid(grid, on_stage=args.progress.stage, **_segmenter_options(args))
+        options = {"on_stage": args.progress.stage, **_segmenter_options(args)}
+        topo = (
+            TopoMap.from_grid(grid, **options)
+            if previous is None
+            else previous.update(grid, **options)
+        )
         source = args.map
     folder = OutputFolder(out, written_names, overwrite=args.force, how="--force", last=SAVED[-1])
     with folder as work:  # every file appears at once; an interrupted run leaves none
@@ -233,6 +247,9 @@ def cmd_segment(args: argparse.Namespace) -> int:
             )
         )
         summary = _write_summary(work / "summary.json", topo, source, count)
+        if previous is not None:
+            write_text(work / "changes.json", json.dumps(topo.changes, indent=1))
+            written.append(work / "changes.json")
     print(summary)
     print(f"wrote {', '.join(p.name for p in written)}, summary.json to {out}")
     return 0
@@ -728,6 +745,11 @@ def build_parser() -> argparse.ArgumentParser:
     seg.add_argument("--seed-keyframes", type=int, default=300, help="offline seed (--online)")
     seg.add_argument("--theta", type=float, default=0.5, help="online acceptance, in [0, 1]")
     seg.add_argument("--frames", type=int, help="a picture every N keyframes and regions.gif")
+    seg.add_argument(
+        "--previous",
+        metavar="DIR",
+        help="the output of an earlier map of this building: continued regions keep their ids",
+    )
     seg.set_defaults(func=cmd_segment)
 
     evaluation = sub.add_parser("eval", help="evaluations against ground truth")

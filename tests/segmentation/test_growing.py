@@ -1,0 +1,68 @@
+"""Regions of a growing map keep their ids: matching, merges, splits, new and removed ids."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from maps.grid import OccupancyGrid
+from segmentation.growing import MapMismatchError, align, carry_ids
+
+shapes = st.tuples(st.integers(1, 12), st.integers(1, 12))
+labels = arrays(np.int32, shapes, elements=st.integers(0, 6))
+
+
+@given(labels, st.permutations(list(range(1, 7))))
+def test_the_same_regions_under_other_ids_get_their_ids_back(previous, permutation):
+    lookup = np.array([0, *permutation])
+    found = carry_ids(previous, lookup[previous])
+    assert np.array_equal(found.labels, previous)
+    assert {e["event"] for e in found.events} <= {"kept"}
+
+
+@given(labels, labels)
+def test_ids_are_unique_and_new_ids_were_never_used(previous, new):
+    new = new[: previous.shape[0], : previous.shape[1]]
+    previous = previous[: new.shape[0], : new.shape[1]]
+    found = carry_ids(previous, new, next_id=20)
+    carried = list(found.ids.values())
+    assert len(carried) == len(set(carried))  # two regions never share an id
+    old = set(np.unique(previous[previous > 0]).tolist())
+    assert all(v in old or v >= 20 for v in carried)
+    assert found.next_id == max([20, *[v + 1 for v in carried if v >= 20]])
+    # the label image is the new partition under other names: same cells together
+    pairs = set(zip(new.ravel().tolist(), found.labels.ravel().tolist(), strict=True))
+    assert len(pairs) == len({a for a, _ in pairs}) and all((a == 0) == (b == 0) for a, b in pairs)
+
+
+def test_a_merge_keeps_the_older_id_and_names_the_absorbed_one():
+    previous = np.array([[3, 3, 9, 9, 0, 0]])
+    found = carry_ids(previous, np.array([[1, 1, 1, 1, 2, 2]]))
+    assert found.labels.tolist() == [[3, 3, 3, 3, 10, 10]]
+    assert {"event": "merged", "region": 3, "absorbed": [9]} in found.events
+    assert {"event": "created", "region": 10} in found.events
+
+
+def test_a_split_keeps_the_id_on_the_larger_piece_and_a_region_gone_is_removed():
+    previous = np.array([[4, 4, 4, 4, 4, 6]])
+    found = carry_ids(previous, np.array([[1, 1, 2, 2, 2, 0]]))
+    assert found.labels.tolist() == [[7, 7, 4, 4, 4, 0]]
+    assert {"event": "split", "region": 7, "source": 4} in found.events
+    assert {"event": "removed", "region": 6} in found.events
+
+
+def test_align_follows_the_map_frame_and_refuses_another_resolution():
+    old = OccupancyGrid(np.zeros((3, 3), np.int8), 0.5, origin=(1.0, 2.0, 0.0))
+    previous = np.arange(9).reshape(3, 3)
+    new = OccupancyGrid(np.zeros((4, 5), np.int8), 0.5, origin=(0.0, 2.0, 0.0))
+    moved = align(old, previous, new)
+    # old cell (row 2, col 0) has its lower-left corner at (1, 2): new cell (row 3, col 2)
+    assert moved[3, 2] == previous[2, 0] and moved[1, 4] == previous[0, 2]
+    assert moved[:, :2].sum() == 0 and moved[0].sum() == 0
+    with pytest.raises(MapMismatchError, match=r"0\.25 m"):
+        align(old, previous, OccupancyGrid(np.zeros((4, 5), np.int8), 0.25))
+    with pytest.raises(MapMismatchError, match="yaw"):
+        align(old, previous, OccupancyGrid(np.zeros((4, 5), np.int8), 0.5, (0.0, 0.0, 0.3)))
