@@ -30,6 +30,8 @@ Progress = Callable[[Iterable[Any]], Iterable[Any]]
 
 #: The four CARMEN logs of ``../shared/data/carmen``.
 LOGS = ("intel", "aces", "csail", "freiburg-079")
+#: The snapshots of one exploration (ROSE²'s incremental partial maps).
+SNAPSHOTS = "../shared/data/rose2_partial"
 
 
 def _ms(seconds: list[float], prefix: str = "") -> dict[str, float]:
@@ -237,5 +239,9 @@ def bench_online(
     if "quality" in parts:
         chosen = {k: v for k, v in options.items() if k in ("logs_dir", "seed_fraction")}
         results["quality"] = bench_quality(**chosen, **common, progress=progress)
+    if "growing" in parts:
+        from topomap.cli.bench_growing import bench_growing
+
+        results["growing"] = bench_growing(options.get("snapshots_dir", SNAPSHOTS), progress)
     (out / "results.json").write_text(json.dumps(results, indent=2))
     return results

@@ -45,10 +45,10 @@ class FloorPlan:
 
     def rooms(self) -> NDArray[np.int32]:
         """The people's rooms as labels (0 = no room)."""
-        return _labels(self.truth)
+        return read_rooms(self.truth)
 
 
-def _labels(path: Path) -> NDArray[np.int32]:
+def read_rooms(path: Path) -> NDArray[np.int32]:
     """People's rooms from a 16-bit label image (ipa) or a colour image (ROSE²: one colour a
     room, black none), told apart by their channels."""
     image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
@@ -133,7 +133,7 @@ def evaluate(plan: FloorPlan, **options: Any) -> list[dict[str, Any]]:
                 "furnished": False,
                 "variant": "rose2_released",
                 "seconds": None,
-                **_scores(_labels(plan.released), truth),
+                **_scores(read_rooms(plan.released), truth),
             }
         )
     return records

@@ -442,6 +442,7 @@ def cmd_bench_online(args: argparse.Namespace) -> int:
         logs_dir=args.logs,
         seed_fraction=args.seed_fraction,
         theta=args.theta,
+        snapshots_dir=args.snapshots,
     )
     if "latency" in results:
         columns = ["keyframes_seen", "median_ms", "p95_ms", "max_ms", "cpu_median_ms"]
@@ -455,6 +456,14 @@ def cmd_bench_online(args: argparse.Namespace) -> int:
         rows = [{"mcc_offline": "-", "mcc_online": "-", **r} for r in results["quality"]]
         scores = ["ari", "seed_ari", "mcc_offline", "mcc_online", "p95_ms", "max_ms"]
         print(_table(rows, [*columns, *scores]))
+    if "growing" in results:
+        columns = ["map", "regions", "rose2_iou", "released_iou", "kept", "merged", "split"]
+        columns += ["created", "removed", "rooms_unchanged", "ids_kept"]
+        rows = [{c: r.get(c, "-") for c in columns} for r in results["growing"]]
+        print(_table(rows, columns))
+        unchanged = sum(r.get("rooms_unchanged", 0) for r in results["growing"])
+        kept = sum(r.get("ids_kept", 0) for r in results["growing"])
+        print(f"ids kept where the room did not change: {kept} of {unchanged}")
     print(f"wrote {args.out}/results.json" + (", latency.png" if "latency" in results else ""))
     return 0
 
@@ -808,7 +817,10 @@ def build_parser() -> argparse.ArgumentParser:
     online_bench = bench_sub.add_parser("online", help="online segmentation: latency, agreement")
     online_bench.add_argument("--out", default="out/bench-online")
     online_bench.add_argument(
-        "--parts", nargs="+", default=["latency", "quality"], choices=["latency", "quality"]
+        "--parts",
+        nargs="+",
+        default=["latency", "quality", "growing"],
+        choices=["latency", "quality", "growing"],
     )
     online_bench.add_argument("--keyframes", type=int, default=10_000, help="of the long run")
     online_bench.add_argument("--seed-keyframes", type=int, default=500, help="long run's seed")
@@ -817,6 +829,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--offline-up-to", type=int, default=3_000, help="re-run offline every 100 up to this"
     )
     online_bench.add_argument("--logs", default="../shared/data/carmen", help="CARMEN logs")
+    online_bench.add_argument(
+        "--snapshots", default="../shared/data/rose2_partial", help="growing-map snapshots"
+    )
     online_bench.add_argument(
         "--seed-fraction", type=float, default=0.5, help="quality runs: share of keyframes seeded"
     )
