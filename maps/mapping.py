@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import cv2
@@ -49,46 +48,110 @@ def grid_from_keyframes(
     """
     if not keyframes:
         raise InvalidScanError("cannot build a map from no keyframes")
-    for problem in (
-        finite_in(resolution, "resolution", *RESOLUTION_RANGE, unit="m per cell"),
-        finite_in(max_range, "max_range", 0.0, 1e4, unit="m", low_open=True),
-        finite_in(margin, "margin", 0.0, 1e3, unit="m"),
-    ):
-        if problem is not None:
-            raise InvalidScanError(problem)
-    ends, origins = [], []
-    for frame in keyframes:
-        scan = frame.scan
-        keep = scan.valid & (scan.ranges <= max_range)
-        ranges = np.where(keep, scan.ranges, 0.0)
-        local = np.column_stack((np.cos(scan.angles), np.sin(scan.angles)))
-        ends.append((transform_points(local * ranges[:, None], frame.pose), keep))
-        origins.append(frame.pose[:2])
-    every = np.vstack([p[k] for p, k in ends] + [np.array(origins)])
-    lo = every.min(axis=0) - margin
-    hi = every.max(axis=0) + margin
-    width = math.ceil((hi[0] - lo[0]) / resolution)
-    height = math.ceil((hi[1] - lo[1]) / resolution)
+    builder = MapBuilder(resolution, max_range=max_range, occupied_ratio=occupied_ratio)
+    ends = [builder.end_points(frame) for frame in keyframes]
+    every = np.vstack([p[k] for p, k in ends] + [[frame.pose[:2] for frame in keyframes]])
+    lo, hi = every.min(axis=0) - margin, every.max(axis=0) + margin
     try:
-        check_map_size(height, width, what=f"map at {resolution:g} m per cell")
+        builder.reserve(lo, hi)
     except MapTooLargeError as err:
-        poses = np.array(origins)
+        poses = np.array([frame.pose[:2] for frame in keyframes])
         far = int(np.argmax(np.hypot(*(poses - np.median(poses, axis=0)).T)))
         x, y = poses[far]
         raise MapTooLargeError(
             f"{err}: the keyframes span {hi[0] - lo[0]:.4g} x {hi[1] - lo[1]:.4g} m; the farthest "
             f"from the others is scan {keyframes[far].scan_index} at ({x:.4g}, {y:.4g}) m"
         ) from None
-    visits = np.zeros((height, width), np.uint32)
-    hits = np.zeros((height, width), np.uint32)
+    for frame, (points, keep) in zip(keyframes, ends, strict=True):
+        builder.count(np.asarray(frame.pose[:2]), points, keep)
+    return builder.grid()
 
-    def to_pixels(xy: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Map metres to continuous (col, row) image coordinates, row 0 at the top."""
-        return np.column_stack(
-            ((xy[:, 0] - lo[0]) / resolution, height - (xy[:, 1] - lo[1]) / resolution)
-        )
 
-    for (points, keep), origin in zip(ends, origins, strict=True):
+class MapBuilder:
+    """The occupancy grid of :func:`grid_from_keyframes`, built keyframe by keyframe: the
+    counts grow with the area seen, each keyframe touches only the cells it saw.
+
+    Examples
+    --------
+    >>> from maps.scan import LaserScan
+    >>> scan = LaserScan(np.full(180, 2.0), -np.pi, 2 * np.pi / 180)
+    >>> builder = MapBuilder(0.1)
+    >>> builder.add(Keyframe((0.0, 0.0, 0.0), scan))
+    >>> grid = builder.grid()
+    >>> bool(grid.is_free(0.5, 0.5)), bool(grid.is_free(3.0, 0.0))
+    (True, False)
+    """
+
+    def __init__(
+        self, resolution: float = 0.05, *, max_range: float = 30.0, occupied_ratio: float = 0.25
+    ) -> None:
+        for problem in (
+            finite_in(resolution, "resolution", *RESOLUTION_RANGE, unit="m per cell"),
+            finite_in(max_range, "max_range", 0.0, 1e4, unit="m", low_open=True),
+        ):
+            if problem is not None:
+                raise InvalidScanError(problem)
+        self.resolution = float(resolution)
+        self.max_range = float(max_range)
+        self.occupied_ratio = occupied_ratio
+        self._low = np.zeros(2)  # map point of the lower-left corner of the arrays
+        self._visits = np.zeros((0, 0), np.uint32)  # rows from the top, as the grid's
+        self._hits = np.zeros((0, 0), np.uint32)
+
+    def end_points(self, frame: Keyframe) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """The beams' end points in the map frame and which of them count."""
+        scan = frame.scan
+        keep = scan.valid & (scan.ranges <= self.max_range)
+        ranges = np.where(keep, scan.ranges, 0.0)
+        local = np.column_stack((np.cos(scan.angles), np.sin(scan.angles)))
+        return transform_points(local * ranges[:, None], frame.pose), keep
+
+    def add(self, frame: Keyframe) -> None:
+        """Count what the keyframe saw, growing the map to hold it (1 m of margin; the corner
+        on the lattice of the cells, so every grid of this map has its cells there)."""
+        points, keep = self.end_points(frame)
+        every = np.vstack([points[keep], [frame.pose[:2]]])
+        lattice = np.floor((every.min(axis=0) - 1.0) / self.resolution) * self.resolution
+        self.reserve(lattice, every.max(axis=0) + 1.0)
+        self.count(np.asarray(frame.pose[:2]), points, keep)
+
+    def reserve(self, low: NDArray[np.float64], high: NDArray[np.float64]) -> None:
+        """Grow the counts to cover map points ``low`` to ``high`` (by half again at least, so
+        growing costs little over a run)."""
+        res = self.resolution
+        height, width = self._visits.shape
+        if self._visits.size:
+            top = self._low + np.array([width, height]) * res
+            if np.all(low >= self._low) and np.all(high <= top):
+                return
+            span = top - self._low
+            low = np.where(low < self._low, np.minimum(low, self._low - span / 2), self._low)
+            high = np.where(high > top, np.maximum(high, top + span / 2), top)
+        cols, rows = np.ceil((np.asarray(high) - low) / res).astype(int)
+        check_map_size(int(rows), int(cols), what=f"map at {res:g} m per cell")
+        low = np.asarray(low, float)
+        visits = np.zeros((rows, cols), np.uint32)
+        hits = np.zeros((rows, cols), np.uint32)
+        if self._visits.size:
+            col = round((self._low[0] - low[0]) / res)
+            row = rows - height - round((self._low[1] - low[1]) / res)
+            visits[row : row + height, col : col + width] = self._visits
+            hits[row : row + height, col : col + width] = self._hits
+            low = np.array([self._low[0] - col * res, self._low[1] - (rows - height - row) * res])
+        self._low, self._visits, self._hits = low, visits, hits
+
+    def count(
+        self, origin: NDArray[np.float64], points: NDArray[np.float64], keep: NDArray[np.bool_]
+    ) -> None:
+        """Count one scan from sensor ``origin`` with end ``points`` (``keep`` those that
+        count); the counts must already cover them (:meth:`reserve`)."""
+        height, width = self._visits.shape
+        res, lo = self.resolution, self._low
+
+        def to_pixels(xy: NDArray[np.float64]) -> NDArray[np.float64]:
+            """Map metres to continuous (col, row) image coordinates, row 0 at the top."""
+            return np.column_stack(((xy[:, 0] - lo[0]) / res, height - (xy[:, 1] - lo[1]) / res))
+
         sensor = to_pixels(np.asarray([origin]))[0]
         ends_px = to_pixels(points)
         offset = ends_px - sensor
@@ -117,11 +180,30 @@ def grid_from_keyframes(
             & (cells[:, 1] < seen.shape[0])
         )
         hit[cells[inside, 1], cells[inside, 0]] = 1
-        visits[window] += seen | hit
-        hits[window] += hit
-    cells = np.full((height, width), UNKNOWN, np.int8)
-    seen_any = visits > 0
-    ratio = np.divide(hits, visits, out=np.zeros(hits.shape), where=seen_any)
-    cells[seen_any & (ratio < occupied_ratio)] = FREE
-    cells[seen_any & (ratio >= occupied_ratio)] = OCCUPIED
-    return OccupancyGrid(cells, resolution, (float(lo[0]), float(lo[1]), 0.0))
+        self._visits[window] += seen | hit
+        self._hits[window] += hit
+
+    def grid(
+        self, low: NDArray[np.float64] | None = None, high: NDArray[np.float64] | None = None
+    ) -> OccupancyGrid:
+        """The occupancy grid of everything counted, or of the part between map points
+        ``low`` and ``high``."""
+        res = self.resolution
+        height, width = self._visits.shape
+        first_col, last_row = 0, height
+        last_col, first_row = width, 0
+        if low is not None and high is not None:
+            first_col = max(0, int(np.floor((low[0] - self._low[0]) / res)))
+            last_col = min(width, int(np.ceil((high[0] - self._low[0]) / res)))
+            last_row = min(height, height - int(np.floor((low[1] - self._low[1]) / res)))
+            first_row = max(0, height - int(np.ceil((high[1] - self._low[1]) / res)))
+        window = (slice(first_row, last_row), slice(first_col, last_col))
+        visits, hits = self._visits[window], self._hits[window]
+        cells = np.full(visits.shape, UNKNOWN, np.int8)
+        seen_any = visits > 0
+        ratio = np.divide(hits, visits, out=np.zeros(hits.shape), where=seen_any)
+        cells[seen_any & (ratio < self.occupied_ratio)] = FREE
+        cells[seen_any & (ratio >= self.occupied_ratio)] = OCCUPIED
+        x0 = self._low[0] + first_col * res
+        y0 = self._low[1] + (height - last_row) * res
+        return OccupancyGrid(cells, res, (float(x0), float(y0), 0.0))

@@ -96,13 +96,16 @@ class Event:
     kind
         ``"created"`` (a new region, with this keyframe as its centre; seed regions are created
         at the last seed keyframe), ``"grown"`` (the keyframe joined ``region``) or
-        ``"merged"`` (``absorbed`` merged into ``region``, which keeps its id).
+        ``"merged"`` (``absorbed`` merged into ``region``, which keeps its id) or ``"split"``
+        (``region`` is a new piece of ``source``).
     keyframe
         Index of the keyframe (0-based, over the seed and everything after it).
     region
         The region created, grown or surviving the merge.
     absorbed
         For ``"merged"``: the id that disappears.
+    source
+        For ``"split"``: the region the new one was a piece of.
     distance
         For ``"grown"`` / ``"created"`` after the seed: the scan's distance ``D`` to the
         nearest centre (1.0 when no centre was near).
@@ -111,10 +114,11 @@ class Event:
         moved, ``False`` for an undecided scan that joined without moving it.
     """
 
-    kind: Literal["created", "grown", "merged"]
+    kind: Literal["created", "grown", "merged", "split"]
     keyframe: int
     region: int
     absorbed: int | None = None
+    source: int | None = None
     distance: float | None = None
     decided: bool | None = None
 

@@ -63,6 +63,7 @@ class OnlineRegions:
         self._owner = np.full((0, 0), -1, np.int32)
         self._distance = np.full((0, 0), np.inf, np.float32)
         self._region_of = np.zeros(64, np.int64)  # region of each keyframe index
+        self._poses = np.zeros((64, 2))  # x, y of each keyframe index
         self._members: dict[int, list[int]] = {}
         self._pose_sum: dict[int, NDArray[np.float64]] = {}
         self._cells: dict[int, int] = {}
@@ -96,15 +97,71 @@ class OnlineRegions:
         return {r: n * self.resolution**2 for r, n in self._cells.items() if n > 0}
 
     # --------------------------------------------------------------------------- updates
+    def relabel(self, indices: NDArray[np.int64], regions: NDArray[np.int64]) -> None:
+        """Keyframes ``indices`` (each already added) now belong to ``regions``; areas,
+        boundaries and the graph are recounted only around their poses."""
+        indices = np.asarray(indices, np.int64)
+        regions = np.asarray(regions, np.int64)
+        moved = self._region_of[indices] != regions
+        indices, regions = indices[moved], regions[moved]
+        if len(indices) == 0:
+            return
+        poses = self._poses[indices]
+        margin = self.reach + 2 * self.resolution
+        first = np.floor((poses.min(axis=0) - margin) / self.resolution).astype(np.int64)
+        last = np.ceil((poses.max(axis=0) + margin) / self.resolution).astype(np.int64)
+        first = np.maximum(first - self._low, 0)
+        last = np.minimum(last - self._low + 1, self._owner.shape)
+        box = self._owner[first[0] : last[0], first[1] : last[1]]
+        before = self._labels(box)
+        old = self._region_of[indices].copy()
+        self._region_of[indices] = regions
+        after = self._labels(box)
+        for labels, sign in ((before, -1), (after, 1)):
+            found, counts = np.unique(labels[labels > 0], return_counts=True)
+            for region, count in zip(found.tolist(), counts.tolist(), strict=True):
+                self._cells[region] = self._cells.get(region, 0) + sign * count
+            for a, b in ((labels[1:], labels[:-1]), (labels[:, 1:], labels[:, :-1])):
+                keep = (a != b) & (a > 0) & (b > 0)
+                low, high = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
+                pairs, counts = np.unique((low << 32) + high, return_counts=True)
+                for pair, count in zip(pairs.tolist(), counts.tolist(), strict=True):
+                    self._count_boundary(pair >> 32, pair & 0xFFFFFFFF, sign * count)
+        for index, source, target in zip(
+            indices.tolist(), old.tolist(), regions.tolist(), strict=True
+        ):
+            self._members[source].remove(index)
+            self._members.setdefault(target, []).append(index)
+            self._pose_sum[source] -= self._poses[index]
+            self._pose_sum[target] = self._pose_sum.get(target, np.zeros(2)) + self._poses[index]
+        touched = set(old.tolist()) | set(regions.tolist())
+        for region in touched:
+            if not self._members.get(region):
+                self._members.pop(region, None)
+                self._pose_sum.pop(region, None)
+                self._cells.pop(region, None)
+                if region in self.graph:
+                    self.graph.remove_node(region)
+                continue
+            self._update_node(region)
+        for region in touched:
+            for other in self._neighbours.get(region, set()) | set(self.graph.adj.get(region, ())):
+                self._update_edge(region, other)
+
     def add(self, index: int, keyframe: Keyframe, region: int) -> None:
         """Keyframe number ``index`` of region ``region`` claims the free cells it saw."""
         if index >= len(self._region_of):
             grown = np.zeros(max(2 * len(self._region_of), index + 1), np.int64)
             grown[: len(self._region_of)] = self._region_of
             self._region_of = grown
+        if index >= len(self._poses):
+            grown_poses = np.zeros((max(2 * len(self._poses), index + 1), 2))
+            grown_poses[: len(self._poses)] = self._poses
+            self._poses = grown_poses
         self._region_of[index] = region
         self._members.setdefault(region, []).append(index)
         x, y = keyframe.pose[:2]
+        self._poses[index] = x, y
         self._pose_sum[region] = self._pose_sum.get(region, np.zeros(2)) + np.array([x, y])
         cells, distance, walls = self._seen(keyframe)
         self._fit(np.vstack([cells, walls]))

@@ -201,22 +201,11 @@ class MapSegmenter:
         if random_state is not None:
             spectral = replace(spectral, random_state=random_state)
         stage("condition")
-        conditioned = condition(grid, self.robot_radius, self.clutter_size, self.min_area)
-        if not conditioned.free.any():
-            raise SegmentationError(
-                "the map has no free space a robot of radius "
-                f"{self.robot_radius} m fits in ({conditioned.summary()})"
-            )
+        conditioned = self.condition(grid)
         factor = pool_factor(grid.resolution, self.cell_size)
-        space = pool(conditioned.space, grid, factor)
         lap("condition")
         stage("places")
-        places = basins(space, self.place_depth)
-        outside = drop_outside(conditioned, unpool(places, factor, conditioned.space))
-        if outside is not conditioned:
-            conditioned = outside
-            space = pool(conditioned.space, grid, factor)
-            places = consecutive(np.where(space.free, places, 0))
+        conditioned, space, places = self.places(conditioned)
         lap("places")
         if keyframes is None:
             stage("keyframes")
@@ -239,8 +228,7 @@ class MapSegmenter:
             )
         if len(seeing) < len(keyframes):
             log.info("%d keyframes saw no wall and are not clustered", len(keyframes) - len(seeing))
-        affinity = PassageAffinity(space, places, spectral.criterion, self.contrast)
-        fitted = self._fit(space, places, seeing, replace(spectral, criterion=affinity))
+        fitted = self.partition(space, places, seeing, spectral)
         lap("spectral")
         stage("regions")
         poses = poses_array(seeing)
@@ -269,6 +257,51 @@ class MapSegmenter:
             seconds,
             self.method,
         )
+
+    def condition(self, grid: OccupancyGrid) -> ConditionedMap:
+        """Stage ``condition``: the building space and its clutter.
+
+        Raises
+        ------
+        SegmentationError
+            No free space the robot fits in.
+        """
+        conditioned = condition(grid, self.robot_radius, self.clutter_size, self.min_area)
+        if not conditioned.free.any():
+            raise SegmentationError(
+                "the map has no free space a robot of radius "
+                f"{self.robot_radius} m fits in ({conditioned.summary()})"
+            )
+        return conditioned
+
+    def places(
+        self, conditioned: ConditionedMap
+    ) -> tuple[ConditionedMap, OccupancyGrid, NDArray[np.int32]]:
+        """Stage ``places``: the clearance basins of the building space, in cells of about
+        ``cell_size``, those bounded by unknown space dropped; returns the conditioned map
+        without them, the working grid and the places on it."""
+        grid = conditioned.grid
+        factor = pool_factor(grid.resolution, self.cell_size)
+        space = pool(conditioned.space, grid, factor)
+        places = basins(space, self.place_depth)
+        outside = drop_outside(conditioned, unpool(places, factor, conditioned.space))
+        if outside is not conditioned:
+            conditioned = outside
+            space = pool(conditioned.space, grid, factor)
+            places = consecutive(np.where(space.free, places, 0))
+        return conditioned, space, places
+
+    def partition(
+        self,
+        space: OccupancyGrid,
+        places: NDArray[np.int32],
+        keyframes: list[Keyframe],
+        spectral: SpectralSegmenter,
+    ) -> SpectralSegmenter | BlockSpectralSegmenter:
+        """Stage ``spectral``: the spectral partition of ``keyframes`` (each of which saw a
+        wall) on ``spectral``'s similarity weighed by the passages between their places."""
+        affinity = PassageAffinity(space, places, spectral.criterion, self.contrast)
+        return self._fit(space, places, keyframes, replace(spectral, criterion=affinity))
 
     def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
         return cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)

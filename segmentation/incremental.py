@@ -1,0 +1,363 @@
+"""Online segmentation on the offline engine: the robot's neighbourhood partitioned again as it
+explores, the region ids carried over.
+
+The offline pipeline (:class:`~segmentation.pipeline.MapSegmenter`) clusters a log's keyframes
+on the paper's similarity weighed by the passages between their places. Online, the same
+pipeline runs on what the robot has seen so far, around where it is:
+
+1. **Arrival** (every keyframe). The keyframe claims the free cells it saw
+   (:class:`~segmentation.online_regions.OnlineRegions`: the online map and its dense regions),
+   its similarity to the ``neighbours`` earlier keyframes nearest to it is computed with the
+   offline criterion and kept, and it joins the region of the one most like it (a new region
+   when none is alike).
+2. **Re-partition** (every ``every`` keyframes). The ``window`` keyframes nearest to the robot
+   are partitioned by the offline stages on the online map around them: conditioning, places,
+   the spectral partition on the kept similarities weighed by the passages, the places voting
+   (:meth:`~segmentation.pipeline.MapSegmenter.partition`). The inner part of the window (the
+   ``inner`` share nearest to the robot, whose neighbourhood the window holds whole) takes the
+   new partition, under the ids it continues (:func:`~segmentation.growing.carry_ids`: a
+   region kept, merged into the oldest id, split with the id on its larger piece, or new).
+
+Each step costs what the window holds, not what the robot has seen. Every change is an
+:class:`~segmentation.online.Event`: ``created``, ``grown``, ``split``, ``merged``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import networkx as nx
+import numpy as np
+from numpy.typing import NDArray
+from scipy import sparse
+
+from maps.mapping import MapBuilder
+from maps.scan import Keyframe
+from segmentation.errors import ParameterError, SegmentationError
+from segmentation.growing import carry_ids
+from segmentation.online import Event, OnlineStateError
+from segmentation.online_regions import OnlineRegions
+from segmentation.pipeline import MapSegmenter, by_place
+from segmentation.similarity import as_criterion, symmetric
+
+log = logging.getLogger(__name__)
+
+
+class KeptSimilarities:
+    """A :class:`~segmentation.similarity.Criterion` that looks up the similarities computed
+    as the keyframes arrived (pairs never computed are 0)."""
+
+    def __init__(self, rows: list[dict[int, float]], index: dict[int, int]) -> None:
+        self.rows = rows
+        self.index = index  # id(keyframe) -> arrival number
+
+    def affinity(self, keyframes: Sequence[Keyframe]) -> sparse.csr_matrix:
+        """The kept similarities among ``keyframes``."""
+        local = {self.index[id(k)]: n for n, k in enumerate(keyframes)}
+        i, j, values = [], [], []
+        for number, n in local.items():
+            for other, value in self.rows[number].items():
+                m = local.get(other)
+                if m is not None:
+                    i.append(n)
+                    j.append(m)
+                    values.append(value)
+        return symmetric(np.asarray(values), np.asarray(i, np.int64), np.asarray(j), len(local))
+
+
+@dataclass
+class IncrementalSegmenter:
+    """Segment keyframes as they arrive with the offline pipeline (see the module docstring).
+
+    Parameters
+    ----------
+    pipeline
+        The offline pipeline whose stages and criterion are used.
+    neighbours
+        A keyframe's similarity is computed to this many earlier keyframes, nearest first.
+    window
+        Keyframes partitioned together.
+    inner
+        Share of the window (nearest to the robot) that takes the new partition.
+    every
+        Keyframes between two re-partitions.
+    reach
+        A keyframe claims the free cells it saw up to this many metres away (the dense
+        regions).
+    resolution
+        Cell size of the online map the windows are partitioned on (metres), built as
+        :func:`~maps.mapping.grid_from_keyframes` builds the offline one.
+    margin
+        The map around a window reaches this many metres beyond its keyframes.
+    max_gap
+        A keyframe more than this many metres from every earlier one is refused.
+    random_state
+        Seed of the spectral partitions.
+    churn_age
+        A keyframe this many keyframes old counts in :attr:`late_changes_` when its region
+        changes.
+
+    Attributes
+    ----------
+    labels_, arrival_labels_ : ndarray of int
+        Region of every keyframe now, and when it arrived.
+    events_ : list of Event
+    n_seed_ : int
+    late_changes_ : ndarray of int
+        Per keyframe, how often its region changed once it was ``churn_age`` keyframes old.
+
+    Examples
+    --------
+    >>> import maps
+    >>> plan = maps.generate_floor_plan("flat", random_state=0)
+    >>> route = maps.wander(plan.grid, plan.labels, random_state=0)
+    >>> scans = maps.simulate_scans(plan.grid, route.poses, maps.LaserModel(), random_state=0)
+    >>> keyframes = maps.select_keyframes(scans)
+    >>> online = IncrementalSegmenter().fit(keyframes[:40])
+    >>> regions = online.partial_fit(keyframes[40:])
+    >>> len(online.labels_) == len(keyframes), online.n_regions_ > 1
+    (True, True)
+    """
+
+    pipeline: MapSegmenter = field(default_factory=MapSegmenter)
+    neighbours: int = 12
+    window: int = 200
+    inner: float = 0.6
+    every: int = 30
+    reach: float = 4.0
+    resolution: float = 0.1
+    margin: float = 8.0
+    max_gap: float = 10.0
+    random_state: int = 0
+    churn_age: int = 50
+    events_: list[Event] = field(init=False, repr=False)
+    n_seed_: int = field(init=False, repr=False)
+    regions_: OnlineRegions = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        for name, low in (("neighbours", 1), ("window", 2), ("every", 1), ("churn_age", 0)):
+            value = getattr(self, name)
+            if not isinstance(value, int | np.integer) or value < low:
+                raise ParameterError(f"{name} must be an integer >= {low}, got {value!r}")
+        if not (isinstance(self.inner, int | float) and 0 < self.inner <= 1):
+            raise ParameterError(f"inner must lie in (0, 1], got {self.inner!r}")
+        for name in ("reach", "resolution", "margin", "max_gap"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ParameterError(f"{name} must be a finite number > 0 metres, got {value!r}")
+        self._fitted = False
+
+    # ----------------------------------------------------------------------------- fitting
+    def fit(self, keyframes: Sequence[Keyframe]) -> IncrementalSegmenter:
+        """Seed: the offline partition of ``keyframes`` (all of them, one window)."""
+        keyframes = list(keyframes)
+        if len(keyframes) < 2:
+            raise SegmentationError(f"{len(keyframes)} keyframe(s) cannot seed: give two or more")
+        self._criterion = as_criterion(self.pipeline.spectral.criterion)
+        self._keyframes: list[Keyframe] = []
+        self._index: dict[int, int] = {}
+        self._rows: list[dict[int, float]] = []
+        self._poses = np.zeros((max(64, 2 * len(keyframes)), 2))
+        self._labels = np.zeros(len(self._poses), np.int64)
+        self._arrival = np.zeros_like(self._labels)
+        self._late = np.zeros_like(self._labels)
+        self.regions_ = OnlineRegions(self.pipeline.cell_size, self.reach)
+        self._map = MapBuilder(self.resolution)
+        self.events_ = []
+        self._next_id = 1
+        for keyframe in keyframes:
+            self._check(keyframe, len(self._keyframes), seeding=True)
+            self._add(keyframe, self._similar(keyframe), 1)
+        self._repartition(np.arange(len(keyframes)), seeding=True)
+        self._arrival[: len(keyframes)] = self._labels[: len(keyframes)]
+        self.n_seed_ = len(keyframes)
+        self._since = 0
+        self._fitted = True
+        return self
+
+    def partial_fit(self, keyframes: Keyframe | Sequence[Keyframe]) -> int | list[int]:
+        """Assign one keyframe (returns its region) or a batch (returns a list).
+
+        Raises
+        ------
+        OnlineStateError
+            Before :meth:`fit`.
+        SegmentationError
+            A keyframe with no valid beam, a pose that is not finite, or one more than
+            ``max_gap`` metres from every earlier keyframe; the segmenter is then unchanged.
+        """
+        if not self._fitted:
+            raise OnlineStateError("partial_fit before fit: fit the seed keyframes first")
+        if isinstance(keyframes, Keyframe):
+            return self._arrive(keyframes)
+        return [self._arrive(k) for k in keyframes]
+
+    # ----------------------------------------------------------------------------- queries
+    @property
+    def labels_(self) -> NDArray[np.int64]:
+        """Region of every keyframe so far."""
+        self._check_fitted()
+        return self._labels[: len(self._keyframes)].copy()
+
+    @property
+    def arrival_labels_(self) -> NDArray[np.int64]:
+        """Region each keyframe was given when it arrived."""
+        self._check_fitted()
+        return self._arrival[: len(self._keyframes)].copy()
+
+    @property
+    def late_changes_(self) -> NDArray[np.int64]:
+        """Per keyframe, how often its region changed after it was ``churn_age`` keyframes
+        old."""
+        self._check_fitted()
+        return self._late[: len(self._keyframes)].copy()
+
+    @property
+    def n_regions_(self) -> int:
+        """Number of live regions."""
+        return len(np.unique(self.labels_))
+
+    def region_at(self, x: float, y: float) -> int:
+        """Region id at map point ``(x, y)``, 0 if no keyframe saw it free."""
+        self._check_fitted()
+        return self.regions_.region_at(x, y)
+
+    @property
+    def graph_(self) -> nx.Graph:
+        """The region adjacency graph of the online map."""
+        self._check_fitted()
+        return self.regions_.graph
+
+    def _check_fitted(self) -> None:
+        if not self._fitted:
+            raise OnlineStateError("the online segmenter is not fitted: call fit first")
+
+    # ----------------------------------------------------------------------------- internals
+    def _check(self, keyframe: Keyframe, index: int, seeding: bool = False) -> None:
+        if not isinstance(keyframe, Keyframe):
+            raise SegmentationError(f"keyframe {index} is not a Keyframe: {keyframe!r}")
+        if not np.all(np.isfinite(keyframe.pose)):
+            raise SegmentationError(f"keyframe {index} has a pose that is not finite")
+        if not keyframe.scan.valid.any():
+            raise SegmentationError(f"keyframe {index} has no valid beam")
+        if seeding or not self._keyframes:
+            return
+        gap = float(np.hypot(*(self._poses[:index] - keyframe.pose[:2]).T).min())
+        if gap > self.max_gap:
+            raise SegmentationError(
+                f"keyframe {index} (scan_index {keyframe.scan_index}) is {gap:.1f} m from every "
+                f"earlier keyframe (max_gap {self.max_gap} m)"
+            )
+
+    def _similar(self, keyframe: Keyframe) -> dict[int, float]:
+        """The keyframe's similarity to the ``neighbours`` earlier keyframes nearest to it
+        (those with none left out)."""
+        index = len(self._keyframes)
+        count = min(self.neighbours, index)
+        if count == 0:
+            return {}
+        distance = np.hypot(*(self._poses[:index] - keyframe.pose[:2]).T)
+        near = np.argpartition(distance, count - 1)[:count]
+        found = self._criterion.affinity([keyframe, *(self._keyframes[i] for i in near)])
+        values = found[0].toarray().ravel()[1:]
+        return {int(i): float(v) for i, v in zip(near, values, strict=True) if v > 0}
+
+    def _add(self, keyframe: Keyframe, row: dict[int, float], region: int) -> None:
+        """Keep the keyframe in ``region``, its similarities ``row`` and its claims."""
+        index = len(self._keyframes)
+        if index >= len(self._poses):
+            for name in ("_poses", "_labels", "_arrival", "_late"):
+                array = getattr(self, name)
+                setattr(self, name, np.concatenate([array, np.zeros_like(array)]))
+        self._poses[index] = keyframe.pose[:2]
+        self._keyframes.append(keyframe)
+        self._index[id(keyframe)] = index
+        self._rows.append(row)
+        self._labels[index] = self._arrival[index] = region
+        self.regions_.add(index, keyframe, region)
+        self._map.add(keyframe)
+
+    def _arrive(self, keyframe: Keyframe) -> int:
+        index = len(self._keyframes)
+        self._check(keyframe, index)
+        row = self._similar(keyframe)
+        if row:
+            region = int(self._labels[max(row, key=row.__getitem__)])
+            self.events_.append(Event("grown", index, region))
+        else:
+            region = self._new_id()
+            self.events_.append(Event("created", index, region))
+        self._add(keyframe, row, region)
+        self._since += 1
+        if self._since >= self.every:
+            self._since = 0
+            distance = np.hypot(*(self._poses[: index + 1] - keyframe.pose[:2]).T)
+            size = min(self.window, index + 1)
+            self._repartition(np.argsort(distance, kind="stable")[:size])
+        return int(self._labels[index])
+
+    def _new_id(self) -> int:
+        self._next_id += 1
+        return self._next_id - 1
+
+    def _repartition(self, window: NDArray[np.int64], seeding: bool = False) -> None:
+        """Partition the keyframes ``window`` (nearest to the robot first) and give the inner
+        ones the new regions under the ids they continue."""
+        keyframes = [self._keyframes[i] for i in window.tolist()]
+        poses = self._poses[window]
+        grid = self._map.grid(poses.min(axis=0) - self.margin, poses.max(axis=0) + self.margin)
+        pipeline = self.pipeline
+        try:
+            _, space, places = pipeline.places(pipeline.condition(grid))
+            spectral = replace(
+                pipeline.spectral,
+                criterion=KeptSimilarities(self._rows, self._index),
+                random_state=self.random_state,
+            )
+            fitted = pipeline.partition(space, places, keyframes, spectral)
+        except SegmentationError as err:  # too little seen yet: keep the regions as they are
+            log.info("re-partition of %d keyframes skipped: %s", len(window), err)
+            if seeding:
+                self._labels[window] = self._new_id()
+            return
+        rows, cols = space.world_to_cell(poses[:, 0], poses[:, 1])
+        voted = by_place(places, rows, cols, fitted.labels_)
+        inside = space.contains(rows, cols)
+        found = fitted.labels_ + 1
+        found[inside] = np.where(
+            voted[rows[inside], cols[inside]] > 0, voted[rows[inside], cols[inside]], found[inside]
+        )
+        inner = window if seeding else window[: max(1, round(self.inner * len(window)))]
+        new = found[: len(inner)]
+        old = np.zeros_like(new) if seeding else self._labels[inner]
+        carried = carry_ids(old.reshape(1, -1), new.reshape(1, -1), self._next_id)
+        self._next_id = carried.next_id
+        labels = carried.labels.ravel().astype(np.int64)
+        self._apply(inner, labels, carried.events, seeding)
+
+    def _apply(
+        self, inner: NDArray[np.int64], labels: NDArray[np.int64], events: list, seeding: bool
+    ) -> None:
+        index = len(self._keyframes) - 1
+        before = self._labels[inner].copy()
+        changed = before != labels
+        old_ids = set(before.tolist())
+        self._labels[inner] = labels
+        if not seeding:
+            old_enough = inner < index - self.churn_age
+            self._late[inner[changed & old_enough]] += 1
+        self.regions_.relabel(inner, labels)
+        live = set(np.unique(self._labels[: index + 1]).tolist())
+        for event in events:
+            kind, region = event["event"], event["region"]
+            if kind == "created" or (seeding and kind != "removed"):
+                self.events_.append(Event("created", index, region))
+            elif kind == "split":
+                self.events_.append(Event("split", index, region, source=event["source"]))
+        for gone in sorted(old_ids - live - {0}):
+            taken = labels[before == gone]
+            survivor = int(np.bincount(taken).argmax()) if len(taken) else 0
+            self.events_.append(Event("merged", index, survivor, absorbed=gone))
