@@ -28,6 +28,7 @@ All coordinates are map-frame metres (REP-103), z = 0.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 import shutil
 import time
@@ -206,12 +207,7 @@ def _region_markers(build: _Messages, topo: TopoMap) -> list[Any]:
             )
         )
         rings = [ring for piece in pieces for ring in (piece.exterior, *piece.interiors)]
-        pairs = [
-            xy
-            for ring in rings
-            for a, b in zip(ring.coords[:-1], ring.coords[1:], strict=True)
-            for xy in (a, b)
-        ]
+        pairs = [xy for ring in rings for a, b in itertools.pairwise(ring.coords) for xy in (a, b)]
         markers.append(
             build.marker(
                 "region_outline",
