@@ -58,7 +58,7 @@ def region_doors(planner: HierarchicalPlanner) -> list[Door]:
     return find_doors(planner.space, planner.labels, openings, spacing=math.inf)
 
 
-def _region_point(planner: HierarchicalPlanner, region: int) -> Point | None:
+def region_point(planner: HierarchicalPlanner, region: int) -> Point | None:
     """The region graph's most open point of ``region`` if the robot fits there, else the
     point of the region farthest from walls for the robot; None if it fits nowhere in it."""
     data = planner.graph.nodes[region]
@@ -110,7 +110,7 @@ def building_route_graph(planner: HierarchicalPlanner) -> nx.DiGraph:
         sites[door.b].append(node)
     cells = np.bincount(planner.labels.ravel(), minlength=max(sites, default=0) + 1)
     for region in sites:
-        point = _region_point(planner, region)
+        point = region_point(planner, region)
         if point is None:
             continue  # a region too narrow for the robot has no node
         node = route.number_of_nodes()

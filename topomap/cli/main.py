@@ -587,6 +587,12 @@ def cmd_export(args: argparse.Namespace) -> int:
     return run_export(args)
 
 
+def cmd_view(args: argparse.Namespace) -> int:
+    from topomap.cli.viewer import run_view
+
+    return run_view(args)
+
+
 def cmd_plan(args: argparse.Namespace) -> int:
     from planners.flat import FlatPlanner
     from planners.robots import Disc, parse_robot
@@ -879,6 +885,19 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("--robot-radius", type=_RADIUS, default=0.2, help="metres")
     export.add_argument("--force", action="store_true", help="overwrite existing files")
     export.set_defaults(func=cmd_export)
+
+    view = sub.add_parser("view", help="one self-contained HTML page of a map, for a browser")
+    view.add_argument("regions", help="folder written by `topomap segment`")
+    view.add_argument("--out", required=True, help="OUT.html")
+    view.add_argument("--robot-radius", type=_RADIUS, default=0.2, help="metres")
+    view.add_argument(
+        "--max-paths",
+        type=int,
+        default=400,
+        help="plan every pair of regions up to this many pairs, else neighbours' legs",
+    )
+    view.add_argument("--force", action="store_true", help="overwrite an existing file")
+    view.set_defaults(func=cmd_view)
     _add_output_options(parser)
     parser.set_defaults(verbose=False, quiet=False)
     return parser
