@@ -28,36 +28,21 @@ from scipy import ndimage, sparse
 from scipy.sparse.csgraph import dijkstra
 
 from maps.grid import OccupancyGrid
+from planners.doors import find_doors
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
 from planners.path import Path, shortcut, tighten
 from planners.submaps import convex_parts
 from planners.visibility import VisibilityGraph
 from planners.workspace import Point, Workspace, sample_polyline
-from segmentation.regions import boundary_pairs
-from segmentation.transitions import Transition, find_transitions
+from segmentation.transitions import find_transitions
 
 log = logging.getLogger(__name__)
 
 Goal = ArrayLike | int
-#: Longest stretch of an opening one door stands for, metres.
-DOOR_SPACING = 1.0
 #: Metres a submap reaches beyond its part, so legs can pass the doorways they end in.
 SUBMAP_MARGIN = 0.5
 #: Moves the final tightening tries per point and pass (the full move, then its halves).
 TIGHTEN_TRIES = 2
-
-
-@dataclass(frozen=True)
-class Door:
-    """A passable opening between submaps (parts) ``a`` and ``b``: ``portal`` spans the part
-    of the opening the robot fits through, ``point`` is its middle, ``width`` its length in
-    metres."""
-
-    a: int
-    b: int
-    point: Point
-    portal: tuple[Point, Point]
-    width: float
 
 
 @dataclass(frozen=True)
@@ -115,7 +100,7 @@ class HierarchicalPlanner:
         self.parts, self.region_of = convex_parts(np.where(space.free, self.labels, 0))
         if space.free.any() and not self.region_of:
             raise PlannerParameterError("the labels give no region to any free cell of the map")
-        self.doors = _find_doors(space, self.parts, find_transitions(space.grid, self.parts))
+        self.doors = find_doors(space, self.parts, find_transitions(space.grid, self.parts))
         self._doors_of: dict[int, list[int]] = {part: [] for part in self.region_of}
         for index, door in enumerate(self.doors):
             self._doors_of[door.a].append(index)
@@ -188,7 +173,7 @@ class HierarchicalPlanner:
     def centre(self, region: int) -> Point:
         """The free point of ``region`` farthest from its walls (where a region goal leads)."""
         if region not in self._centres:
-            sub = self._crop(self.labels, self._region_boxes, region)
+            sub = self.region_space(region)
             depth = ndimage.distance_transform_edt(sub.free)
             row, col = np.unravel_index(np.argmax(depth), depth.shape)
             if depth[row, col] == 0:
@@ -196,6 +181,11 @@ class HierarchicalPlanner:
             x, y = sub.grid.cell_to_world(row, col)
             self._centres[region] = (float(x), float(y))
         return self._centres[region]
+
+    def region_space(self, region: int) -> Workspace:
+        """The free space of ``region`` and :data:`SUBMAP_MARGIN` around it (so paths can
+        pass the doorways at its edge)."""
+        return self._crop(self.labels, self._region_boxes, region)
 
     # ------------------------------------------------------------------ doors
     def close_door(self, a: int, b: int) -> None:
@@ -415,10 +405,6 @@ def _length(waypoints: NDArray[np.float64]) -> float:
     return float(np.hypot(*np.diff(waypoints, axis=0).T).sum())
 
 
-def _point(xy: NDArray[np.float64]) -> Point:
-    return (float(xy[0]), float(xy[1]))
-
-
 def fill_unlabelled(labels: NDArray[np.integer], free: NDArray[np.bool_]) -> NDArray[np.int32]:
     """Labels where free cells in no region take the label of the nearest labelled cell."""
     labels = labels.astype(np.int32)
@@ -427,37 +413,3 @@ def fill_unlabelled(labels: NDArray[np.integer], free: NDArray[np.bool_]) -> NDA
         _, (rows, cols) = ndimage.distance_transform_edt(labels == 0, return_indices=True)
         labels = np.where(missing, labels[rows, cols], labels).astype(np.int32)
     return labels  # type: ignore[return-value]
-
-
-def _find_doors(
-    space: Workspace, labels: NDArray[np.int32], openings: list[Transition]
-) -> list[Door]:
-    """Doors of every opening where the robot fits (an opening too narrow gets none): one per
-    stretch of at most :data:`DOOR_SPACING` metres of the opening's usable boundary, so the
-    search sees where along a wide opening a path crosses. Each door's point is the boundary
-    point nearest the middle of its stretch, its portal the stretch."""
-    ra, ca, rb, cb = boundary_pairs(labels)
-    usable = space.free[ra, ca] & space.free[rb, cb]
-    ra, ca, rb, cb = ra[usable], ca[usable], rb[usable], cb[usable]
-    xa, ya = space.grid.cell_to_world(ra, ca)
-    xb, yb = space.grid.cell_to_world(rb, cb)
-    middles = np.column_stack([(xa + xb) / 2, (ya + yb) / 2])
-    pair_a, pair_b = labels[ra, ca], labels[rb, cb]
-    doors = []
-    for opening in openings:
-        here = middles[(pair_a == opening.a) & (pair_b == opening.b)]
-        gap = np.hypot(*(here - np.asarray(opening.centre)).T)
-        points = here[gap <= opening.width / 2 + space.grid.resolution]
-        if not len(points):
-            continue
-        axis = np.subtract(opening.end, opening.start)
-        along = (points - points.mean(axis=0)) @ (axis / max(float(np.hypot(*axis)), 1e-12))
-        order = np.argsort(along, kind="stable")
-        stretches = max(1, math.ceil((along.max() - along.min()) / DOOR_SPACING))
-        for piece in np.array_split(order, stretches):
-            stretch = points[piece]
-            middle = stretch[np.argmin(np.abs(along[piece] - along[piece].mean()))]
-            ends = (_point(stretch[0]), _point(stretch[-1]))
-            width = math.dist(*ends) + space.grid.resolution
-            doors.append(Door(opening.a, opening.b, _point(middle), ends, width))
-    return doors

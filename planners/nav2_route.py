@@ -1,12 +1,17 @@
-"""The door graph as a Nav2 route graph (the GeoJSON read by ``nav2_route``'s parser).
+"""Route graphs in the GeoJSON layout the Nav2 route server (``nav2_route``) reads, and back.
 
-Nodes are GeoJSON ``Point`` features with a unique integer ``id`` and ``frame: map``: one per
-door (where two submaps meet) and one per region (its most open point, so a route can end in
-a room). Edges are ``MultiLineString`` features with their own unique ``id``, ``startid`` and
-``endid``, one feature per direction, whose geometry is the shortest path inside the submap
-they cross; ``cost`` is that path's length (``overridable: false``) and ``metadata`` names the
-region (id, name, label), the door widths at both ends and the length. Coordinates are
-map-frame metres (REP-103), as the route server expects with ``frame: map``.
+A route graph is a :class:`networkx.DiGraph`: nodes with ``x``, ``y``, ``frame`` and
+``metadata`` (and ``operations`` if any), directed edges with ``id``, ``cost``,
+``overridable``, ``line`` (the geometry, a tuple of ``(x, y)``) and ``metadata`` (and
+``operations``). Two are made here: the building's graph of doors and regions
+(:func:`planners.route_graph.building_route_graph`, the one to give Nav2) and the hierarchical
+planner's internal portal graph (:func:`planner_route_graph`, for debugging the planner).
+
+In the file every node is a ``Point`` feature with ``id``, ``frame`` and ``metadata``; every
+edge a ``MultiLineString`` feature with ``id``, ``startid``, ``endid``, ``cost``,
+``overridable`` and ``metadata``; ids are unique over nodes and edges together, as the route
+server requires. Coordinates are map-frame metres (REP-103), as the server expects with
+``frame: map``. Metadata holds no ``null`` (the server's parser refuses one).
 """
 
 from __future__ import annotations
@@ -17,7 +22,6 @@ from typing import Any
 
 import networkx as nx
 import numpy as np
-from numpy.typing import NDArray
 
 from maps.files import check_output_file, write_text
 from planners.errors import PlanningError
@@ -28,34 +32,113 @@ class RouteGraphError(PlanningError, ValueError):
     """A route graph file that does not follow the nav2_route GeoJSON layout."""
 
 
-def _node(node_id: int, point: tuple[float, float], metadata: dict[str, Any]) -> dict[str, Any]:
+def route_geojson(route: nx.DiGraph) -> dict[str, Any]:
+    """``route`` as a nav2_route GeoJSON dict (see the module's text).
+
+    Examples
+    --------
+    >>> route = nx.DiGraph()
+    >>> route.add_node(0, x=0.0, y=0.0, frame="map", metadata={"kind": "door"})
+    >>> route.add_node(1, x=1.0, y=0.0, frame="map", metadata={"kind": "region"})
+    >>> route.add_edge(0, 1, id=2, cost=1.0, overridable=True, line=((0.0, 0.0), (1.0, 0.0)),
+    ...                metadata={})
+    >>> [f["properties"]["id"] for f in route_geojson(route)["features"]]
+    [0, 1, 2]
+    """
+    features: list[dict[str, Any]] = []
+    for node, data in sorted(route.nodes(data=True)):
+        properties = {"id": node, "frame": data["frame"], "metadata": data["metadata"]}
+        if "operations" in data:
+            properties["operations"] = data["operations"]
+        geometry = {"type": "Point", "coordinates": [data["x"], data["y"]]}
+        features.append({"type": "Feature", "properties": properties, "geometry": geometry})
+    for start, end, data in sorted(route.edges(data=True), key=lambda e: e[2]["id"]):
+        properties = {"id": data["id"], "startid": start, "endid": end, "cost": data["cost"]}
+        properties |= {"overridable": data["overridable"], "metadata": data["metadata"]}
+        if "operations" in data:
+            properties["operations"] = data["operations"]
+        coordinates = [[list(point) for point in data["line"]]]
+        geometry = {"type": "MultiLineString", "coordinates": coordinates}
+        features.append({"type": "Feature", "properties": properties, "geometry": geometry})
     return {
-        "type": "Feature",
-        "geometry": {"type": "Point", "coordinates": [round(point[0], 4), round(point[1], 4)]},
-        "properties": {"id": node_id, "frame": "map", "metadata": metadata},
+        "type": "FeatureCollection",
+        "name": "graph",
+        "properties": {"frame": "map", "units": "metres, map frame (REP-103)"},
+        "features": features,
     }
 
 
-def _edge(
-    edge_id: int, start: int, end: int, line: NDArray[np.float64], metadata: dict[str, Any]
-) -> dict[str, Any]:
-    coordinates = [[[round(float(x), 4), round(float(y), 4)] for x, y in line]]
-    return {
-        "type": "Feature",
-        "geometry": {"type": "MultiLineString", "coordinates": coordinates},
-        "properties": {
-            "id": edge_id,
-            "startid": start,
-            "endid": end,
-            "cost": metadata["length_m"],
-            "overridable": False,
-            "metadata": metadata,
-        },
-    }
+def write_nav2_route(route: nx.DiGraph, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Write :func:`route_geojson` of ``route`` to ``path`` atomically (never over an existing
+    file unless ``overwrite``)."""
+    check_output_file(path, overwrite=overwrite)
+    return write_text(path, json.dumps(route_geojson(route), indent=1), overwrite=overwrite)
 
 
-def nav2_route_graph(planner: HierarchicalPlanner) -> dict[str, Any]:
-    """The planner's door graph (with every door open) as a nav2_route GeoJSON dict.
+def read_nav2_route(path: str | Path) -> nx.DiGraph:
+    """Read a nav2_route GeoJSON graph into the route graph it was written from (the keys of
+    the module's text; a missing ``frame``, ``metadata``, ``cost`` or ``overridable`` reads as
+    the route server's default: none, ``{}``, 0.0, true).
+
+    Raises
+    ------
+    RouteGraphError
+        A file that is not JSON, a feature without its ids, a repeated id, a geometry that
+        is neither a point nor lines, or an edge naming a missing node.
+    """
+    try:
+        data = json.loads(Path(path).read_text())
+        features = list(data["features"])
+    except (ValueError, TypeError, KeyError, RecursionError) as err:
+        raise RouteGraphError(f"{path}: not a GeoJSON FeatureCollection: {err!r}") from None
+    route = nx.DiGraph(frame=data.get("properties", {}).get("frame", "map"))
+    seen: set[int] = set()
+    edges = []
+    for k, feature in enumerate(features):
+        kind = (feature.get("geometry") or {}).get("type")
+        props = feature.get("properties") or {}
+        if not isinstance(props.get("id"), int) or props["id"] in seen:
+            raise RouteGraphError(f"{path}: feature {k} has a missing or repeated id")
+        seen.add(props["id"])
+        if kind == "Point":
+            x, y = (float(v) for v in feature["geometry"]["coordinates"][:2])
+            extra = {"operations": props["operations"]} if "operations" in props else {}
+            route.add_node(
+                props["id"], x=x, y=y, frame=props.get("frame"), metadata=props.get("metadata", {})
+            )
+            route.nodes[props["id"]].update(extra)
+        elif kind in ("MultiLineString", "LineString"):
+            edges.append(feature)
+        else:
+            raise RouteGraphError(f"{path}: feature {k} has geometry {kind!r}")
+    for feature in edges:
+        props = feature["properties"]
+        for end in ("startid", "endid"):
+            if props.get(end) not in route:
+                raise RouteGraphError(f"{path}: edge {props['id']} {end} names no node")
+        coordinates = feature["geometry"].get("coordinates") or []
+        lines = coordinates if feature["geometry"]["type"] == "MultiLineString" else [coordinates]
+        line = tuple((float(p[0]), float(p[1])) for part in lines for p in part)
+        attributes = {
+            "id": props["id"],
+            "cost": float(props.get("cost", 0.0)),
+            "overridable": bool(props.get("overridable", True)),
+            "line": line,
+            "metadata": props.get("metadata", {}),
+        }
+        if "operations" in props:
+            attributes["operations"] = props["operations"]
+        route.add_edge(props["startid"], props["endid"], **attributes)
+    return route
+
+
+def planner_route_graph(planner: HierarchicalPlanner) -> nx.DiGraph:
+    """The hierarchical planner's door graph over its near-convex submaps (every door open)
+    as a route graph: a ``portal`` node per door between submaps (one per metre of opening,
+    internal cuts of a region included), a ``region`` node per region, and an edge per
+    direction whose ``line`` is the shortest path inside the submap it crosses (not straight:
+    the route server would cut its corners; give it
+    :func:`~planners.route_graph.building_route_graph`).
 
     Examples
     --------
@@ -68,121 +151,45 @@ def nav2_route_graph(planner: HierarchicalPlanner) -> dict[str, Any]:
     >>> planner = HierarchicalPlanner(
     ...     Workspace(OccupancyGrid(cells, resolution=0.1), 0.1), labels, nx.Graph([(1, 2)])
     ... )
-    >>> graph = nav2_route_graph(planner)
-    >>> sorted({f["geometry"]["type"] for f in graph["features"]})
-    ['MultiLineString', 'Point']
+    >>> sorted({kind["kind"] for _, kind in planner_route_graph(planner).nodes(data="metadata")})
+    ['portal', 'region']
     """
     planner.prepare()
-    names = {r: planner.graph.nodes[r].get("name", str(r)) for r in planner.graph.nodes}
-    labels = {r: planner.graph.nodes[r].get("label", "") for r in planner.graph.nodes}
-    features: list[dict[str, Any]] = []
+    names = {r: str(planner.graph.nodes[r].get("name", r)) for r in planner.graph.nodes}
+    labels = {r: str(planner.graph.nodes[r].get("label", "")) for r in planner.graph.nodes}
+    route = nx.DiGraph(frame="map")
+
+    def add_node(node: int, point: Any, metadata: dict[str, Any]) -> None:
+        route.add_node(node, x=float(point[0]), y=float(point[1]), frame="map", metadata=metadata)
+
     for index, door in enumerate(planner.doors):
         regions = sorted({planner.region_of[door.a], planner.region_of[door.b]})
-        metadata = {
-            "kind": "door",
-            "regions": regions,
-            "region_names": [names.get(r, str(r)) for r in regions],
-            "door_width_m": round(door.width, 4),
-        }
-        features.append(_node(index, door.point, metadata))
-    next_id = len(planner.doors)
+        metadata = {"kind": "portal", "regions": regions, "door_width_m": door.width}
+        add_node(index, door.point, metadata | {"region_names": [names[r] for r in regions]})
 
-    def add_edges(a: int, b: int, line: NDArray[np.float64], region: int, widths: list) -> None:
-        nonlocal next_id
-        length = float(np.hypot(*np.diff(line, axis=0).T).sum())
-        metadata = {
-            "region": region,
-            "name": names.get(region, str(region)),
-            "label": labels.get(region, ""),
-            "door_width_m": widths,
-            "length_m": round(length, 4),
-        }
-        features.append(_edge(next_id, a, b, line, metadata))
-        features.append(_edge(next_id + 1, b, a, line[::-1], metadata))
-        next_id += 2
-
-    def width(node: int) -> float | None:
-        return round(planner.doors[node].width, 4) if node < len(planner.doors) else None
+    def add_edges(a: int, b: int, line: Any, region: int) -> None:
+        points = tuple((float(x), float(y)) for x, y in line)
+        points = ((route.nodes[a]["x"], route.nodes[a]["y"]), *points[1:-1])
+        points += ((route.nodes[b]["x"], route.nodes[b]["y"]),)
+        cost = float(np.hypot(*np.diff(np.asarray(points), axis=0).T).sum())
+        about = {"region": region, "name": names[region], "label": labels[region]}
+        for start, end, ends in ((a, b, points), (b, a, points[::-1])):
+            route.add_edge(start, end, cost=cost, overridable=False, line=ends, metadata=about)
 
     for (a, b), part in planner.door_edges().items():
-        region = planner.region_of[part]
-        add_edges(a, b, planner.leg(part, a, b), region, [width(a), width(b)])
-    centres = {}
+        add_edges(a, b, planner.leg(part, a, b), planner.region_of[part])
     for region in sorted(planner.graph.nodes):
         try:
-            centres[region] = planner.centre(region)
+            point = planner.centre(region)
         except PlanningError:
             continue  # a region too narrow for the robot has no node
-    region_nodes = {region: next_id + k for k, region in enumerate(centres)}
-    next_id += len(centres)
-    for region, point in centres.items():
-        metadata = {"kind": "region", "region": region, "name": names[region]}
-        metadata["label"] = labels[region]
-        features.append(_node(region_nodes[region], point, metadata))
-    for region, point in centres.items():
+        node = route.number_of_nodes()
+        add_node(node, point, {"kind": "region", "region": region, "name": names[region]})
+        route.nodes[node]["metadata"]["label"] = labels[region]
         reach = planner.reach(point)
         for door, via in zip(reach.doors.tolist(), reach.via.tolist(), strict=True):
-            line = planner.path_in_part(reach.part, door, via)[::-1]
-            line = np.vstack([[point], line])
-            add_edges(region_nodes[region], door, line, region, [None, width(door)])
-    return {
-        "type": "FeatureCollection",
-        "name": "topomap_route_graph",
-        "properties": {"frame": "map", "units": "metres, map frame (REP-103)"},
-        "features": features,
-    }
-
-
-def write_nav2_route(
-    planner: HierarchicalPlanner, path: str | Path, *, overwrite: bool = False
-) -> Path:
-    """Write :func:`nav2_route_graph` to ``path`` (never over an existing file unless
-    ``overwrite``)."""
-    check_output_file(path, overwrite=overwrite)  # before the graph is computed
-    return write_text(path, json.dumps(nav2_route_graph(planner), indent=1), overwrite=overwrite)
-
-
-def read_nav2_route(path: str | Path) -> nx.DiGraph:
-    """Read a nav2_route GeoJSON graph: node ``id`` -> ``x``, ``y``, ``frame``, ``metadata``;
-    a directed edge per ``MultiLineString`` with ``id``, ``line`` (``(n, 2)`` array),
-    ``cost`` and ``metadata``.
-
-    Raises
-    ------
-    RouteGraphError
-        A feature without its ids, a repeated id, or an edge naming a missing node.
-    """
-    data = json.loads(Path(path).read_text())
-    graph = nx.DiGraph()
-    seen: set[int] = set()
-    edges = []
-    for k, feature in enumerate(data.get("features", [])):
-        kind = feature.get("geometry", {}).get("type")
-        props = feature.get("properties", {})
-        if "id" not in props or props["id"] in seen:
-            raise RouteGraphError(f"{path}: feature {k} has a missing or repeated id")
-        seen.add(props["id"])
-        if kind == "Point":
-            x, y = feature["geometry"]["coordinates"][:2]
-            graph.add_node(
-                props["id"], x=x, y=y, frame=props.get("frame"), metadata=props.get("metadata")
-            )
-        elif kind == "MultiLineString":
-            edges.append(feature)
-        else:
-            raise RouteGraphError(f"{path}: feature {k} has geometry {kind!r}")
-    for feature in edges:
-        props = feature["properties"]
-        for end in ("startid", "endid"):
-            if props.get(end) not in graph:
-                raise RouteGraphError(f"{path}: edge {props['id']} {end} names no node")
-        line = np.concatenate([np.asarray(p, float) for p in feature["geometry"]["coordinates"]])
-        graph.add_edge(
-            props["startid"],
-            props["endid"],
-            id=props["id"],
-            line=line,
-            cost=props.get("cost"),
-            metadata=props.get("metadata"),
-        )
-    return graph
+            line = np.vstack([[point], planner.path_in_part(reach.part, door, via)[::-1]])
+            add_edges(node, door, line, region)
+    for k, (a, b) in enumerate(sorted(route.edges)):
+        route.edges[a, b]["id"] = route.number_of_nodes() + k
+    return route

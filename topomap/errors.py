@@ -21,3 +21,8 @@ class UsageError(TopomapError, ValueError):
 class SchedulerError(TopomapError, ConnectionError):
     """A Dask scheduler address that is malformed or cannot be reached (``topomap batch
     --scheduler``)."""
+
+
+class ExportError(TopomapError, ValueError):
+    """An export that cannot be written as asked: an unknown storage or format, more data
+    than the format's bound, or a writer that refuses the data (the cause is chained)."""

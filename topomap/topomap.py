@@ -353,12 +353,22 @@ class TopoMap:
         return region_route(self.graph, source, target)
 
     def to_nav2_route(self, robot_radius: float = 0.2) -> dict[str, Any]:
-        """The door graph of :meth:`planner` as a Nav2 route graph, a GeoJSON dict
-        (:func:`planners.nav2_route.nav2_route_graph`; ``topomap export --nav2-route`` writes
-        it to a file)."""
-        from planners.nav2_route import nav2_route_graph
+        """The building's route graph for a disc of ``robot_radius`` metres as a nav2_route
+        GeoJSON dict (:func:`planners.route_graph.building_route_graph`; ``topomap export
+        --nav2-route`` writes it to a file)."""
+        from planners.nav2_route import route_geojson
+        from planners.route_graph import building_route_graph
 
-        return nav2_route_graph(self.planner(robot_radius))
+        return route_geojson(building_route_graph(self.planner(robot_radius)))
+
+    def to_rosbag(self, path: str | Path, **options: Any) -> Path:
+        """Write the map, regions, markers, route graph and ``paths`` as a ROS 2 bag folder
+        for RViz and Foxglove (:func:`topomap.rosbag_export.write_rosbag`, its options:
+        ``storage="mcap"`` or ``"sqlite3"``, ``paths``, ``robot_radius``, ``stamp``,
+        ``overwrite``)."""
+        from topomap.rosbag_export import write_rosbag
+
+        return write_rosbag(self, path, **options)
 
     def plan(
         self,

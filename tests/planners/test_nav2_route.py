@@ -1,15 +1,30 @@
-"""The Nav2 route graph export: written, read back, and checked against the planner."""
+"""Route graphs for Nav2: the building's doors and regions, the planner's portals, the GeoJSON
+file the route server reads, and a real map."""
 
+import itertools
 import json
+import math
 
+import networkx as nx
 import numpy as np
 import pytest
 
 from maps.errors import OutputExistsError
 from maps.floorplan import generate_floor_plan
-from planners.nav2_route import RouteGraphError, read_nav2_route, write_nav2_route
-from planners.path import polyline_length
+from planners.nav2_route import (
+    RouteGraphError,
+    planner_route_graph,
+    read_nav2_route,
+    route_geojson,
+    write_nav2_route,
+)
+from planners.route_graph import building_route_graph
+from topomap.cli.evaluate import floor_plans
 from topomap.topomap import TopoMap
+
+#: The keys the route server's GeoJSON parser reads (nav2_route geojson_graph_file_loader).
+NODE_KEYS = {"id", "frame", "metadata"}
+EDGE_KEYS = {"id", "startid", "endid", "cost", "overridable", "metadata"}
 
 
 @pytest.fixture(scope="module")
@@ -18,34 +33,88 @@ def planner():
     return TopoMap.from_grid(plan.grid, random_state=3).planner(0.2)
 
 
-def test_route_graph_reads_back_with_valid_ids_references_and_geometry(planner, tmp_path):
-    path = write_nav2_route(planner, tmp_path / "route.geojson")
+@pytest.fixture(scope="module")
+def route(planner):
+    return building_route_graph(planner)
+
+
+def _kind(route, kind):
+    return [n for n, meta in route.nodes(data="metadata") if meta["kind"] == kind]
+
+
+def test_the_file_has_the_keys_nav2_route_reads_and_reads_back_equal(route, tmp_path):
+    path = write_nav2_route(route, tmp_path / "route.geojson")
     raw = json.loads(path.read_text())
+    assert raw["type"] == "FeatureCollection"
     ids = [f["properties"]["id"] for f in raw["features"]]
-    assert len(ids) == len(set(ids))  # unique over nodes and edges together
-    graph = read_nav2_route(path)
-    doors = [n for n, d in graph.nodes(data=True) if d["metadata"]["kind"] == "door"]
-    regions = [n for n, d in graph.nodes(data=True) if d["metadata"]["kind"] == "region"]
-    assert len(doors) == len(planner.doors) and len(regions) >= 1
-    assert all(d["frame"] == "map" for _, d in graph.nodes(data=True))
-    for a, b, edge in graph.edges(data=True):
-        assert graph.has_edge(b, a)  # one feature per direction
-        assert np.array_equal(graph.edges[b, a]["line"], edge["line"][::-1])
-        start = (graph.nodes[a]["x"], graph.nodes[a]["y"])
-        end = (graph.nodes[b]["x"], graph.nodes[b]["y"])
-        assert np.allclose(edge["line"][0], start, atol=1e-3)
-        assert np.allclose(edge["line"][-1], end, atol=1e-3)
-        length = polyline_length(edge["line"])
-        assert edge["cost"] == pytest.approx(length, abs=1e-3)
-        assert edge["metadata"]["length_m"] == pytest.approx(length, abs=1e-3)
-        assert length >= np.hypot(start[0] - end[0], start[1] - end[1]) - 1e-3
-        assert {"region", "name", "label", "door_width_m"} <= set(edge["metadata"])
-        # rounding to 0.1 mm may touch a wall corner; the path itself stays in free space
-        assert planner.space.collisions(edge["line"], step=0.01) <= 2
-    for node in doors:
-        assert graph.nodes[node]["metadata"]["door_width_m"] > 0
+    assert len(ids) == len(set(ids)) == route.number_of_nodes() + route.number_of_edges()
+    for feature in raw["features"]:
+        props, geometry = feature["properties"], feature["geometry"]
+        assert feature["type"] == "Feature"
+        if geometry["type"] == "Point":
+            assert set(props) == NODE_KEYS and props["frame"] == "map"
+            assert len(geometry["coordinates"]) == 2
+        else:
+            assert geometry["type"] == "MultiLineString" and set(props) == EDGE_KEYS
+            assert isinstance(props["overridable"], bool) and props["cost"] > 0
+        assert "null" not in json.dumps(props["metadata"])  # the server's parser refuses null
+    back = read_nav2_route(path)
+    assert nx.utils.graphs_equal(back, route)  # nodes, edges and every attribute
+    for a, b, data in route.edges(data=True):
+        assert back.edges[a, b] == data
     with pytest.raises(OutputExistsError):
-        write_nav2_route(planner, path)
+        write_nav2_route(route, path)
+
+
+def test_building_graph_has_a_door_node_per_opening_and_straight_free_edges(planner, route):
+    doors, regions = _kind(route, "door"), _kind(route, "region")
+    openings = sum(len(d) for _, _, d in planner.graph.edges(data="doors"))
+    assert 1 <= len(doors) <= openings
+    assert {route.nodes[n]["metadata"]["region"] for n in regions} == set(planner.graph.nodes)
+    for node in regions:  # at the region's most open point, inside it
+        data = route.nodes[node]
+        region = data["metadata"]["region"]
+        assert planner.region_at(data["x"], data["y"]) == region
+        assert data["metadata"]["name"] == planner.graph.nodes[region]["name"]
+    for node in doors:  # on the boundary of its two regions, where the robot fits
+        data, meta = route.nodes[node], route.nodes[node]["metadata"]
+        assert planner.space.point_free(data["x"], data["y"])
+        near = {
+            planner.region_at(data["x"] + dx, data["y"] + dy)
+            for dx, dy in itertools.product((-0.06, 0.0, 0.06), repeat=2)
+        }
+        assert set(meta["regions"]) <= near
+        assert meta["door_width_m"] >= meta["passable_width_m"] > 0
+    for a, b, data in route.edges(data=True):
+        ends = [(route.nodes[n]["x"], route.nodes[n]["y"]) for n in (a, b)]
+        assert data["line"] == tuple(ends)  # straight: what nav2_route drives
+        assert data["cost"] == pytest.approx(math.dist(*ends))
+        assert planner.space.segment_free(*ends)
+        assert route.has_edge(b, a)
+
+
+def test_routes_over_the_graph_are_as_long_as_planned_paths(planner, route):
+    regions = {route.nodes[n]["metadata"]["region"]: n for n in _kind(route, "region")}
+    for a, b in itertools.combinations(sorted(regions), 2):
+        start, goal = (route.nodes[regions[r]] for r in (a, b))
+        length = nx.shortest_path_length(route, regions[a], regions[b], weight="cost")
+        planned = planner.plan((start["x"], start["y"]), (goal["x"], goal["y"]))
+        # the graph crosses doors at their middles: never much shorter than the (near-optimal)
+        # planner, a little longer at most
+        assert 0.97 * planned.length <= length <= 1.2 * planned.length + 0.5
+
+
+def test_the_planner_graph_is_kept_apart_with_its_portals(planner, route, tmp_path):
+    fine = planner_route_graph(planner)
+    portals = [n for n, meta in fine.nodes(data="metadata") if meta["kind"] == "portal"]
+    assert len(portals) == len(planner.doors) > len(_kind(route, "door"))
+    back = read_nav2_route(write_nav2_route(fine, tmp_path / "planner.geojson"))
+    assert nx.utils.graphs_equal(back, fine)
+    for a, b, data in fine.edges(data=True):
+        assert data["line"][0] == (fine.nodes[a]["x"], fine.nodes[a]["y"])
+        assert data["line"][-1] == (fine.nodes[b]["x"], fine.nodes[b]["y"])
+        steps = np.diff(np.asarray(data["line"]), axis=0)
+        assert data["cost"] == pytest.approx(np.hypot(*steps.T).sum())
 
 
 def test_reading_a_graph_with_a_dangling_edge_fails(tmp_path):
@@ -68,3 +137,56 @@ def test_reading_a_graph_with_a_dangling_edge_fails(tmp_path):
     path.write_text(json.dumps(broken))
     with pytest.raises(RouteGraphError, match="edge 1 endid names no node"):
         read_nav2_route(path)
+    path.write_text("{not json")
+    with pytest.raises(RouteGraphError, match="not a GeoJSON FeatureCollection"):
+        read_nav2_route(path)
+
+
+def test_the_route_servers_sample_layout_reads(tmp_path):
+    """Features laid out as in nav2_route's graphs/sample_graph.geojson: edges without
+    coordinates, operations keyed by name."""
+    open_door = {"type": "open_door", "trigger": "ON_ENTER"}
+    sample = {
+        "type": "FeatureCollection",
+        "name": "graph",
+        "features": [
+            {"type": "Feature", "geometry": {"type": "Point", "coordinates": [0.0, 0.0]},
+             "properties": {"id": 0, "frame": "map"}},
+            {"type": "Feature", "geometry": {"type": "Point", "coordinates": [1.0, 0.0]},
+             "properties": {"id": 1, "frame": "map"}},
+            {"type": "Feature", "geometry": {"type": "MultiLineString"},
+             "properties": {"id": 2, "startid": 0, "endid": 1, "overridable": False,
+                            "cost": 10.0, "operations": {"open_door": open_door}}},
+        ],
+    }  # fmt: skip
+    path = tmp_path / "sample.geojson"
+    path.write_text(json.dumps(sample))
+    graph = read_nav2_route(path)
+    edge = graph.edges[0, 1]
+    assert (edge["cost"], edge["overridable"], edge["line"]) == (10.0, False, ())
+    assert edge["operations"]["open_door"]["trigger"] == "ON_ENTER"
+    assert route_geojson(graph)["features"][2]["properties"]["operations"] == edge["operations"]
+
+
+@pytest.mark.slow
+def test_real_slam_map_has_about_one_door_node_per_real_door(data_dir):
+    """ROSE²'s last Bremen map (76 x 33 m, a real cluttered SLAM map)."""
+    found = {m.name: m for m in floor_plans(data_dir / "rose2_partial")}
+    topo = TopoMap.from_grid(found["map17"].grid())
+    planner = topo.planner(0.2)
+    route = building_route_graph(planner)
+    doors = _kind(route, "door")
+    openings = sum(len(d) for _, _, d in topo.graph.edges(data="doors"))
+    # every pair of regions the planner's portals join has a door node between them
+    joined = {
+        tuple(sorted((planner.region_of[d.a], planner.region_of[d.b]))) for d in planner.doors
+    }
+    joined = {pair for pair in joined if pair[0] != pair[1]}
+    pairs = {tuple(route.nodes[n]["metadata"]["regions"]) for n in doors}
+    assert joined <= pairs
+    assert len(pairs) <= len(doors) <= openings
+    assert 3 * len(doors) < len(planner.doors)  # not the planner's portals
+    for a, b in route.edges:
+        assert planner.space.segment_free(
+            (route.nodes[a]["x"], route.nodes[a]["y"]), (route.nodes[b]["x"], route.nodes[b]["y"])
+        )

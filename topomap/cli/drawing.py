@@ -24,18 +24,23 @@ if TYPE_CHECKING:
 
 
 def map_image(
-    grid: OccupancyGrid, labels: NDArray[np.integer] | None = None, alpha: float = 0.8
+    grid: OccupancyGrid,
+    labels: NDArray[np.integer] | None = None,
+    alpha: float = 0.8,
+    colours: NDArray[np.float64] | None = None,
 ) -> NDArray[np.uint8]:
     """``grid`` as an RGBA image of its cells (row 0 at the top): free white, occupied black,
-    unknown grey, and the regions of ``labels`` over it in colour (opacity ``alpha``), looked
-    up in a table of every (cell class, region) colour."""
+    unknown grey, and the regions of ``labels`` over it in colour (opacity ``alpha``; RGBA
+    ``colours`` per region id, :func:`region_colours` by default), looked up in a table of
+    every (cell class, region) colour."""
     kind = np.zeros(grid.shape, np.intp)  # 0 unknown, 1 free, 2 occupied
     kind[grid.free] = 1
     kind[grid.occupied] = 2
     shades = np.array([0.75, 1.0, 0.0])[:, None, None]
     if labels is None:
         labels = np.zeros(grid.shape, np.intp)
-    colours = region_colours(int(labels.max(initial=0)))
+    if colours is None:
+        colours = region_colours(int(labels.max(initial=0)))
     weight = alpha * colours[None, :, 3:]
     table = shades * (1 - weight) + colours[None, :, :3] * weight  # (class, region, rgb)
     table = np.concatenate((table, np.ones((*table.shape[:2], 1))), axis=2)
@@ -120,12 +125,15 @@ def draw_regions(
     """Write a PNG of the regions in colour with the region graph drawn over them (OpenCV).
 
     The map is scaled so that its longer side has at least 1,600 pixels. Each door is a red
-    segment; an edge is a line from the centre of its widest door to the smaller of its two
-    regions' nodes (a hall with many doors is not hidden under a star of lines); each node is
-    a dot at the region's most open point with its name (or id). ``title`` is written on a
-    band above the map.
+    segment; the graph's edges are drawn door to door inside each region
+    (:func:`topomap.graph_layout.edge_segments`: a hall with many doors is a tree along them,
+    not a star over its name); each region's name (or id) is written once at its most open
+    point, in letters sized to the picture (about 1/110 of its longer side, never under 10
+    pixels). ``title`` is written on a band above the map.
     """
     import cv2
+
+    from topomap.graph_layout import edge_segments
 
     scale = max(1, int(np.ceil(1600 / max(grid.shape))))
     image = cv2.cvtColor(map_image(grid, labels), cv2.COLOR_RGBA2BGR)
@@ -136,26 +144,28 @@ def draw_regions(
         rows, cols = grid.world_to_cell(xy[:, 0], xy[:, 1])
         return (np.column_stack([cols, rows]) * scale + scale // 2).astype(np.int32)
 
-    thick = max(1, scale // 2)
-    for a, b, data in graph.edges(data=True):
-        door = data["doors"][0]
-        ends = pixel([door.start, door.end])
-        cv2.line(image, tuple(ends[0]), tuple(ends[1]), (40, 40, 220), 2 * thick, cv2.LINE_AA)
-        small = min((a, b), key=lambda n: graph.nodes[n].get("area_m2", 0.0))
-        line = pixel([[graph.nodes[small]["x"], graph.nodes[small]["y"]], door.centre])
-        cv2.line(image, tuple(line[0]), tuple(line[1]), (0, 0, 0), 1, cv2.LINE_AA)
-    font, size = cv2.FONT_HERSHEY_SIMPLEX, 0.4
+    font = cv2.FONT_HERSHEY_SIMPLEX
+    size = max(max(image.shape[:2]) / 110, 10) / 22  # cv2's letters are 22 px at size 1
+    thick = max(1, round(2 * size))
+    for _, _, doors in graph.edges(data="doors"):
+        for door in doors or ():
+            ends = pixel([door.start, door.end])
+            cv2.line(image, tuple(ends[0]), tuple(ends[1]), (40, 40, 220), 2 * thick, cv2.LINE_AA)
+    for _, (start, end) in edge_segments(graph):
+        line = pixel([start, end])
+        cv2.line(image, tuple(line[0]), tuple(line[1]), (0, 0, 0), thick, cv2.LINE_AA)
     for node, data in graph.nodes(data=True):
         (x, y) = pixel([[data["x"], data["y"]]])[0]
-        cv2.circle(image, (int(x), int(y)), 2 + thick, (0, 0, 0), -1, cv2.LINE_AA)
+        cv2.circle(image, (int(x), int(y)), 2 * thick, (0, 0, 0), -1, cv2.LINE_AA)
         text = str(data.get("name", node))
-        (w, _), _ = cv2.getTextSize(text, font, size, 1)
-        at = (int(x) - w // 2, int(y) - 4 - thick)
-        cv2.putText(image, text, at, font, size, (255, 255, 255), 3, cv2.LINE_AA)
-        cv2.putText(image, text, at, font, size, (0, 0, 0), 1, cv2.LINE_AA)
+        (w, _), _ = cv2.getTextSize(text, font, size, thick)
+        at = (int(x) - w // 2, int(y) - 3 * thick)
+        cv2.putText(image, text, at, font, size, (255, 255, 255), 3 * thick, cv2.LINE_AA)
+        cv2.putText(image, text, at, font, size, (0, 0, 0), thick, cv2.LINE_AA)
     if title:  # on a band of its own above the map
-        band = np.full((32, image.shape[1], 3), 255, np.uint8)
-        cv2.putText(band, title, (8, 22), font, 0.6, (0, 0, 0), 1, cv2.LINE_AA)
+        band = np.full((round(40 * size) + 12, image.shape[1], 3), 255, np.uint8)
+        at = (8, round(30 * size) + 4)
+        cv2.putText(band, title, at, font, 1.2 * size, (0, 0, 0), thick, cv2.LINE_AA)
         image = np.vstack([band, image])
     path = Path(path)
     ok, encoded = cv2.imencode(".png", image)

@@ -607,20 +607,16 @@ def _map(args: argparse.Namespace) -> Any:
     return TopoMap.from_grid(grid)
 
 
-def _map_planner(args: argparse.Namespace) -> Any:
-    """The disc robot's hierarchical planner of ``args.map`` (see :func:`_map`)."""
-    return _map(args).planner(args.robot_radius)
-
-
 def cmd_export(args: argparse.Namespace) -> int:
-    from planners.nav2_route import write_nav2_route
+    from topomap.cli.export import run_export
 
-    check_output_file(args.nav2_route, overwrite=args.force, how="--force")
-    planner = _map_planner(args)
-    written = write_nav2_route(planner, args.nav2_route, overwrite=args.force)
-    doors, edges = len(planner.doors), 2 * len(planner.door_edges())
-    print(f"wrote {written}: {doors} door nodes, {edges} door-to-door edges (one per direction)")
-    return 0
+    return run_export(args)
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    from topomap.cli.viewer import run_view
+
+    return run_view(args)
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
@@ -904,15 +900,41 @@ def build_parser() -> argparse.ArgumentParser:
     )
     plan.set_defaults(func=cmd_plan)
 
-    export = sub.add_parser("export", help="export a map's route graph (Nav2 route server)")
+    export = sub.add_parser("export", help="route graphs for Nav2, a ROS 2 bag for RViz/Foxglove")
     export.add_argument("map", help="map_server YAML")
-    export.add_argument(
-        "--nav2-route", required=True, help="OUT.geojson: the door graph for nav2_route"
-    )
     export.add_argument("--regions", help="folder written by `topomap segment` (else segment now)")
+    export.add_argument(
+        "--nav2-route", help="OUT.geojson: the building's route graph (doors, regions)"
+    )
+    export.add_argument(
+        "--planner-graph", help="OUT.geojson: the planner's internal portal graph (debugging)"
+    )
+    export.add_argument("--rosbag", help="OUT: a ROS 2 bag folder (map, regions, markers)")
+    export.add_argument("--storage", default="mcap", choices=["mcap", "sqlite3"])
+    export.add_argument(
+        "--path",
+        nargs=2,
+        action="append",
+        type=_goal,
+        metavar=("FROM", "TO"),
+        help="a planned path into the bag: X,Y or a region id or name at each end (repeatable)",
+    )
     export.add_argument("--robot-radius", type=_RADIUS, default=0.2, help="metres")
-    export.add_argument("--force", action="store_true", help="overwrite an existing file")
+    export.add_argument("--force", action="store_true", help="overwrite existing files")
     export.set_defaults(func=cmd_export)
+
+    view = sub.add_parser("view", help="one self-contained HTML page of a map, for a browser")
+    view.add_argument("regions", help="folder written by `topomap segment`")
+    view.add_argument("--out", required=True, help="OUT.html")
+    view.add_argument("--robot-radius", type=_RADIUS, default=0.2, help="metres")
+    view.add_argument(
+        "--max-paths",
+        type=int,
+        default=400,
+        help="plan every pair of regions up to this many pairs, else neighbours' legs",
+    )
+    view.add_argument("--force", action="store_true", help="overwrite an existing file")
+    view.set_defaults(func=cmd_view)
     _add_output_options(parser)
     parser.set_defaults(verbose=False, quiet=False)
     return parser

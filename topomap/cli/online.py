@@ -138,13 +138,15 @@ def agreement(online: NDArray[np.integer], offline: NDArray[np.integer]) -> floa
 
 
 def draw_online(path: Path, online: OnlineSegmenter, title: str | None = None) -> Path:
-    """A picture of the online dense regions and the region graph so far (fixed pixel size,
-    so the pictures can be frames of one GIF)."""
+    """A picture of the online dense regions and the region graph so far: 1,000 x 750
+    pixels whatever the map (so the pictures can be frames of one GIF), region ids in 10 pt
+    letters on a white halo."""
+    from matplotlib import patheffects
     from matplotlib.figure import Figure
 
     assert online.regions_ is not None
     labels, extent = online.regions_.label_image()
-    fig = Figure(figsize=(6.4, 4.8), dpi=80)
+    fig = Figure(figsize=(10, 7.5), dpi=100)
     ax = fig.subplots()
     ax.set_facecolor("0.85")
     ax.imshow(region_colours(int(labels.max(initial=0)))[labels], extent=extent)
@@ -154,10 +156,20 @@ def draw_online(path: Path, online: OnlineSegmenter, title: str | None = None) -
             [graph.nodes[a]["x"], graph.nodes[b]["x"]],
             [graph.nodes[a]["y"], graph.nodes[b]["y"]],
             color="black",
-            lw=0.6,
+            lw=0.5,
+            alpha=0.6,
         )
+    halo = [patheffects.withStroke(linewidth=2.5, foreground="white")]
     for node, data in graph.nodes(data=True):
-        ax.annotate(str(node), (data["x"], data["y"]), fontsize=6, ha="center")
+        ax.annotate(
+            str(node),
+            (data["x"], data["y"]),
+            fontsize=10,
+            fontweight="bold",
+            ha="center",
+            va="center",
+            path_effects=halo,
+        )
     n = len(online.labels_)
     ax.set_title(title or f"keyframe {n}: {online.n_regions_} regions")
     rows, cols = np.nonzero(labels)
