@@ -54,8 +54,8 @@ def pool(space: NDArray[np.bool_], grid: OccupancyGrid, factor: int) -> Occupanc
     return OccupancyGrid.from_masks(coarse, grid.resolution * factor, origin)
 
 
-#: The eight neighbours of a cell, ``(row, col)`` offsets.
-AROUND = [(dr, dc) for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
+#: The cells beside a cell: labels grow through sides, never through a corner between walls.
+AROUND = [(-1, 0), (1, 0), (0, -1), (0, 1)]
 
 
 def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) -> NDArray[np.int32]:
@@ -69,7 +69,7 @@ def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) ->
     --------
     >>> keep = np.ones((3, 4), bool)
     >>> unpool(np.array([[1, 2], [0, 0]]), 2, keep).tolist()
-    [[1, 1, 2, 2], [1, 1, 2, 2], [1, 2, 2, 2]]
+    [[1, 1, 2, 2], [1, 1, 2, 2], [1, 1, 2, 2]]
     """
     height, width = keep.shape
     coarse = np.ascontiguousarray(labels, np.int32)
