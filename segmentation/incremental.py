@@ -19,7 +19,9 @@ pipeline runs on what the robot has seen so far, around where it is:
    region kept, merged into the oldest id, split with the id on its larger piece, or new).
 
 Each step costs what the window holds, not what the robot has seen. Every change is an
-:class:`~segmentation.online.Event`: ``created``, ``grown``, ``split``, ``merged``.
+:class:`~segmentation.online.Event`: ``created``, ``grown``, ``split``, ``merged``, and
+``moved`` for the keyframes a re-partition gave to another region (replaying the events from
+the arrivals gives the regions now).
 """
 
 from __future__ import annotations
@@ -357,6 +359,13 @@ class IncrementalSegmenter:
                 self.events_.append(Event("created", index, region))
             elif kind == "split":
                 self.events_.append(Event("split", index, region, source=event["source"]))
+        if not seeding:
+            pairs = np.unique(np.column_stack([before[changed], labels[changed]]), axis=0)
+            for source, target in pairs.tolist():
+                members = inner[changed & (before == source) & (labels == target)]
+                self.events_.append(
+                    Event("moved", index, target, source=source, members=tuple(members.tolist()))
+                )
         for gone in sorted(old_ids - live - {0}):
             taken = labels[before == gone]
             survivor = int(np.bincount(taken).argmax()) if len(taken) else 0

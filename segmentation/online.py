@@ -96,8 +96,9 @@ class Event:
     kind
         ``"created"`` (a new region, with this keyframe as its centre; seed regions are created
         at the last seed keyframe), ``"grown"`` (the keyframe joined ``region``) or
-        ``"merged"`` (``absorbed`` merged into ``region``, which keeps its id) or ``"split"``
-        (``region`` is a new piece of ``source``).
+        ``"merged"`` (``absorbed`` merged into ``region``, which keeps its id), ``"split"``
+        (``region`` is a new piece of ``source``) or ``"moved"`` (the keyframes ``members``
+        went from ``source`` to ``region``).
     keyframe
         Index of the keyframe (0-based, over the seed and everything after it).
     region
@@ -105,7 +106,10 @@ class Event:
     absorbed
         For ``"merged"``: the id that disappears.
     source
-        For ``"split"``: the region the new one was a piece of.
+        For ``"split"``: the region the new one was a piece of; for ``"moved"``: the region
+        the keyframes left.
+    members
+        For ``"moved"``: the keyframes that moved.
     distance
         For ``"grown"`` / ``"created"`` after the seed: the scan's distance ``D`` to the
         nearest centre (1.0 when no centre was near).
@@ -114,11 +118,12 @@ class Event:
         moved, ``False`` for an undecided scan that joined without moving it.
     """
 
-    kind: Literal["created", "grown", "merged", "split"]
+    kind: Literal["created", "grown", "merged", "split", "moved"]
     keyframe: int
     region: int
     absorbed: int | None = None
     source: int | None = None
+    members: tuple[int, ...] | None = None
     distance: float | None = None
     decided: bool | None = None
 

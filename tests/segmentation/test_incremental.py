@@ -51,6 +51,23 @@ def test_every_id_was_created_and_every_id_gone_was_merged(office_online):
     assert [e.keyframe for e in events] == sorted(e.keyframe for e in events)
 
 
+def replay(online: IncrementalSegmenter) -> np.ndarray:
+    """The regions now from the arrivals and the ``moved`` events."""
+    labels = online.arrival_labels_
+    for event in online.events_:
+        if event.kind == "moved":
+            assert event.members is not None
+            assert set(labels[list(event.members)].tolist()) == {event.source}
+            labels[list(event.members)] = event.region
+    return labels
+
+
+def test_replaying_the_events_gives_the_regions(office_online):
+    assert np.array_equal(replay(office_online), office_online.labels_)
+    late = office_online.late_changes_
+    assert late.sum() <= sum(len(e.members or ()) for e in office_online.events_)
+
+
 def test_the_dense_regions_equal_a_recount_after_relabelling(office_online):
     regions = office_online.regions_
     image, _ = regions.label_image()

@@ -28,24 +28,24 @@ def test_segment_online_writes_the_offline_files_events_and_a_gif(intel_online):
         # a frame at the seed and one every 150 keyframes after it
         assert getattr(gif, "n_frames", 1) == 1 + (summary["keyframes"] - 250) // 150
     events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
-    assert {e["kind"] for e in events} <= {"created", "grown", "merged"}
+    assert {e["kind"] for e in events} <= {"created", "grown", "merged", "split", "moved"}
     with (out / "keyframes.csv").open() as stream:
         rows = list(csv.DictReader(stream))
     assert len(rows) == summary["keyframes"]
-    # the region a keyframe got on arrival is the one its event names
-    arrivals = {e["keyframe"]: e["region"] for e in events if e["kind"] != "merged"}
+    # the region a keyframe got on arrival is the one its arrival (its first event) names
+    arrivals: dict[int, int] = {}
+    for event in events:
+        arrivals.setdefault(event["keyframe"], event["region"])
     for index, row in enumerate(rows[250:], start=250):
         assert int(row["region_on_arrival"]) == arrivals[index]
-    # final regions: arrival regions followed through the merges, never an absorbed id
-    survivor = {}
+    # final regions: the arrivals replayed through the keyframes the re-partitions moved
+    final = [int(row["region_on_arrival"]) for row in rows]
     for event in events:
-        if event["kind"] == "merged":
-            survivor[event["absorbed"]] = event["region"]
-    for row in rows:
-        region = int(row["region_on_arrival"])
-        while region in survivor:
-            region = survivor[region]
-        assert int(row["region_final"]) == region
+        if event["kind"] == "moved":
+            for member in event["members"]:
+                assert final[member] == event["source"]
+                final[member] = event["region"]
+    assert final == [int(row["region_final"]) for row in rows]
 
 
 @pytest.mark.slow
@@ -55,9 +55,8 @@ def test_segment_online_refuses_to_overwrite_and_bad_options(intel_online, data_
     assert main(["-q", "segment", "--scans", log, "--online", "--out", str(out)]) == 2
     assert "exists" in capsys.readouterr().err
     fresh = str(out / "again")
-    assert (
-        main(["-q", "segment", "--scans", log, "--online", "--out", fresh, "--theta", "1.5"]) == 2
-    )
+    argv = ["-q", "segment", "--scans", log, "--online"]
+    assert main([*argv, "--out", fresh, "--online-method", "centres", "--theta", "1.5"]) == 2
     assert "theta must lie in [0, 1], got 1.5" in capsys.readouterr().err
     assert main(["-q", "segment", "--scans", log, "--online", "--out", fresh, "--frames", "0"]) == 2
     assert "--frames must be" in capsys.readouterr().err

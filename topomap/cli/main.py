@@ -176,7 +176,8 @@ def _segment_online(args: argparse.Namespace, out: Path) -> int:
         keyframes,
         out,
         source=args.scans,
-        seed_keyframes=min(args.seed_keyframes, len(keyframes)),
+        seed_keyframes=args.seed_keyframes,
+        method=args.online_method,
         theta=args.theta,
         frames_every=args.frames,
         overwrite=args.force,
@@ -747,8 +748,20 @@ def build_parser() -> argparse.ArgumentParser:
     seg.add_argument(
         "--online", action="store_true", help="with --scans: assign keyframes as they come"
     )
-    seg.add_argument("--seed-keyframes", type=int, default=300, help="offline seed (--online)")
-    seg.add_argument("--theta", type=float, default=0.5, help="online acceptance, in [0, 1]")
+    seg.add_argument(
+        "--online-method",
+        default="windows",
+        choices=["windows", "centres"],
+        help="--online: the offline engine on the robot's neighbourhood, or the paper's centres",
+    )
+    seg.add_argument(
+        "--seed-keyframes",
+        type=int,
+        help="--online: keyframes segmented offline first (default 10%% of the log, at least 40)",
+    )
+    seg.add_argument(
+        "--theta", type=float, default=0.5, help="--online-method centres: acceptance, in [0, 1]"
+    )
     seg.add_argument("--frames", type=int, help="a picture every N keyframes and regions.gif")
     seg.add_argument(
         "--previous",

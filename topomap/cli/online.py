@@ -1,15 +1,19 @@
 """Online segmentation for the command line, the demo and the benchmark.
 
-A run's keyframes go through :class:`~segmentation.online.OnlineSegmenter` one at a time after
-a spectral seed on the first ones; pictures of the growing regions are written every few
-keyframes and gathered into an animated GIF; the final partition is made dense on the map of
-the whole run, exactly as the offline keyframes are, so both can be scored alike.
+A run's keyframes go through an online segmenter one at a time after a seed on the first ones:
+:class:`~segmentation.incremental.IncrementalSegmenter` (``"windows"``, the offline engine
+re-partitioning the robot's neighbourhood; default) or the paper's Section IV rules
+:class:`~segmentation.online.OnlineSegmenter` (``"centres"``, the baseline); pictures of the
+growing regions are written every few keyframes and gathered into an animated GIF; the final
+partition is made dense on the map of the whole run, exactly as the offline keyframes are, so
+both can be scored alike.
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import logging
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
@@ -26,6 +30,7 @@ from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array
 from segmentation.graph import region_graph
+from segmentation.incremental import IncrementalSegmenter
 from segmentation.online import Event, OnlineSegmenter
 from segmentation.refine import basins, count_basins
 from segmentation.regions import Regions, dense_labels
@@ -33,6 +38,35 @@ from segmentation.spectral import SpectralSegmenter
 from topomap.cli.drawing import region_colours
 from topomap.errors import UsageError
 from topomap.labels import label_graph
+
+log = logging.getLogger(__name__)
+
+#: The online segmenters: the offline engine on windows (default), the paper's centres.
+ONLINE_METHODS = ("windows", "centres")
+#: A seed is this share of the keyframes ...
+SEED_SHARE = 0.1
+#: ... and at least this many (fewer cannot hold two rooms' worth of keyframes).
+MIN_SEED = 40
+
+
+def default_seed(count: int) -> int:
+    """The seed size for a run of ``count`` keyframes: :data:`SEED_SHARE` of them, at least
+    :data:`MIN_SEED`; a warning when the run is too short to seed and go on online.
+
+    Examples
+    --------
+    >>> default_seed(1000), default_seed(100)
+    (100, 40)
+    """
+    seed = min(count, max(MIN_SEED, round(SEED_SHARE * count)))
+    if count < 2 * MIN_SEED:
+        log.warning(
+            "%d keyframes: too few to seed (%d) and go on online; the seed is %d of them",
+            count,
+            MIN_SEED,
+            seed,
+        )
+    return seed
 
 
 def offline_segmenter(
@@ -55,7 +89,7 @@ class OnlineRun:
     """An online pass over a run: the segmenter, the time of every ``partial_fit`` after the
     seed (seconds) and the pictures written."""
 
-    online: OnlineSegmenter
+    online: IncrementalSegmenter | OnlineSegmenter
     seed_seconds: float
     seconds: list[float] = field(default_factory=list)
     frames: list[Path] = field(default_factory=list)
@@ -73,7 +107,8 @@ class OnlineRun:
 def run_online(
     keyframes: Sequence[Keyframe],
     *,
-    seed_keyframes: int,
+    seed_keyframes: int | None = None,
+    method: str = "windows",
     theta: float = 0.5,
     random_state: int = 0,
     frames_every: int | None = None,
@@ -81,9 +116,17 @@ def run_online(
     progress: Callable[[Iterable[Any]], Iterable[Any]] = iter,
     **options: Any,
 ) -> OnlineRun:
-    """Seed on the first ``seed_keyframes`` (``k'`` from their map unless ``options`` give
-    ``k``), then assign the others one by one, timing each; every ``frames_every`` keyframes
-    draw the regions so far into ``frames_dir``."""
+    """Seed on the first ``seed_keyframes`` (:func:`default_seed` by default), then assign the
+    others one by one with ``method`` (:data:`ONLINE_METHODS`), timing each; every
+    ``frames_every`` keyframes draw the regions so far into ``frames_dir``. ``options`` are
+    segmentation options (``criterion``, ``k``, ``p``; for ``"centres"``, ``k'`` comes from the
+    seed's map unless ``k`` is given)."""
+    if method not in ONLINE_METHODS:
+        raise UsageError(
+            f"--online-method must be one of {', '.join(ONLINE_METHODS)}, got {method!r}"
+        )
+    if seed_keyframes is None:
+        seed_keyframes = default_seed(len(keyframes))
     if not 2 <= seed_keyframes <= len(keyframes):
         raise UsageError(
             f"--seed-keyframes must lie in 2..{len(keyframes)} (the keyframes), "
@@ -93,7 +136,14 @@ def run_online(
         raise UsageError(f"--frames must be a number of keyframes >= 1, got {frames_every}")
     seed = keyframes[:seed_keyframes]
     start = time.perf_counter()
-    online = OnlineSegmenter(offline_segmenter(seed, random_state, **options), theta=theta)
+    online: IncrementalSegmenter | OnlineSegmenter
+    if method == "windows":
+        from topomap.topomap import pipeline_from_options
+
+        pipeline = pipeline_from_options({k: v for k, v in options.items() if v is not None})
+        online = IncrementalSegmenter(pipeline, random_state=random_state)
+    else:
+        online = OnlineSegmenter(offline_segmenter(seed, random_state, **options), theta=theta)
     online.fit(seed)
     run = OnlineRun(online, time.perf_counter() - start)
     if frames_every is not None and frames_dir is not None:
@@ -137,7 +187,9 @@ def agreement(online: NDArray[np.integer], offline: NDArray[np.integer]) -> floa
     return round(float(adjusted_rand_score(offline, online)), 4)
 
 
-def draw_online(path: Path, online: OnlineSegmenter, title: str | None = None) -> Path:
+def draw_online(
+    path: Path, online: IncrementalSegmenter | OnlineSegmenter, title: str | None = None
+) -> Path:
     """A picture of the online dense regions and the region graph so far: 1,000 x 750
     pixels whatever the map (so the pictures can be frames of one GIF), region ids in 10 pt
     letters on a white halo."""
@@ -211,7 +263,7 @@ def write_keyframes(
     path: Path,
     keyframes: Sequence[Keyframe],
     regions: NDArray[np.integer],
-    online: OnlineSegmenter,
+    online: IncrementalSegmenter | OnlineSegmenter,
 ) -> Path:
     """``keyframes.csv``: ``scan_index,x,y,theta,region`` as offline (``region`` = the dense
     region of ``regions.png`` at the keyframe) plus ``region_on_arrival`` and
@@ -233,7 +285,8 @@ def segment_online(
     out: Path,
     *,
     source: str,
-    seed_keyframes: int,
+    seed_keyframes: int | None = None,
+    method: str = "windows",
     theta: float = 0.5,
     frames_every: int | None = None,
     overwrite: bool = False,
@@ -262,6 +315,7 @@ def segment_online(
     run = run_online(
         keyframes,
         seed_keyframes=seed_keyframes,
+        method=method,
         theta=theta,
         frames_every=frames_every,
         frames_dir=frames_dir,
@@ -295,12 +349,18 @@ def segment_online(
     summary = {
         "source": source,
         "keyframes": len(keyframes),
-        "seed_keyframes": seed_keyframes,
-        "theta": theta,
-        "threshold_T": round(online.threshold_, 4),
+        "method": method,
+        "seed_keyframes": online.n_seed_,
+        **(
+            {"theta": theta, "threshold_T": round(online.threshold_, 4)}
+            if isinstance(online, OnlineSegmenter)
+            else {}
+        ),
         "online_regions": online.n_regions_,
         "regions": graph.number_of_nodes(),
-        "events_after_seed": {kind: kinds.count(kind) for kind in ("created", "grown", "merged")},
+        "events_after_seed": {
+            kind: kinds.count(kind) for kind in ("created", "grown", "merged", "split")
+        },
         "latency": run.latency_ms(),
         "seconds": {
             "seed": round(run.seed_seconds, 3),
