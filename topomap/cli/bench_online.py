@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from maps.carmen import read_carmen
 from maps.errors import MapFileNotFoundError
@@ -19,12 +20,14 @@ from maps.laser_sim import LaserModel, simulate_scans
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, select_keyframes
 from maps.wander import wander
+from segmentation.incremental import IncrementalSegmenter
 from segmentation.metrics import score
 from segmentation.online import OnlineSegmenter
+from segmentation.pipeline import MapSegmenter
 from segmentation.spectral import SpectralSegmenter
 from topomap.cli.bench import robot_keyframes
 from topomap.cli.demo import _truth_on
-from topomap.cli.online import agreement, dense_regions, offline_segmenter, run_online
+from topomap.cli.online import ONLINE_METHODS, agreement, dense_regions, run_online
 
 Progress = Callable[[Iterable[Any]], Iterable[Any]]
 
@@ -49,9 +52,10 @@ def bench_latency(
     seed_keyframes: int = 500,
     building: str = "campus",
     batch: int = 100,
-    offline_up_to: int = 3_000,
+    offline_up_to: int = 2_000,
     theta: float = 0.5,
     seed: int = 0,
+    method: str = "windows",
     progress: Progress = iter,
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Time every ``partial_fit`` (assignment and dense regions; wall clock, and the CPU time
@@ -59,10 +63,15 @@ def bench_latency(
     keyframes of a robot wandering through a generated ``building``, seeded on the first
     ``seed_keyframes``; per batch of ``batch`` keyframes, the latency and, up to
     ``offline_up_to`` keyframes, the time of re-running the offline partition on everything
-    seen so far. Returns one record per batch and a summary."""
+    seen so far (the offline pipeline on the map of those keyframes). Returns one record per
+    batch and a summary."""
     run = robot_keyframes(building, keyframes, seed)
     start = time.perf_counter()
-    online = OnlineSegmenter(SpectralSegmenter(random_state=seed), theta=theta)
+    online: IncrementalSegmenter | OnlineSegmenter
+    if method == "windows":
+        online = IncrementalSegmenter(random_state=seed)
+    else:
+        online = OnlineSegmenter(SpectralSegmenter(random_state=seed), theta=theta)
     online.fit(run[:seed_keyframes])
     seed_seconds = time.perf_counter() - start
     records: list[dict[str, Any]] = []
@@ -81,7 +90,7 @@ def bench_latency(
         offline = None
         if last <= offline_up_to:
             clock = time.perf_counter()
-            SpectralSegmenter(random_state=seed).fit(run[:last])
+            MapSegmenter().segment(grid_from_keyframes(run[:last]), run[:last], random_state=seed)
             offline = round(time.perf_counter() - clock, 3)
         records.append(
             {
@@ -96,12 +105,11 @@ def bench_latency(
         )
     rerun = [r for r in records if r["offline_rerun_s"] is not None]
     summary = {
+        "method": method,
         "building": building,
         "keyframes": len(run),
         "seed_keyframes": seed_keyframes,
         "seed_seconds": round(seed_seconds, 3),
-        "theta": theta,
-        "threshold_T": round(online.threshold_, 4),
         "regions": online.n_regions_,
         **_ms(every),
         **_ms(every_cpu, "cpu_"),
@@ -117,46 +125,50 @@ def _quality(
     name: str,
     keyframes: list[Keyframe],
     grid: OccupancyGrid,
-    seed_fraction: float,
+    seed_fraction: float | None,
     theta: float,
     seed: int,
-) -> tuple[dict[str, Any], Any, Any]:
-    """ARI of the final online partition against the offline one of all keyframes (on
-    ``grid``, their map); ``seed_ari`` is the seed's partition against the offline one on
-    the seed keyframes alone, the most the online pass could keep of it."""
-    offline = offline_segmenter(keyframes, seed, grid).fit(keyframes)
-    run = run_online(
-        keyframes,
-        seed_keyframes=max(2, round(seed_fraction * len(keyframes))),
-        theta=theta,
-        random_state=seed,
-    )
-    record = {
-        "run": name,
-        "keyframes": len(keyframes),
-        "seed_keyframes": run.online.n_seed_,
-        "offline_clusters": offline.n_regions_,
-        "online_clusters": run.online.n_regions_,
-        "ari": agreement(run.online.labels_, offline.labels_),
-        "seed_ari": agreement(
-            run.online.arrival_labels_[: run.online.n_seed_], offline.labels_[: run.online.n_seed_]
-        ),
-        **run.latency_ms(),
-    }
-    return record, offline.labels_, run.online.labels_
+) -> tuple[list[dict[str, Any]], NDArray[np.int64], dict[str, NDArray[np.int64]]]:
+    """Each online engine against the offline pipeline on the same keyframes (on ``grid``,
+    their map): ARI of the final regions of the keyframes, latency, and churn (the share of
+    keyframes whose region changed once they were 50 keyframes old; windows only)."""
+    offline = MapSegmenter().segment(grid, keyframes, random_state=seed).keyframe_regions()
+    seeded = None if seed_fraction is None else max(2, round(seed_fraction * len(keyframes)))
+    records, labels = [], {}
+    for method in ONLINE_METHODS:
+        run = run_online(
+            keyframes, seed_keyframes=seeded, method=method, theta=theta, random_state=seed
+        )
+        online = run.online
+        late = online.late_changes_ if isinstance(online, IncrementalSegmenter) else None
+        records.append(
+            {
+                "run": name,
+                "method": method,
+                "keyframes": len(keyframes),
+                "seed_keyframes": online.n_seed_,
+                "offline_regions": len(np.unique(offline[offline > 0])),
+                "online_regions": online.n_regions_,
+                "ari": agreement(online.labels_[offline > 0], offline[offline > 0]),
+                "churn": "-" if late is None else round(float(np.mean(late > 0)), 4),
+                **run.latency_ms(),
+            }
+        )
+        labels[method] = online.labels_
+    return records, offline, labels
 
 
 def bench_quality(
     *,
     logs_dir: str | Path | None = "../shared/data/carmen",
     demo: bool = True,
-    seed_fraction: float = 0.5,
+    seed_fraction: float | None = None,
     theta: float = 0.5,
     seed: int = 0,
     progress: Progress = iter,
 ) -> list[dict[str, Any]]:
     """Online against offline on the demo's run (the robot in the generated office, also
-    scored against the generator's rooms: MCC of both made dense on the run's map) and on
+    scored against the generator's rooms: MCC of each made dense on the run's map) and on
     the CARMEN logs (keyframes every 0.5 m)."""
     runs: list[str] = (["demo office"] if demo else []) + (list(LOGS) if logs_dir else [])
     records = []
@@ -168,20 +180,31 @@ def bench_quality(
             scans = simulate_scans(plan.grid, route.poses, model, random_state=seed)
             keyframes = select_keyframes(scans)
             grid = grid_from_keyframes(keyframes, plan.grid.resolution)
-            record, offline, online = _quality(name, keyframes, grid, seed_fraction, theta, seed)
+            found, offline, online = _quality(name, keyframes, grid, seed_fraction, theta, seed)
             truth = _truth_on(grid, plan)
-            for method, labels in (("offline", offline), ("online", online)):
-                regions = dense_regions(grid, keyframes, labels, named=False)[0]
-                record[f"mcc_{method}"] = round(score(regions.labels, truth).mcc, 4)
+            mcc_offline = _mcc(grid, keyframes, offline, truth)
+            for record in found:
+                record["mcc_offline"] = mcc_offline
+                record["mcc_online"] = _mcc(grid, keyframes, online[record["method"]], truth)
         else:
             path = Path(str(logs_dir)) / f"{name}-corrected.log.gz"
             if not path.is_file():
                 raise MapFileNotFoundError(path, "CARMEN log")
             keyframes = select_keyframes(read_carmen(path), distance=0.5)
             grid = grid_from_keyframes(keyframes, 0.05)
-            record = _quality(name, keyframes, grid, seed_fraction, theta, seed)[0]
-        records.append(record)
+            found = _quality(name, keyframes, grid, seed_fraction, theta, seed)[0]
+        records += found
     return records
+
+
+def _mcc(
+    grid: OccupancyGrid,
+    keyframes: list[Keyframe],
+    labels: NDArray[np.integer],
+    truth: NDArray[np.integer],
+) -> float:
+    """MCC of keyframe labels made dense on ``grid`` against the generator's rooms."""
+    return round(score(dense_regions(grid, keyframes, labels, named=False)[0].labels, truth).mcc, 4)
 
 
 def draw_latency(path: Path, records: list[dict[str, Any]], title: str) -> Path:
@@ -227,9 +250,10 @@ def bench_online(
     summary; ``quality``: one record per run) and ``latency.png`` into ``out``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    latency_keys = {"keyframes", "seed_keyframes", "building", "batch", "offline_up_to"}
+    latency_keys = {"keyframes", "seed_keyframes", "building", "batch", "offline_up_to", "method"}
     results: dict[str, Any] = {}
     common = {k: v for k, v in options.items() if k in ("theta", "seed")}
+    options = {k: v for k, v in options.items() if v is not None}
     if "latency" in parts:
         chosen = {k: v for k, v in options.items() if k in latency_keys}
         records, summary = bench_latency(**chosen, **common, progress=progress)

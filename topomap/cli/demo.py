@@ -202,16 +202,15 @@ def plan_paths(run: DemoRun, queries: int = 10) -> None:
     run.summary["plan"] = summary
 
 
-def segment_online(run: DemoRun, seed_fraction: float = 0.1) -> None:
-    """Segment the run online (the offline engine on the robot's neighbourhood, after a seed on
-    its first tenth); score it against the plan beside the offline result; draw the regions
+def segment_online(run: DemoRun) -> None:
+    """Segment the run online (the offline engine on the robot's neighbourhood, after the
+    default seed); score it against the plan beside the offline result; draw the regions
     growing (GIF)."""
     assert run.plan is not None and run.grid is not None
     keyframes = run.keyframes
     folder = run.out / "segment_online"
     online = run_online(
         keyframes,
-        seed_keyframes=max(2, round(seed_fraction * len(keyframes))),
         random_state=run.seed,
         frames_every=max(1, len(keyframes) // 12),
         frames_dir=folder / "frames",
