@@ -8,6 +8,7 @@ a fitted scikit-learn estimator (its ``predict`` gets :func:`topomap.features.fe
 from __future__ import annotations
 
 import dataclasses
+import zipfile
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -164,7 +165,7 @@ class ForestClassifier:
     """
 
     def __init__(
-        self, n_estimators: int = 200, min_samples_leaf: int = 2, random_state: int = 0
+        self, n_estimators: int = 200, min_samples_leaf: int = 1, random_state: int = 0
     ) -> None:
         self.n_estimators = n_estimators
         self.min_samples_leaf = min_samples_leaf
@@ -226,9 +227,9 @@ class ForestClassifier:
             if strange:
                 raise LabelError(f"{path}: holds types a forest is not made of: {strange}")
             data = skops.io.load(path, trusted=list(untrusted))
-        except (OSError, ValueError, KeyError, TypeError) as err:
-            if isinstance(err, LabelError):
-                raise
+        except LabelError:
+            raise
+        except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile) as err:
             raise LabelError(f"{path}: not a topomap forest file ({err})") from err
         if not isinstance(data, dict) or data.get("format") != "topomap-forest-2":
             raise LabelError(f"{path}: not a topomap forest file (no topomap-forest-2 format)")

@@ -83,7 +83,7 @@ def run(
     shown = result[SHOWN]["labels"]
     per_map = mistakes(maps, shown)
     print(f"\nper map, {SHOWN}:")
-    print(table(per_map, list(per_map[0])))  # type: ignore[arg-type]
+    print(table(per_map, list(per_map[0])))
     out.mkdir(parents=True, exist_ok=True)
     for m, labels in zip(maps, shown, strict=True):
         draw_labels(out / f"{m.source}_{m.map}_labels.png", m, labels)
