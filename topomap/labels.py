@@ -32,8 +32,8 @@ def name_regions(
     --------
     >>> graph = nx.Graph()
     >>> graph.add_nodes_from([(1, {"x": 0.0, "y": 5.0}), (2, {"x": 0.0, "y": 0.0})])
-    >>> name_regions(graph, {1: "room", 2: "room"}, taken={2: "room 1"})
-    {1: 'room 2', 2: 'room 1'}
+    >>> sorted(name_regions(graph, {1: "room", 2: "room"}, taken={2: "room 1"}).items())
+    [(1, 'room 2'), (2, 'room 1')]
     """
     taken = dict(taken or {})
     used = {normalise_name(name) for name in taken.values()}

@@ -216,15 +216,16 @@ def carmen(
 def drawn_truth(grid: OccupancyGrid, shapes: dict[str, Any]) -> NDArray[np.int8]:
     """Type per cell of ``grid`` from drawn shapes: ``corridors`` (``{"width": m, "line":
     [[x, y], ...]}``: the cells within half the width of the centreline), ``halls``
-    (``{"polygon": [[x, y], ...]}``), every other free cell a room, others -1.
+    (``{"polygon": [[x, y], ...]}``), every other free cell a room, others -1. The band is
+    drawn by OpenCV and may be a cell wider than the width.
 
     Examples
     --------
     >>> grid = OccupancyGrid(np.zeros((20, 40), np.int8), 0.5)  # 20 x 10 m, all free
     >>> shapes = {"corridors": [{"width": 2.0, "line": [[0, 5], [20, 5]]}], "halls": []}
     >>> truth = drawn_truth(grid, shapes)
-    >>> int((truth == 1).sum()), int((truth == 0).sum())
-    (160, 640)
+    >>> int((truth == 1).sum()), int((truth == 0).sum())  # a 2 m band: 5 rows of 0.5 m cells
+    (200, 600)
     """
     truth = np.where(grid.free, PLACE_TYPES.index("room"), -1).astype(np.int8)
 
