@@ -39,6 +39,7 @@ from segmentation.growing import MapMismatchError, align, carry_ids
 from segmentation.pipeline import MapSegmenter, Segmentation
 from segmentation.regions import Regions
 from segmentation.spectral import SpectralSegmenter
+from topomap.features import region_features
 from topomap.labels import Classifier, find_region, label_graph, rename
 
 if TYPE_CHECKING:
@@ -283,8 +284,10 @@ class TopoMap:
         Parameters
         ----------
         classifier
-            A function of the :func:`~topomap.labels.region_features` table, or a fitted
-            estimator with ``predict``; :func:`~topomap.labels.rule_classifier` by default.
+            A function of the :meth:`feature_table`, or a fitted estimator with ``predict``
+            (given :func:`~topomap.features.feature_matrix` of it);
+            :data:`~topomap.classifiers.rule_classifier` by default. Names given with
+            :meth:`rename` stay.
 
         Returns
         -------
@@ -292,6 +295,12 @@ class TopoMap:
             Region id -> label.
         """
         return label_graph(self.regions, self.graph, classifier)
+
+    def feature_table(self) -> dict[str, NDArray[np.float64]]:
+        """The table a classifier receives: ``"id"`` and the columns of
+        :data:`~topomap.features.FEATURES` (units in :data:`~topomap.features.FEATURE_UNITS`),
+        one value per region in ascending id order."""
+        return region_features(self.regions, self.graph)
 
     def region(self, query: int | str) -> int:
         """Region id of a region id or name ("hall 1", "aisle 2"); the error lists the names."""

@@ -9,7 +9,9 @@ import pytest
 
 import maps
 from maps.grid import OccupancyGrid
+from topomap.classifiers import PLACE_TYPES, ForestClassifier, RuleClassifier
 from topomap.cli import main
+from topomap.features import FEATURES
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -347,13 +349,24 @@ def test_bench_plan_writes_one_record_per_planner_and_query(tmp_path):
 
 
 @pytest.mark.slow
-def test_eval_labels_on_the_place_labelled_plans(tmp_path, data_dir):
+def test_eval_labels_on_the_place_labelled_plans(tmp_path, data_dir, capsys):
     out = tmp_path / "labels"
-    assert main(["eval", "labels", str(data_dir / "ipa_places"), "--out", str(out)]) == 0
-    results = json.loads((out / "results.json").read_text())["ipa_places"]
-    rules, baseline = results["rules"], results["always room"]
-    regions = sum(s["support"] for s in rules["per_class"].values())
-    assert regions > 30 and np.sum(rules["confusion"]) == regions
-    assert rules["per_class"]["corridor"]["support"] > 0
-    assert rules["macro_f1"] > baseline["macro_f1"] + 0.2
-    assert set(results) == {"rules", "forest (maps left out)", "always room"}
+    model = tmp_path / "forest.skops"
+    args = ["eval", "labels", str(data_dir / "ipa_places"), "--out", str(out)]
+    assert main([*args, "--save-model", str(model)]) == 0
+    printed = capsys.readouterr().out
+    assert "| rules (LOBO) | ipa_places |" in printed and "margins of the default" in printed
+    results = json.loads((out / "results.json").read_text())
+    scores = {(r["method"], r["source"]): r for r in results["scores"]}
+    assert scores[("rules (LOBO)", "ipa_places")]["macro-F1"] > (
+        scores[("always room (LOBO)", "ipa_places")]["macro-F1"] + 0.2
+    )
+    assert set(results["margins"]) == set(RuleClassifier.thresholds())
+    for margin in results["margins"].values():
+        assert margin["lowest"] <= margin["value"] <= margin["highest"]
+    regions = len(results["regions"])
+    assert regions > 30 and sum(r["regions"] for r in results["per_map"]) == regions
+    assert len(list(out.glob("ipa_places_*_labels.png"))) == 5
+    assert ForestClassifier.load(model).predict(np.zeros((1, len(FEATURES)))) in (
+        [[p] for p in PLACE_TYPES]
+    )

@@ -1,22 +1,32 @@
-"""The label evaluation's per-region records, per-map counts and pictures, on a hand-made
-building whose true types are drawn by hand."""
+"""The label evaluation: whole buildings left out, thresholds searched and their margins, the
+per-map counts and pictures, on hand-made buildings whose true types are drawn by hand; and
+the hand-made label files against the data they label."""
 
+import json
+
+import cv2
 import numpy as np
+import pytest
 from matplotlib.image import imread
 
+from maps.errors import MapFormatError
 from maps.grid import OccupancyGrid
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
-from topomap.cli.evaluate_labels import (
-    draw_labels,
-    evaluate_labels,
-    labelled_regions,
-    train_on_all,
+from tests.conftest import ROOT
+from topomap.classifiers import PLACE_TYPES, RuleClassifier
+from topomap.cli import evaluate_labels as ev
+from topomap.cli.label_sources import (
+    LabelledMap,
+    drawn_truth,
+    labelled_map,
+    read_room_types,
 )
-from topomap.labels import PLACE_TYPES, ForestClassifier, feature_matrix
+
+LABELS = ROOT / "tests" / "data" / "labels"
 
 
-def _labelled(name: str) -> dict:
+def _labelled(name: str, building: str, source: str = "a") -> LabelledMap:
     """A 20 x 2 m corridor (id 1) with two 4 x 5 m rooms (2, 3) above it and a 4 x 5 m room
     (4) below it, at 10 cm cells; the truth calls room 3 a corridor (a mistake to find)."""
     labels = np.zeros((120, 220), np.int32)
@@ -32,44 +42,119 @@ def _labelled(name: str) -> dict:
     truth = np.full(labels.shape, -1, np.int8)
     truth[labels > 0] = PLACE_TYPES.index("room")
     truth[(labels == 1) | (labels == 3)] = PLACE_TYPES.index("corridor")
-    return labelled_regions(regions, region_graph(regions), truth, name)
+    graph = region_graph(regions)
+    return labelled_map(regions, graph, truth, source=source, building=building, name=name)
 
 
-def test_records_counts_and_pictures(tmp_path):
-    maps = [_labelled("a"), _labelled("b")]
-    scores, records, counts = evaluate_labels(maps)
-    assert [(r["map"], r["id"], r["truth"], r["rules"]) for r in records[:4]] == [
-        ("a", 1, "corridor", "corridor"),
-        ("a", 2, "room", "room"),
-        ("a", 3, "corridor", "room"),
-        ("a", 4, "room", "room"),
-    ]
-    assert records[0]["features"]["doors"] == 3
-    assert records[0]["features"]["area_m2"] > 39
-    assert scores["rules"]["per_class"]["corridor"] == {
+def test_a_building_left_out_is_never_learnt_from():
+    maps = [_labelled("a1", "A"), _labelled("a2", "A"), _labelled("b", "B")]
+    maps.append(_labelled("c", "C", source=ev.VIEWS[0]))
+    seen: list[set[str]] = []
+
+    def method(train):
+        seen.append({m.building for m in train})
+        assert all(m.source not in ev.VIEWS for m in train)
+        return lambda m: ["room"] * len(m.truth)
+
+    ev.predict(maps, method, held_out=True)
+    # one training per building (A, B, C), each without the building it labels
+    assert seen == [{"B"}, {"A"}, {"A", "B"}]
+    seen.clear()
+    ev.predict(maps, method, held_out=False)
+    assert seen == [{"A", "B"}]
+
+
+def test_scores_counts_and_pictures(tmp_path):
+    maps = [_labelled("a", "A"), _labelled("b", "B")]
+    result = ev.evaluate(maps)
+    rules = result["rules (LOBO)"]
+    # per map: the corridor is found, room 3 (a corridor to the truth) is not: P 1, R 0.5
+    assert rules["labels"][0] == ["corridor", "room", "room", "room"]
+    assert rules["scores"]["all"]["per_class"]["corridor"] == {
         "precision": 1.0,
         "recall": 0.5,
         "f1": 0.667,
         "support": 4,
     }
+    assert result["always room (LOBO)"]["scores"]["a"]["per_class"]["corridor"]["recall"] == 0
+    counts = ev.mistakes(maps, rules["labels"])
     assert counts[1]["map"] == "b" and counts[1]["corridors"] == 2
-    assert counts[1]["rules"] == {"corridors found": 1, "corridors invented": 0, "wrong": 1}
-    picture = draw_labels(tmp_path / "a.png", maps[0], [r["rules"] for r in records[:4]])
-    image = imread(picture)
-    assert image.shape[0] > 100 and image.shape[1] > 100
+    assert (counts[1]["found"], counts[1]["invented"], counts[1]["wrong"]) == (1, 0, 1)
+    assert counts[1]["corridor as room"] == 1
+    records = ev.region_records(maps, result)
+    assert [(r["map"], r["id"], r["truth"]) for r in records[:2]] == [
+        ("a", 1, "corridor"),
+        ("a", 2, "room"),
+    ]
+    assert records[0]["features"]["doors"] == 3
+    picture = ev.draw_labels(tmp_path / "a.png", maps[0], rules["labels"][0])
+    rgb = (imread(picture)[..., :3] * 255).round().astype(int)
     # the rooms' blue and the corridor's orange are both in the picture
-    rgb = (image[..., :3] * 255).round().astype(int)
     for colour in ((0x9E, 0xCA, 0xE1), (0xFD, 0xAE, 0x6B)):
         mixed = 0.85 * np.array(colour)
         assert (np.abs(rgb - mixed - 0.15 * 255).sum(axis=2) < 12).any()
 
 
-def test_a_forest_trained_on_all_maps_saves_as_json(tmp_path):
-    maps = [_labelled("a"), _labelled("b")]
-    model = train_on_all(maps)
-    found = model.predict(feature_matrix(maps[0]["features"]))
-    # the corridor and the room below are learnt; rooms 2 and 3 have the same features and
-    # two different true types, so no model can get both
-    assert (found[0], found[3]) == ("corridor", "room")
-    again = ForestClassifier.load(model.save(tmp_path / "model.json"))
-    assert again.predict(feature_matrix(maps[1]["features"])) == found
+def test_threshold_search_and_margins():
+    maps = [_labelled("a", "A"), _labelled("b", "B")]
+    slender = maps[0].features["slenderness"][0]  # the corridor: 20 x 2 m, about 10
+    assert slender > ev.RuleClassifier.thresholds()["corridor_length"][1][1]
+    found = ev.margins(maps, RuleClassifier())
+    # the corridor stays a corridor and the rooms (slenderness about 1) stay rooms for every
+    # corridor length from about 1.5 (a room is 4 x 5 m: 1.25) up to the top of the range
+    low, high = found["corridor_length"]["lowest"], found["corridor_length"]["highest"]
+    assert 1.25 < low <= 2.0 and high == 8.0
+    # a corridor at most 1.5 m wide would lose the 2 m corridor: the margin ends above it
+    assert 1.8 < found["corridor_width_m"]["lowest"] <= 2.2
+    # searching cannot beat the truth's own mistake (room 3): the same score as the defaults
+    searched = ev.fit_thresholds(maps)
+    assert (
+        ev.score_labels(
+            [t for m in maps for t in m.truth], [p for m in maps for p in searched(m.features)]
+        )["macro_f1"]
+        == found["corridor_length"]["macro_f1"]
+    )
+
+
+def test_drawn_corridors_and_halls_on_a_rotated_grid():
+    grid = OccupancyGrid(np.zeros((40, 40), np.int8), 0.5, origin=(-10.0, -10.0, 0.0))
+    shapes = {
+        "corridors": [{"width": 2.0, "line": [[-10, 0], [10, 0]]}],
+        "halls": [{"polygon": [[0, 2], [10, 2], [10, 10], [0, 10]]}],
+    }
+    truth = drawn_truth(grid, shapes)
+    corridor = grid.world_to_cell(np.array([-5.0, 5.0]), np.array([0.2, -0.6]))
+    assert (truth[corridor] == PLACE_TYPES.index("corridor")).all()
+    hall = grid.world_to_cell(np.array([5.0]), np.array([6.0]))
+    assert truth[hall] == PLACE_TYPES.index("hall")
+    room = grid.world_to_cell(np.array([-5.0]), np.array([6.0]))
+    assert truth[room] == PLACE_TYPES.index("room")
+
+
+def test_room_types_csv_errors_name_file_and_line(tmp_path):
+    bad = tmp_path / "types.csv"
+    bad.write_text("map,colour,type\nmap3,ffffff,room\nmap3,000001,kitchen\n")
+    with pytest.raises(MapFormatError, match=r"types.csv:3: unknown type 'kitchen'"):
+        read_room_types(bad)
+    bad.write_text("map,color\nmap3,ffffff\n")
+    with pytest.raises(MapFormatError, match=r"columns \['map', 'color'\]"):
+        read_room_types(bad)
+
+
+def test_hand_labels_match_the_data(data_dir):
+    # every typed colour is a room of that map's ground truth, every room over 200 pixels is
+    # typed, and each map has one corridor system (the building's, drawn in one colour)
+    table = read_room_types(LABELS / "rose2_partial.csv")
+    assert sorted(table, key=lambda k: int(k[3:])) == [f"map{k}" for k in range(3, 18)]
+    for name, colours in table.items():
+        image = cv2.imread(str(data_dir / "rose2_partial" / "gt" / f"{name}.png"))[..., ::-1]
+        found, counts = np.unique(image.reshape(-1, 3), axis=0, return_counts=True)
+        big = [c for c, n in zip(found, counts, strict=True) if n > 200 and c.any()]
+        rooms = {"".join(f"{int(v):02x}" for v in c) for c in big}
+        assert set(colours) == rooms, name
+        assert list(colours.values()).count("corridor") == 1, name
+    drawn = json.loads((LABELS / "carmen.json").read_text())
+    assert sorted(drawn) == ["aces", "csail", "freiburg-079", "intel"]
+    for shapes in drawn.values():
+        assert (data_dir / "carmen" / shapes["log"]).is_file()
+        assert all(c["width"] >= 1.0 for c in shapes["corridors"])

@@ -1,5 +1,5 @@
 """Corridor features and default rules on hand-made buildings, against values worked out by
-hand: a 20 x 2 m corridor with four rooms on its side, a hall, a hub and a passage."""
+hand: a 20 x 2 m corridor with four rooms on its side, a hall, a ring, a hub and laser rays."""
 
 import networkx as nx
 import numpy as np
@@ -11,7 +11,8 @@ from scipy import ndimage
 from maps.grid import OccupancyGrid
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
-from topomap.labels import region_features, rule_classifier, skeleton_shape
+from topomap.classifiers import rule_classifier
+from topomap.features import region_features, skeleton_shape
 
 CELL = 0.05  # m
 
@@ -93,40 +94,57 @@ def test_room_with_one_door_and_a_hall():
     assert rule_classifier(f) == ["corridor", "room", "hall"]
 
 
-def test_hub_and_passage_whatever_their_length():
-    # a 5 x 5 m space with five rooms opening onto it is where people pass: corridor
+def test_hub_whatever_its_length():
+    # a 5 x 5 m space that six rooms open onto is where people pass: corridor; with five
+    # rooms (under the default six doors) it is a room with many doors
     size = _cells(5)
-    labels = np.zeros((_cells(11), _cells(11)), np.int32)
-    inner = slice(_cells(3), _cells(3) + size)
-    labels[inner, inner] = 1
-    rooms = [
-        (slice(0, _cells(3)), slice(_cells(3), _cells(5.4))),
-        (slice(0, _cells(3)), slice(_cells(5.6), _cells(8))),
-        (slice(_cells(8), None), inner),
-        (inner, slice(0, _cells(3))),
-        (inner, slice(_cells(8), None)),
-    ]
-    for k, (rows, cols) in enumerate(rooms):
-        labels[rows, cols] = k + 2
-    regions, graph = _building(labels)
-    f = region_features(regions, graph)
-    assert f["doors"][0] == 5
-    assert f["slenderness"][0] < 2  # not long for its width
-    assert rule_classifier(f)[0] == "corridor"
 
-    # a 2 x 5 m passage with doors at its two ends is a corridor; the same space entered
-    # twice through one long side is a (narrow) room
-    def passage(door_cols: tuple[slice, slice], door_rows: tuple[slice, slice]) -> str:
-        labels = np.zeros((_cells(9), _cells(9)), np.int32)
-        labels[_cells(2) : _cells(7), _cells(3) : _cells(5)] = 1
-        for k, (rows, cols) in enumerate(zip(door_rows, door_cols, strict=True)):
+    def hub(rooms: int) -> tuple[float, str]:
+        labels = np.zeros((_cells(11), _cells(11)), np.int32)
+        inner = slice(_cells(3), _cells(3) + size)
+        labels[inner, inner] = 1
+        spots = [
+            (slice(0, _cells(3)), slice(_cells(3), _cells(5.4))),
+            (slice(0, _cells(3)), slice(_cells(5.6), _cells(8))),
+            (slice(_cells(8), None), slice(_cells(3), _cells(5.4))),
+            (slice(_cells(8), None), slice(_cells(5.6), _cells(8))),
+            (inner, slice(0, _cells(3))),
+            (inner, slice(_cells(8), None)),
+        ]
+        for k, (rows, cols) in enumerate(spots[:rooms]):
             labels[rows, cols] = k + 2
-        regions, graph = _building(labels)
-        f = region_features(regions, graph)
-        assert f["doors"][0] == 2
-        return rule_classifier(f)[0]
+        f = region_features(*_building(labels))
+        assert f["slenderness"][0] < 2  # not long for its width
+        return f["doors"][0], rule_classifier(f)[0]
 
-    ends = (slice(_cells(3), _cells(5)), slice(_cells(3), _cells(5)))
-    assert passage(ends, (slice(0, _cells(2)), slice(_cells(7), None))) == "corridor"
-    side = (slice(_cells(5), None), slice(_cells(5), None))
-    assert passage(side, (slice(_cells(2), _cells(3)), slice(_cells(3.2), _cells(4)))) == "room"
+    assert hub(6) == (6, "corridor")
+    assert hub(5) == (5, "room")
+
+
+def test_a_fan_of_laser_rays_is_no_corridor():
+    # a 0.5 m wide, 8 m long strip (rays through a door into a room nobody entered) beside a
+    # 2 m wide corridor of the same length: too narrow to walk, so a room; the corridor stays
+    labels = np.zeros((_cells(6), _cells(10)), np.int32)
+    labels[_cells(1) : _cells(3), _cells(1) : _cells(9)] = 1
+    labels[_cells(3) : _cells(3.5), _cells(1) : _cells(9)] = 2
+    f = region_features(*_building(labels))
+    assert f["width_m"][1] < 0.6 < 1.8 < f["width_m"][0]
+    assert rule_classifier(f) == ["corridor", "room"]
+
+
+def test_a_ring_of_corridors_is_no_hall_and_an_open_floor_with_shelves_is():
+    # a 2 m corridor around a 16 x 16 m block: 144 m^2 of floor in a 400 m^2 hull
+    ring = np.zeros((_cells(22), _cells(22)), np.int32)
+    ring[_cells(1) : _cells(21), _cells(1) : _cells(21)] = 1
+    ring[_cells(3) : _cells(19), _cells(3) : _cells(19)] = 0
+    f = region_features(*_building(ring))
+    assert f["solidity"][0] == pytest.approx(144 / 400, abs=0.03)
+    assert rule_classifier(f) == ["corridor"]
+    # a 30 x 20 m floor with three 1 x 12 m shelves (holes larger than furniture): a hall
+    floor = np.zeros((_cells(22), _cells(32)), np.int32)
+    floor[_cells(1) : _cells(21), _cells(1) : _cells(31)] = 1
+    for x in (8, 15, 22):
+        floor[_cells(5) : _cells(17), _cells(x) : _cells(x + 1)] = 0
+    f = region_features(*_building(floor))
+    assert f["extent_m"][0] == pytest.approx(20.0, abs=0.2)
+    assert rule_classifier(f) == ["hall"]

@@ -1,7 +1,5 @@
 """Region features, the classifier hook, default rules, the forest, names and renaming."""
 
-import json
-
 import numpy as np
 import pytest
 
@@ -10,16 +8,10 @@ from maps.grid import OccupancyGrid
 from segmentation.export import read_geojson, read_graphml
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
-from topomap.labels import (
-    FEATURES,
-    ForestClassifier,
-    LabelError,
-    classify,
-    feature_matrix,
-    find_region,
-    region_features,
-    rule_classifier,
-)
+from topomap.classifiers import ForestClassifier, RuleClassifier, classify, rule_classifier
+from topomap.errors import LabelError
+from topomap.features import FEATURE_UNITS, FEATURES, feature_matrix, region_features
+from topomap.labels import find_region
 from topomap.topomap import TopoMap
 
 
@@ -74,19 +66,81 @@ def test_hook_accepts_functions_and_estimators_and_checks_them():
     assert classify(forest, f) == ["corridor", "room"]
 
 
-def test_forest_saves_as_json_and_reloads_the_same(tmp_path):
+def test_forest_saves_with_skops_and_reloads_the_same(tmp_path):
+    import skops.io
+
     rng = np.random.default_rng(0)
     x = rng.random((60, len(FEATURES)))
     y = ["room" if v < 0.5 else "corridor" for v in x[:, 2]]
     forest = ForestClassifier(n_estimators=20, random_state=3).fit(x, y)
-    path = forest.save(tmp_path / "forest.json")
-    assert json.loads(path.read_text())["format"] == "topomap-forest-1"
+    path = forest.save(tmp_path / "forest.skops")
     again = ForestClassifier.load(path)
     test = rng.random((40, len(FEATURES)))
     assert again.predict(test) == forest.predict(test)
-    (tmp_path / "bad.json").write_text('{"x": [[1]]}')
-    with pytest.raises(LabelError, match=r"bad.json: not a topomap forest file"):
-        ForestClassifier.load(tmp_path / "bad.json")
+    (tmp_path / "bad.skops").write_text('{"x": [[1]]}')
+    with pytest.raises(LabelError, match=r"bad.skops: not a topomap forest file"):
+        ForestClassifier.load(tmp_path / "bad.skops")
+    skops.io.dump({"format": "topomap-forest-2", "features": ["area_m2"]}, tmp_path / "old.skops")
+    with pytest.raises(LabelError, match=r"old.skops: features \['area_m2'\] are not"):
+        ForestClassifier.load(tmp_path / "old.skops")
+    # a file holding a type a forest is not made of is refused before anything is built
+    skops.io.dump({"format": "topomap-forest-2", "x": RuleClassifier()}, tmp_path / "odd.skops")
+    with pytest.raises(LabelError, match=r"odd.skops: holds types .*RuleClassifier"):
+        ForestClassifier.load(tmp_path / "odd.skops")
+
+
+def test_feature_table_is_what_a_classifier_receives():
+    plan = generate_floor_plan("flat", random_state=4)
+    topo = TopoMap.from_grid(plan.grid, random_state=4)
+    table = topo.feature_table()
+    assert list(table) == ["id", *FEATURES] and set(FEATURES) == set(FEATURE_UNITS)
+    assert table["id"].tolist() == sorted(topo.graph.nodes)
+    seen = {}
+
+    def spy(features):
+        seen.update(features)
+        return ["room"] * len(features["id"])
+
+    topo.label(spy)
+    assert {k: v.tolist() for k, v in seen.items()} == {k: v.tolist() for k, v in table.items()}
+    # the areas are the regions' floor in m^2 (furniture holes filled: never less)
+    for region, area in zip(table["id"].astype(int), table["area_m2"], strict=True):
+        assert area >= topo.regions.area(region) * 0.99
+
+
+def test_label_keeps_the_names_a_user_gave(tmp_path):
+    plan = generate_floor_plan("flat", random_state=4)
+    topo = TopoMap.from_grid(plan.grid, random_state=4)
+    corridor = topo.region("corridor 1")
+    first = topo.region("room 1")
+    rooms = [r for r in topo.graph if topo.graph.nodes[r]["label"] == "room"]
+    last = topo.region(f"room {len(rooms)}")
+    topo.rename(corridor, "main hallway")
+    topo.rename(first, "office")
+    topo.rename(last, "room 1")  # a name the numbering would give another room
+    topo.label()
+    assert topo.graph.nodes[corridor]["name"] == "main hallway"
+    assert topo.graph.nodes[first]["name"] == "office"
+    assert topo.graph.nodes[last]["name"] == "room 1"
+    names = [topo.graph.nodes[r]["name"] for r in topo.graph]
+    assert len(set(names)) == len(names)
+    topo.label(lambda features: ["room"] * len(features["id"]))
+    assert topo.graph.nodes[corridor]["name"] == "main hallway"
+    assert topo.graph.nodes[corridor]["label"] == "room"
+    topo.save(tmp_path / "saved")
+    again = TopoMap.load(tmp_path / "saved")
+    again.label()
+    assert again.graph.nodes[corridor]["name"] == "main hallway"
+
+
+def test_names_of_only_digits_are_refused():
+    plan = generate_floor_plan("flat", random_state=4)
+    topo = TopoMap.from_grid(plan.grid, random_state=4)
+    first = sorted(topo.graph.nodes)[0]
+    old = topo.graph.nodes[first]["name"]
+    with pytest.raises(LabelError, match="only digits"):
+        topo.rename(first, " 3 ")
+    assert topo.graph.nodes[first]["name"] == old
 
 
 def test_generated_building_gets_unique_names_saved_in_exports(tmp_path):

@@ -1,132 +1,44 @@
-"""Evaluation of region labelling against place types drawn by people (``ipa_places``) and
-against the generator's own room types.
+"""Evaluation of region labels on labelled buildings (:mod:`topomap.cli.label_sources`), with
+whole buildings left out.
 
-Each map is segmented; each region's true type is the majority type of its cells; regions are
-then predicted by the rules, and by a random forest trained on all *other* labelled maps (whole
-maps left out; with ``more``, the other data set's maps too). Scores are per region, and per
-map the corridors found and invented.
+Methods: the default rules (:class:`~topomap.classifiers.RuleClassifier`, thresholds from
+building practice, nothing fitted), the rules with their thresholds searched on the other
+buildings, a random forest trained on the other buildings, and "always room". For every
+building, whatever a method learns it learns from the other buildings only (leave one
+building out, LOBO); in-sample, it learns from all. Scores are per region, per source.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import cv2
-import networkx as nx
 import numpy as np
-from numpy.typing import NDArray
 from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
 
-from maps.errors import MapFileNotFoundError
-from maps.floorplan import generate_floor_plan
-from maps.grid import OccupancyGrid
-from segmentation.regions import Regions
+from topomap.classifiers import PLACE_TYPES, ForestClassifier, RuleClassifier, rule_classifier
 from topomap.cli.drawing import _map_figure, _save
-from topomap.labels import (
-    PLACE_TYPES,
-    ForestClassifier,
-    feature_matrix,
-    region_features,
-    rule_classifier,
-)
-from topomap.topomap import TopoMap
+from topomap.cli.label_sources import LabelledMap
+from topomap.features import feature_matrix
 
-#: Grey levels of ``*_places.png``: room, corridor, doorway.
-PLACE_GREYS = {77: "room", 115: "corridor", 179: "doorway"}
-#: Cell size of the ipa_places images, metres.
-PLACES_RESOLUTION = 0.05
+#: A method: trained on some maps, it returns a classifier of a feature table.
+Method = Callable[[Sequence[LabelledMap]], Callable[[LabelledMap], list[str]]]
+#: Sources that are another view of a source's maps (scored apart, not pooled in "all").
+VIEWS = ("rose2-rooms",)
+#: Values tried per threshold, across its physically sensible range.
+STEPS = 21
 
 
-def place_maps(data_dir: str | Path) -> list[tuple[str, Path, Path]]:
-    """``(name, floor plan PNG, places PNG)`` for every ``NAME.png`` with ``NAME_places.png``."""
-    folder = Path(data_dir)
-    if not folder.is_dir():
-        raise MapFileNotFoundError(folder, "data folder")
-    found = []
-    for places in sorted(folder.glob("*_places.png")):
-        name = places.name.removesuffix("_places.png")
-        plan = folder / f"{name}.png"
-        if plan.exists():
-            found.append((name, plan, places))
-    if not found:
-        raise MapFileNotFoundError(folder / "*_places.png", "place-labelled map")
-    return found
-
-
-def read_places(path: Path) -> NDArray[np.int8]:
-    """Place type index (into :data:`PLACE_TYPES`) per pixel, -1 for walls and other greys."""
-    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
-    if image is None:
-        raise MapFileNotFoundError(path, "places image")
-    types = np.full(image.shape, -1, np.int8)
-    for grey, place in PLACE_GREYS.items():
-        types[image == grey] = PLACE_TYPES.index(place)
-    return types
-
-
-def majority_types(labels: NDArray[np.integer], truth: NDArray[np.int8], ids: NDArray) -> list:
-    """The most common true type among each region's cells (None when it has none)."""
-    found = []
-    for region in ids:
-        cells = truth[(labels == region) & (truth >= 0)]
-        counts = np.bincount(cells, minlength=len(PLACE_TYPES))
-        found.append(PLACE_TYPES[int(counts.argmax())] if counts.sum() else None)
-    return found
-
-
-def labelled_regions(
-    regions: Regions, graph: nx.Graph, truth: NDArray[np.int8], map_name: str
-) -> dict[str, Any]:
-    """Features and true type of every region of ``graph`` with a true type, and the map's
-    ``regions`` and ``graph`` for pictures."""
-    features = region_features(regions, graph)
-    types = majority_types(regions.labels, truth, features["id"].astype(int))
-    keep = np.array([t is not None for t in types])
-    return {
-        "map": map_name,
-        "features": {k: v[keep] for k, v in features.items()},
-        "truth": [t for t in types if t is not None],
-        "regions": regions,
-        "graph": graph,
-    }
-
-
-def ipa_places_regions(
-    data_dir: str | Path, progress: Callable[[Any], Any] = iter
-) -> list[dict[str, Any]]:
-    """:func:`labelled_regions` of every map of ``ipa_places``."""
-    found = []
-    for name, plan, places in progress(place_maps(data_dir)):
-        grid = OccupancyGrid.from_image(plan, PLACES_RESOLUTION)
-        topo = TopoMap.from_grid(grid)
-        found.append(labelled_regions(topo.regions, topo.graph, read_places(places), name))
-    return found
-
-
-def generated_regions(
-    sizes: tuple[str, ...] = ("flat", "office"),
-    seeds: tuple[int, ...] = (0, 1, 2),
-    progress: Callable[[Any], Any] = iter,
-) -> list[dict[str, Any]]:
-    """:func:`labelled_regions` of generated buildings, the truth being the generator's
-    room types."""
-    found = []
-    for size, seed in progress([(size, seed) for size in sizes for seed in seeds]):
-        plan = generate_floor_plan(size, random_state=seed)
-        truth = np.full(plan.labels.shape, -1, np.int8)
-        for index, place in enumerate(plan.types, start=1):
-            truth[plan.labels == index] = PLACE_TYPES.index(place)
-        topo = TopoMap.from_grid(plan.grid, random_state=seed)
-        name = f"generated-{size}-{seed}"
-        found.append(labelled_regions(topo.regions, topo.graph, truth, name))
-    return found
-
-
-def score_labels(truth: list[str], predicted: list[str]) -> dict[str, Any]:
+def score_labels(truth: Sequence[str], predicted: Sequence[str]) -> dict[str, Any]:
     """Per-class precision, recall, F1 and support, macro-F1 over the true classes, and the
-    confusion matrix (rows true, columns predicted, in :data:`PLACE_TYPES` order)."""
+    confusion matrix (rows true, columns predicted, in :data:`PLACE_TYPES` order).
+
+    Examples
+    --------
+    >>> score_labels(["room", "corridor"], ["room", "room"])["macro_f1"]
+    0.333
+    """
     classes = [c for c in PLACE_TYPES if c in truth]
     p, r, f, s = precision_recall_fscore_support(truth, predicted, labels=classes, zero_division=0)
     return {
@@ -139,85 +51,190 @@ def score_labels(truth: list[str], predicted: list[str]) -> dict[str, Any]:
             }
             for i, c in enumerate(classes)
         },
-        "macro_f1": round(float(np.mean(f)), 3),
+        "macro_f1": round(float(np.mean(f)), 3) if classes else 0.0,
         "confusion": confusion_matrix(truth, predicted, labels=list(PLACE_TYPES)).tolist(),
     }
 
 
-def predictions(
-    maps: list[dict[str, Any]], more: list[dict[str, Any]] | None = None
-) -> dict[str, list[str]]:
-    """Per method, the predicted type of every region of ``maps`` (maps in order): the rules,
-    a forest trained on all other labelled maps (the other ``maps`` and ``more``, never the map
-    it predicts), and "always room"."""
-    rules = [label for m in maps for label in rule_classifier(m["features"])]
-    forest: list[str] = []
-    for held in range(len(maps)):
-        train = [m for i, m in enumerate(maps) if i != held] + (more or [])
-        forest += train_on_all(train).predict(feature_matrix(maps[held]["features"]))
-    count = sum(len(m["truth"]) for m in maps)
-    return {"rules": rules, "forest (maps left out)": forest, "always room": ["room"] * count}
+def _macro_f1(truth: Sequence[str], predicted: Sequence[str]) -> float:
+    """Macro-F1 over the true classes, as :func:`score_labels` (unrounded; numpy, for the
+    many calls of the threshold search)."""
+    t, p = np.asarray(truth), np.asarray(predicted)
+    scores = []
+    for c in PLACE_TYPES:
+        if (t == c).any():
+            hits = float(((t == c) & (p == c)).sum())
+            scores.append(2 * hits / ((t == c).sum() + (p == c).sum()))
+    return float(np.mean(scores)) if scores else 0.0
 
 
-def train_on_all(maps: list[dict[str, Any]]) -> ForestClassifier:
+def _rules(classifier: RuleClassifier) -> Callable[[LabelledMap], list[str]]:
+    return lambda m: classifier(m.features)
+
+
+def fit_thresholds(
+    maps: Sequence[LabelledMap], start: RuleClassifier | None = None
+) -> RuleClassifier:
+    """The rules with each threshold searched, one at a time (two rounds), over its range
+    (:meth:`RuleClassifier.thresholds`) for the best macro-F1 on ``maps``; ties keep the value
+    nearest the current one."""
+    rules = start or RuleClassifier()
+    truth = [t for m in maps for t in m.truth]
+    for _ in range(2):
+        for name, (_, (lo, hi), _) in RuleClassifier.thresholds().items():
+            current = getattr(rules, name)
+            best = max(
+                np.linspace(lo, hi, STEPS),
+                key=lambda v: (
+                    round(
+                        _macro_f1(
+                            truth, _predict(rules.__class__(**{**vars(rules), name: v}), maps)
+                        ),
+                        6,
+                    ),
+                    -abs(v - current),
+                ),
+            )
+            rules = rules.__class__(**{**vars(rules), name: float(best)})
+    return rules
+
+
+def _predict(rules: RuleClassifier, maps: Sequence[LabelledMap]) -> list[str]:
+    return [label for m in maps for label in rules(m.features)]
+
+
+def train_forest(maps: Sequence[LabelledMap]) -> ForestClassifier:
     """A :class:`ForestClassifier` trained on every labelled region of ``maps``."""
-    x = np.vstack([feature_matrix(m["features"]) for m in maps])
-    return ForestClassifier().fit(x, [t for m in maps for t in m["truth"]])
+    x = np.vstack([feature_matrix(m.features) for m in maps])
+    return ForestClassifier().fit(x, [t for m in maps for t in m.truth])
 
 
-def per_map(maps: list[dict[str, Any]], predicted: dict[str, list[str]]) -> list[dict[str, Any]]:
-    """Per map: regions, true corridors, and per method the corridors found, the corridors
-    invented and all wrong labels."""
-    rows, start = [], 0
-    for m in maps:
-        truth = m["truth"]
-        row: dict[str, Any] = {
-            "map": m["map"],
-            "regions": len(truth),
-            "corridors": truth.count("corridor"),
+def _forest(maps: Sequence[LabelledMap]) -> Callable[[LabelledMap], list[str]]:
+    model = train_forest(maps)
+    return lambda m: model.predict(feature_matrix(m.features))
+
+
+#: The methods compared, by name.
+METHODS: dict[str, Method] = {
+    "rules": lambda maps: _rules(rule_classifier),
+    "rules, thresholds searched": lambda maps: _rules(fit_thresholds(maps)),
+    "forest": _forest,
+    "always room": lambda maps: lambda m: ["room"] * len(m.truth),
+}
+
+
+def predict(maps: Sequence[LabelledMap], method: Method, *, held_out: bool) -> list[list[str]]:
+    """Per map, the labels of ``method``: trained on every other building's maps
+    (``held_out``, leave one building out) or on all maps (in-sample); never on the
+    :data:`VIEWS` (people's rooms as regions have no doors between them)."""
+    usable = [m for m in maps if m.source not in VIEWS]
+    if not held_out:
+        classifier = method(usable)
+        return [classifier(m) for m in maps]
+    found: dict[int, list[str]] = {}
+    for building in sorted({m.building for m in maps}):
+        train = [m for m in usable if m.building != building]
+        classifier = method(train)
+        for i, m in enumerate(maps):
+            if m.building == building:
+                found[i] = classifier(m)
+    return [found[i] for i in range(len(maps))]
+
+
+def evaluate(maps: Sequence[LabelledMap]) -> dict[str, Any]:
+    """Per method, in-sample and LOBO, the labels of every map and the scores per source
+    and over all sources but the :data:`VIEWS` (``"all"``)."""
+    sources = sorted({m.source for m in maps})
+    result: dict[str, Any] = {}
+    for name, method in METHODS.items():
+        for mode in ("in-sample", "LOBO"):
+            labels = predict(maps, method, held_out=mode == "LOBO")
+            scores = {}
+            for source in [*sources, "all"]:
+                chosen = [
+                    i
+                    for i, m in enumerate(maps)
+                    if m.source == source or (source == "all" and m.source not in VIEWS)
+                ]
+                truth = [t for i in chosen for t in maps[i].truth]
+                scores[source] = score_labels(truth, [p for i in chosen for p in labels[i]])
+            result[f"{name} ({mode})"] = {"labels": labels, "scores": scores}
+    return result
+
+
+def margins(maps: Sequence[LabelledMap], rules: RuleClassifier) -> dict[str, dict[str, Any]]:
+    """How far each threshold of ``rules`` can move, the others fixed, before macro-F1 on
+    ``maps`` (the :data:`VIEWS` left out) drops by more than 0.01: the lowest and highest
+    value of the searched range (:data:`STEPS` values) that keep it, and the score."""
+    maps = [m for m in maps if m.source not in VIEWS]
+    truth = [t for m in maps for t in m.truth]
+    base = _macro_f1(truth, _predict(rules, maps))
+    found = {}
+    for name, (_, (lo, hi), _) in RuleClassifier.thresholds().items():
+        value = getattr(rules, name)
+        values = np.union1d(np.linspace(lo, hi, STEPS), [value])
+        held = [
+            _macro_f1(truth, _predict(rules.__class__(**{**vars(rules), name: v}), maps))
+            >= base - 0.01
+            for v in values
+        ]
+        at = int(np.searchsorted(values, value))
+        low = at
+        while low > 0 and held[low - 1]:
+            low -= 1
+        high = at
+        while high < len(values) - 1 and held[high + 1]:
+            high += 1
+        found[name] = {
+            "value": round(float(value), 3),
+            "lowest": round(float(values[low]), 3),
+            "highest": round(float(values[high]), 3),
+            "range": [lo, hi],
+            "macro_f1": round(base, 3),
         }
-        for method, labels in predicted.items():
-            mine = labels[start : start + len(truth)]
-            pairs = list(zip(truth, mine, strict=True))
-            row[method] = {
-                "corridors found": sum(t == p == "corridor" for t, p in pairs),
-                "corridors invented": sum(p == "corridor" != t for t, p in pairs),
+    return found
+
+
+def mistakes(maps: Sequence[LabelledMap], labels: Sequence[list[str]]) -> list[dict[str, Any]]:
+    """Per map: regions, corridors found and invented, wrong labels, corridors called rooms
+    and halls called corridors."""
+    rows = []
+    for m, mine in zip(maps, labels, strict=True):
+        pairs = list(zip(m.truth, mine, strict=True))
+        rows.append(
+            {
+                "source": m.source,
+                "map": m.map,
+                "regions": len(pairs),
+                "corridors": m.truth.count("corridor"),
+                "found": sum(t == p == "corridor" for t, p in pairs),
+                "invented": sum(p == "corridor" != t for t, p in pairs),
                 "wrong": sum(t != p for t, p in pairs),
+                "corridor as room": sum(t == "corridor" and p == "room" for t, p in pairs),
+                "hall as corridor": sum(t == "hall" and p == "corridor" for t, p in pairs),
             }
-        rows.append(row)
-        start += len(truth)
+        )
     return rows
 
 
-def region_records(
-    maps: list[dict[str, Any]], predicted: dict[str, list[str]]
-) -> list[dict[str, Any]]:
-    """One record per region: map, id, true type, every method's prediction and the features."""
+def region_records(maps: Sequence[LabelledMap], result: dict[str, Any]) -> list[dict[str, Any]]:
+    """One record per region: source, map, id, true type, every method's labels, features."""
     records = []
-    rows = [(m, i) for m in maps for i in range(len(m["truth"]))]
-    for k, (m, i) in enumerate(rows):
-        features = {n: round(float(v[i]), 4) for n, v in m["features"].items() if n != "id"}
-        records.append(
-            {
-                "map": m["map"],
-                "id": int(m["features"]["id"][i]),
-                "truth": m["truth"][i],
-                **{method: labels[k] for method, labels in predicted.items()},
-                "features": features,
-            }
-        )
+    for k, m in enumerate(maps):
+        for i, truth in enumerate(m.truth):
+            records.append(
+                {
+                    "source": m.source,
+                    "map": m.map,
+                    "id": int(m.features["id"][i]),
+                    "truth": truth,
+                    **{method: r["labels"][k][i] for method, r in result.items()},
+                    "features": {
+                        n: round(float(v[i]), 4) for n, v in m.features.items() if n != "id"
+                    },
+                }
+            )
     return records
-
-
-def evaluate_labels(
-    maps: list[dict[str, Any]], more: list[dict[str, Any]] | None = None
-) -> tuple[dict[str, Any], list[dict[str, Any]], list[dict[str, Any]]]:
-    """Scores of every method of :func:`predictions` over all regions of ``maps``, keyed by
-    method; the :func:`region_records`; the :func:`per_map` counts."""
-    truth = [t for m in maps for t in m["truth"]]
-    predicted = predictions(maps, more)
-    scores = {method: score_labels(truth, labels) for method, labels in predicted.items()}
-    return scores, region_records(maps, predicted), per_map(maps, predicted)
 
 
 #: Colours of the place types in the pictures.
@@ -229,16 +246,16 @@ PLACE_COLOURS = {
 }
 
 
-def draw_labels(path: str | Path, labelled: dict[str, Any], predicted: list[str]) -> Path:
-    """Write a PNG of one map of :func:`labelled_regions`: every region filled with the colour
-    of its predicted type, a text "predicted / true" at its inside point, red where they differ
-    (regions without a true type are left white)."""
+def draw_labels(path: str | Path, labelled: LabelledMap, predicted: Sequence[str]) -> Path:
+    """Write a PNG of one map: every region filled with the colour of its predicted type, a
+    text "predicted / true" at its inside point, red where they differ (regions without a
+    true type are left white)."""
     from matplotlib.colors import to_rgba
     from matplotlib.patches import Patch
 
-    grid, labels = labelled["regions"].grid, labelled["regions"].labels
+    grid, labels = labelled.regions.grid, labelled.regions.labels
     fig, ax = _map_figure(grid)
-    ids = labelled["features"]["id"].astype(int)
+    ids = labelled.features["id"].astype(int)
     table = np.zeros((int(labels.max(initial=0)) + 1, 4))
     for region, place in zip(ids, predicted, strict=True):
         table[region] = to_rgba(PLACE_COLOURS[place], 0.85)
@@ -249,12 +266,12 @@ def draw_labels(path: str | Path, labelled: dict[str, Any], predicted: list[str]
     image[edges & (labels > 0)] = (0.2, 0.2, 0.2, 1.0)
     xmin, ymin, xmax, ymax = grid.bounds()
     ax.imshow(image, extent=(xmin, xmax, ymin, ymax), interpolation="nearest")
-    for region, place, true in zip(ids, predicted, labelled["truth"], strict=True):
-        node = labelled["graph"].nodes[region]
+    for region, place, true in zip(ids, predicted, labelled.truth, strict=True):
+        x, y = labelled.regions.grid.cell_to_world(*_inside(labels == region))
         wrong = place != true
         ax.annotate(
             f"{region}: {place}" + (f" / {true}" if wrong else ""),
-            (node["x"], node["y"]),
+            (float(x), float(y)),
             fontsize=7 if wrong else 5,
             ha="center",
             color="red" if wrong else "black",
@@ -265,6 +282,15 @@ def draw_labels(path: str | Path, labelled: dict[str, Any], predicted: list[str]
         loc="upper right",
         fontsize=7,
     )
-    errors = sum(p != t for p, t in zip(predicted, labelled["truth"], strict=True))
-    title = f"{labelled['map']}: predicted (red: predicted / true), {errors} of {len(ids)} wrong"
+    errors = sum(p != t for p, t in zip(predicted, labelled.truth, strict=True))
+    title = f"{labelled.map}: predicted (red: predicted / true), {errors} of {len(ids)} wrong"
     return _save(fig, ax, path, title)
+
+
+def _inside(mask: np.ndarray) -> tuple[int, int]:
+    """A cell of ``mask`` deepest inside it."""
+    import cv2
+
+    distance = cv2.distanceTransform(np.pad(mask, 1).astype(np.uint8), cv2.DIST_L2, 3)
+    row, col = np.unravel_index(int(distance.argmax()), distance.shape)
+    return int(row) - 1, int(col) - 1

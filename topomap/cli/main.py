@@ -307,73 +307,10 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
 
 
 def cmd_eval_labels(args: argparse.Namespace) -> int:
-    from topomap.cli.evaluate_labels import (
-        draw_labels,
-        evaluate_labels,
-        generated_regions,
-        ipa_places_regions,
-        train_on_all,
-    )
-    from topomap.labels import PLACE_TYPES
+    from topomap.cli.label_report import run
 
-    out = Path(args.out)
-    _refuse_existing(out, ["results.json"], args.force)
-    datasets = {"ipa_places": ipa_places_regions(args.data, progress=args.progress)}
-    if args.generated:
-        datasets["generated"] = generated_regions(progress=args.progress)
-    results: dict[str, Any] = {"regions": {}, "per_map": {}}
-    out.mkdir(parents=True, exist_ok=True)
-    for dataset, maps in datasets.items():
-        more = [m for other, ms in datasets.items() if other != dataset for m in ms]
-        results[dataset], records, counts = evaluate_labels(maps, more)
-        results["regions"][dataset], results["per_map"][dataset] = records, counts
-        for m in maps:
-            predicted = [r["rules"] for r in records if r["map"] == m["map"]]
-            draw_labels(out / f"{m['map']}_labels.png", m, predicted)
-        rows = []
-        for method, scores in results[dataset].items():
-            for place, s in scores["per_class"].items():
-                rows.append({"method": method, "class": place, **s})
-            rows.append({"method": method, "class": "macro-F1", "f1": scores["macro_f1"]})
-        print(f"{dataset}: {sum(len(m['truth']) for m in maps)} regions on {len(maps)} maps")
-        columns = ["method", "class", "precision", "recall", "f1", "support"]
-        print(_table([{c: r.get(c, "") for c in columns} for r in rows], columns))
-        print("per map (corridors found / invented, wrong labels):")
-        methods = ["rules", "forest (maps left out)"]
-        print(
-            _table(
-                [
-                    {
-                        "map": c["map"],
-                        "regions": c["regions"],
-                        "corridors": c["corridors"],
-                        **{
-                            k: "{corridors found} / {corridors invented}, {wrong}".format(**c[k])
-                            for k in methods
-                        },
-                    }
-                    for c in counts
-                ],
-                ["map", "regions", "corridors", *methods],
-            )
-        )
-        matrix = results[dataset]["rules"]["confusion"]
-        print("rules, confusion (rows true, columns predicted):")
-        print(
-            _table(
-                [
-                    {"true": t, **dict(zip(PLACE_TYPES, row, strict=True))}
-                    for t, row in zip(PLACE_TYPES, matrix, strict=True)
-                ],
-                ["true", *PLACE_TYPES],
-            )
-        )
-        print()
-    write_text(out / "results.json", json.dumps(results, indent=2), overwrite=args.force)
-    print(f"wrote {out / 'results.json'} (features and labels per region) and a picture per map")
-    if args.save_model:
-        model = train_on_all([m for maps in datasets.values() for m in maps])
-        print(f"wrote {model.save(args.save_model)} (forest trained on all labelled regions)")
+    _refuse_existing(Path(args.out), ["results.json"], args.force)
+    run(args, _table)
     return 0
 
 
@@ -785,15 +722,25 @@ def build_parser() -> argparse.ArgumentParser:
     _add_segmenter_options(eval_seg)
     eval_seg.set_defaults(func=cmd_eval_segment)
 
-    eval_labels = eval_sub.add_parser("labels", help="region labels on place-typed plans")
-    eval_labels.add_argument("data", help="folder of NAME.png with NAME_places.png")
+    eval_labels = eval_sub.add_parser(
+        "labels", help="region labels on labelled buildings, whole buildings left out"
+    )
+    eval_labels.add_argument("data", help="folder of NAME.png with NAME_places.png (ipa_places)")
+    eval_labels.add_argument("--rose2", metavar="DIR", help="ROSE²'s maps (rose2_partial)")
+    eval_labels.add_argument("--carmen", metavar="DIR", help="folder of the four CARMEN logs")
+    eval_labels.add_argument(
+        "--generated", action="store_true", help="also generated buildings (plans and scanned)"
+    )
+    eval_labels.add_argument(
+        "--hand-labels",
+        default="tests/data/labels",
+        metavar="DIR",
+        help="rose2_partial.csv and carmen.json: the room types drawn by hand",
+    )
     eval_labels.add_argument("--out", default="out/eval-labels")
     eval_labels.add_argument("--force", action="store_true", help="overwrite existing results")
     eval_labels.add_argument(
-        "--generated", action="store_true", help="also on generated buildings' room types"
-    )
-    eval_labels.add_argument(
-        "--save-model", metavar="JSON", help="write a forest trained on all labelled regions"
+        "--save-model", metavar="SKOPS", help="write a forest trained on all labelled regions"
     )
     eval_labels.set_defaults(func=cmd_eval_labels)
 

@@ -1,0 +1,241 @@
+"""Classifiers of the feature table: the default rules (thresholds in metres from building
+practice) and the trainable random forest, and the check every classifier's output passes.
+
+A classifier is a function of the feature table (:func:`topomap.features.region_features`) or
+a fitted scikit-learn estimator (its ``predict`` gets :func:`topomap.features.feature_matrix`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import zipfile
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from topomap.errors import LabelError
+from topomap.features import FEATURES, feature_matrix
+
+#: The place types, in table order.
+PLACE_TYPES = ("room", "corridor", "hall", "doorway")
+#: Other words for a place type, accepted in names and queries ("aisle 2" is "corridor 2").
+SYNONYMS = {"aisle": "corridor", "hallway": "corridor", "door": "doorway"}
+
+Classifier = Callable[[Mapping[str, NDArray[np.float64]]], Sequence[str]] | Any
+
+
+def _threshold(value: float, lo: float, hi: float, why: str) -> Any:
+    """A threshold field: its default, the physically sensible range searched, and why."""
+    return dataclasses.field(default=value, metadata={"range": (lo, hi), "why": why})
+
+
+@dataclasses.dataclass(frozen=True)
+class RuleClassifier:
+    """The default labels, from thresholds in metres and counts (none fitted to a map):
+
+    - ``doorway``: at most :attr:`doorway_area_m2` and :attr:`doorway_width_m` wide, between
+      two regions or more;
+    - ``hall``: a large open space: :attr:`hall_area_m2` or more, :attr:`hall_extent_m` or
+      more across, :attr:`hall_width_m` or more wide, and mostly floor (:attr:`hall_solidity`
+      of its convex hull or more: a ring or an L of corridors is not);
+    - ``corridor``: passable but narrow (width from :attr:`corridor_min_width_m` to
+      :attr:`corridor_width_m`: narrower strips are laser rays or gaps) and either long for
+      its width (slenderness :attr:`corridor_length` or more) or opening onto
+      :attr:`hub_doors` regions or more (a room has one or two entrances);
+    - ``room``: everything else.
+
+    Examples
+    --------
+    >>> table = {
+    ...     "area_m2": np.array([40.0, 30.0, 900.0, 3.0]),
+    ...     "width_m": np.array([2.0, 5.0, 25.0, 0.4]),
+    ...     "slenderness": np.array([10.0, 1.2, 1.4, 19.0]),
+    ...     "doors": np.array([4.0, 1.0, 2.0, 1.0]),
+    ...     "extent_m": np.array([2.0, 5.0, 30.0, 0.5]),
+    ...     "solidity": np.array([1.0, 1.0, 0.9, 0.8]),
+    ... }
+    >>> RuleClassifier()(table)  # a corridor, a room, a hall and a fan of laser rays
+    ['corridor', 'room', 'hall', 'room']
+    """
+
+    doorway_area_m2: float = _threshold(3.0, 1.0, 6.0, "a door leaf is 0.8-1.5 m wide")
+    doorway_width_m: float = _threshold(1.5, 1.0, 2.5, "wider than a double door is a space")
+    corridor_min_width_m: float = _threshold(
+        1.2, 0.6, 2.0, "building codes: corridors 1.2 m or wider; narrower is rays or gaps"
+    )
+    corridor_width_m: float = _threshold(
+        4.0, 2.0, 6.0, "corridors are 1.2-3 m, alcoves and junctions widen the measure"
+    )
+    corridor_length: float = _threshold(
+        4.0, 1.5, 8.0, "a room is rarely over 2.5 times as long as wide; a corridor is walked"
+    )
+    hub_doors: float = _threshold(6.0, 3.0, 15.0, "a room has one or two entrances")
+    hall_area_m2: float = _threshold(150.0, 80.0, 400.0, "beyond any office or flat room")
+    hall_extent_m: float = _threshold(8.0, 5.0, 20.0, "open across, not a long strip")
+    hall_width_m: float = _threshold(6.0, 3.0, 12.0, "wider than any corridor")
+    hall_solidity: float = _threshold(0.5, 0.2, 0.9, "mostly floor, not a ring of corridors")
+
+    def __call__(self, features: Mapping[str, NDArray[np.float64]]) -> list[str]:
+        """The place type of every region of a feature table."""
+        f = {name: np.asarray(features[name], float) for name in _RULE_COLUMNS}
+        doorway = (
+            (f["area_m2"] <= self.doorway_area_m2)
+            & (f["width_m"] <= self.doorway_width_m)
+            & (f["doors"] >= 2)
+        )
+        hall = (
+            (f["area_m2"] >= self.hall_area_m2)
+            & (f["extent_m"] >= self.hall_extent_m)
+            & (f["width_m"] >= self.hall_width_m)
+            & (f["solidity"] >= self.hall_solidity)
+        )
+        narrow = (f["width_m"] >= self.corridor_min_width_m) & (
+            f["width_m"] <= self.corridor_width_m
+        )
+        corridor = narrow & (
+            (f["slenderness"] >= self.corridor_length) | (f["doors"] >= self.hub_doors)
+        )
+        labels = np.select([doorway, hall, corridor], ["doorway", "hall", "corridor"], "room")
+        return [str(label) for label in labels]
+
+    @classmethod
+    def thresholds(cls) -> dict[str, tuple[float, tuple[float, float], str]]:
+        """Name -> (default, searched range, why) of every threshold."""
+        return {
+            f.name: (float(f.default), f.metadata["range"], f.metadata["why"])  # type: ignore[arg-type]
+            for f in dataclasses.fields(cls)
+        }
+
+
+#: The feature columns the rules read.
+_RULE_COLUMNS = ("area_m2", "width_m", "slenderness", "doors", "extent_m", "solidity")
+#: The default classifier.
+rule_classifier = RuleClassifier()
+
+
+def classify(
+    classifier: Classifier | None, features: Mapping[str, NDArray[np.float64]]
+) -> list[str]:
+    """Run a classifier (a function of the features, or an estimator with ``predict``) and
+    check its output: one known place type (or synonym) per region.
+
+    Raises
+    ------
+    LabelError
+        Naming the classifier, when it returns the wrong number of labels or an unknown one.
+    """
+    classifier = rule_classifier if classifier is None else classifier
+    name = getattr(classifier, "__name__", type(classifier).__name__)
+    if hasattr(classifier, "predict"):
+        found = classifier.predict(feature_matrix(features))
+    elif callable(classifier):
+        found = classifier(features)
+    else:
+        raise LabelError(f"classifier {name} is neither callable nor has predict()")
+    found = [str(label).strip().lower() for label in found]
+    count = len(features["id"])
+    if len(found) != count:
+        raise LabelError(f"classifier {name} returned {len(found)} labels for {count} regions")
+    labels = [SYNONYMS.get(label, label) for label in found]
+    unknown = sorted({label for label in labels if label not in PLACE_TYPES})
+    if unknown:
+        raise LabelError(
+            f"classifier {name} returned unknown labels {unknown}; known: {', '.join(PLACE_TYPES)}"
+        )
+    return labels
+
+
+#: The only type a saved forest may hold beyond skops' default-trusted ones.
+_FOREST_TYPES = ("sklearn.tree._tree.Tree",)
+
+
+class ForestClassifier:
+    """A class-balanced random forest on the feature matrix, trained on labelled regions.
+
+    Saved with skops (:meth:`save`, :meth:`load`), never pickled: loading builds only the
+    types a forest is made of and refuses a file that holds any other.
+
+    Parameters
+    ----------
+    n_estimators, min_samples_leaf, random_state
+        Forest size, smallest leaf and seed.
+    """
+
+    def __init__(
+        self, n_estimators: int = 200, min_samples_leaf: int = 1, random_state: int = 0
+    ) -> None:
+        self.n_estimators = n_estimators
+        self.min_samples_leaf = min_samples_leaf
+        self.random_state = random_state
+        self._forest: Any = None
+
+    def fit(self, features: NDArray[np.float64], labels: Sequence[str]) -> ForestClassifier:
+        """Learn from a feature matrix (:func:`~topomap.features.feature_matrix`) and one place
+        type per row."""
+        features = np.asarray(features, float)
+        if features.ndim != 2 or features.shape[1] != len(FEATURES):
+            raise LabelError(f"expected a matrix of {len(FEATURES)} feature columns")
+        if len(labels) != len(features):
+            raise LabelError(f"{len(labels)} labels for {len(features)} rows")
+        from sklearn.ensemble import RandomForestClassifier  # only a learned model needs it
+
+        self._forest = RandomForestClassifier(
+            self.n_estimators,
+            min_samples_leaf=self.min_samples_leaf,
+            class_weight="balanced",
+            random_state=self.random_state,
+        ).fit(features, [str(label) for label in labels])
+        return self
+
+    def predict(self, features: NDArray[np.float64]) -> list[str]:
+        """Place type of each row."""
+        if self._forest is None:
+            raise LabelError("ForestClassifier is not fitted")
+        return [str(label) for label in self._forest.predict(np.asarray(features, float))]
+
+    def save(self, path: str | Path) -> Path:
+        """Write the fitted forest and the feature names as a skops file."""
+        import skops.io
+
+        if self._forest is None:
+            raise LabelError("ForestClassifier is not fitted: nothing to save")
+        path = Path(path)
+        skops.io.dump(
+            {"format": "topomap-forest-2", "features": list(FEATURES), "forest": self._forest}, path
+        )
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> ForestClassifier:
+        """Read a file written by :meth:`save`.
+
+        Raises
+        ------
+        LabelError
+            Naming the file: not a skops file, another format, other features, or types
+            that a forest is not made of (never built).
+        """
+        import skops.io
+
+        path = Path(path)
+        try:
+            untrusted = skops.io.get_untrusted_types(file=path)
+            strange = sorted(set(untrusted) - set(_FOREST_TYPES))
+            if strange:
+                raise LabelError(f"{path}: holds types a forest is not made of: {strange}")
+            data = skops.io.load(path, trusted=list(untrusted))
+        except LabelError:
+            raise
+        except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile) as err:
+            raise LabelError(f"{path}: not a topomap forest file ({err})") from err
+        if not isinstance(data, dict) or data.get("format") != "topomap-forest-2":
+            raise LabelError(f"{path}: not a topomap forest file (no topomap-forest-2 format)")
+        if data.get("features") != list(FEATURES):
+            raise LabelError(f"{path}: features {data.get('features')} are not {list(FEATURES)}")
+        forest = data["forest"]
+        model = cls(forest.n_estimators, forest.min_samples_leaf, forest.random_state)
+        model._forest = forest
+        return model

@@ -1,0 +1,214 @@
+"""The feature table of regions: what a classifier (a function or an estimator) receives.
+
+:func:`region_features` measures every region of a segmentation; the table is a dict of
+columns, one value per region in ascending id order. ``"id"`` holds the region ids and is not a
+feature; the features, in the column order an estimator's ``predict`` gets them
+(:func:`feature_matrix`), are :data:`FEATURES`, with the units of :data:`FEATURE_UNITS`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import cv2
+import networkx as nx
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+from skimage.measure import perimeter
+from skimage.morphology import disk, skeletonize
+
+from segmentation.conditioning import clearance_of
+from segmentation.regions import Regions
+
+#: Region features, in the column order given to estimators, with their units and meaning.
+FEATURE_UNITS = {
+    "area_m2": "m^2, floor area (furniture holes filled, see below)",
+    "width_m": "m, twice the 95th percentile of the distance to the region's edge",
+    "slenderness": "1, area / width^2 (length over width for a strip)",
+    "compactness": "1, 4 pi area / perimeter^2 (1 for a disc)",
+    "elongation": "1, long / short side of the minimum-area rectangle",
+    "doors": "count, neighbours in the region graph",
+    "door_width_max_m": "m, widest opening to a neighbour",
+    "door_width_mean_m": "m, mean opening to a neighbour",
+    "perimeter_m": "m, length of the region's outline",
+    "skeleton_length_m": "m, length of the medial axis, spurs cut",
+    "skeleton_width_m": "m, mean width along the medial axis",
+    "skeleton_slenderness": "1, skeleton length / skeleton width",
+    "branch_points": "count, junctions of the medial axis",
+    "betweenness": "1, betweenness centrality in the region graph",
+    "door_span_m": "m, largest distance between two door centres",
+    "solidity": "1, area / area of the convex hull",
+    "extent_m": "m, short side of the minimum-area rectangle",
+}
+FEATURES = tuple(FEATURE_UNITS)
+#: Furniture holes up to this size (m^2) are filled before measuring shape.
+FURNITURE_HOLE_M2 = 4.0
+#: The medial axis is traced on cells of about this size (m), coarser cells being given as is.
+SKELETON_CELL_M = 0.1
+#: Notches (furniture against a wall) narrower than twice this (m) are closed, too.
+FURNITURE_GAP_M = 0.5
+
+
+def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.float64]]:
+    """The feature table: :data:`FEATURES` and ``"id"`` as columns, one value per region of
+    ``graph``, regions in ascending id order.
+
+    Shape is measured after filling furniture holes up to :data:`FURNITURE_HOLE_M2` and
+    closing notches narrower than twice :data:`FURNITURE_GAP_M` (furniture along walls);
+    :data:`FEATURE_UNITS` says what each column is.
+
+    Examples
+    --------
+    >>> from maps.grid import OccupancyGrid
+    >>> from segmentation.graph import region_graph
+    >>> labels = np.zeros((60, 220), np.int32)
+    >>> labels[10:50, 10:210] = 1  # a 10 x 2 m strip at 5 cm
+    >>> grid = OccupancyGrid(np.where(labels > 0, 0, 100).astype(np.int8), 0.05)
+    >>> regions = Regions(grid, labels)
+    >>> table = region_features(regions, region_graph(regions))
+    >>> table["id"].tolist(), round(float(table["area_m2"][0])), round(float(table["extent_m"][0]))
+    ([1.0], 20, 2)
+    """
+    ids = sorted(int(n) for n in graph.nodes)
+    between = nx.betweenness_centrality(graph) if len(graph) > 2 else {}
+    boxes = ndimage.find_objects(regions.labels)
+    columns: dict[str, list[float]] = {name: [] for name in ("id", *FEATURES)}
+    for region in ids:
+        values = {
+            "id": float(region),
+            **_shape(regions.labels[boxes[region - 1]] == region, regions.grid.resolution),
+            **_connections(graph, region),
+            "betweenness": float(between.get(region, 0.0)),
+        }
+        for name, value in values.items():
+            columns[name].append(value)
+    return {name: np.asarray(values, float) for name, values in columns.items()}
+
+
+def _shape(mask: NDArray[np.bool_], res: float) -> dict[str, float]:
+    """The shape columns of one region's mask (cells of ``res`` metres)."""
+    gap = max(1, round(FURNITURE_GAP_M / res))
+    filled = _fill_small_holes(np.pad(mask, 2 * gap + 1), int(FURNITURE_HOLE_M2 / res**2))
+    kernel = disk(gap).astype(np.uint8)
+    filled = cv2.morphologyEx(filled.astype(np.uint8), cv2.MORPH_CLOSE, kernel).astype(bool)
+    area = float(filled.sum()) * res**2
+    distance = clearance_of(filled, 1.0).astype(np.float64)  # cells; the mask is padded
+    width = 2 * float(np.percentile(distance[filled], 95)) * res
+    step = max(1, int(SKELETON_CELL_M / res))
+    length, mean_width, branches = skeleton_shape(
+        filled[::step, ::step], distance[::step, ::step] / step, res * step
+    )
+    edge = float(perimeter(filled)) * res
+    outline, _ = cv2.findContours(
+        filled.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE
+    )
+    points = np.vstack(outline)
+    (_, _), (w, h), _ = cv2.minAreaRect(points)
+    hull = float(cv2.contourArea(cv2.convexHull(points))) * res**2
+    return {
+        "area_m2": area,
+        "width_m": width,
+        "slenderness": area / width**2 if width else 0.0,
+        "compactness": 4 * math.pi * area / edge**2 if edge else 1.0,
+        "elongation": max(w, h) / max(min(w, h), 1.0),
+        "perimeter_m": edge,
+        "skeleton_length_m": length,
+        "skeleton_width_m": mean_width,
+        "skeleton_slenderness": length / mean_width if mean_width else 0.0,
+        "branch_points": float(branches),
+        "solidity": min(1.0, area / hull) if hull else 1.0,
+        "extent_m": (min(w, h) + 1) * res,
+    }
+
+
+def _connections(graph: nx.Graph, region: int) -> dict[str, float]:
+    """The door columns of one region of ``graph``."""
+    widths = [float(d) for _, _, d in graph.edges(region, data="width")]
+    doors = [door.centre for _, _, ds in graph.edges(region, data="doors") for door in ds]
+    return {
+        "doors": float(graph.degree(region)),
+        "door_width_max_m": max(widths, default=0.0),
+        "door_width_mean_m": float(np.mean(widths)) if widths else 0.0,
+        "door_span_m": _span(np.asarray(doors, float).reshape(-1, 2)),
+    }
+
+
+def skeleton_shape(
+    mask: NDArray[np.bool_], distance: NDArray[np.float64], resolution: float
+) -> tuple[float, float, int]:
+    """``(length m, mean width m, branch points)`` of the medial axis of ``mask``.
+
+    The axis is :func:`skimage.morphology.skeletonize` with its spurs cut: a piece between an
+    end and a branch point shorter than the space is wide at that branch point (twice
+    ``distance`` there, ``distance`` being the distance to the edge in cells) is a corner or a
+    notch, not a way through. The length counts axis cells (a straight axis of n cells is n
+    cells long), the width is twice the mean ``distance`` along the axis, and branch points are
+    the clusters of axis cells with three or more axis neighbours. A ``w`` x ``l`` rectangle
+    (``w < l``) has an axis about ``l - w`` long and ``w`` wide, with no branch point.
+
+    Examples
+    --------
+    >>> mask = np.zeros((60, 220), bool)
+    >>> mask[10:50, 10:210] = True  # 10 x 2 m at 5 cm
+    >>> length, width, branches = skeleton_shape(mask, ndimage.distance_transform_edt(mask), 0.05)
+    >>> round(length), round(width), branches
+    (8, 2, 0)
+    """
+    axis = skeletonize(mask)
+    for _ in range(2):  # cutting spurs can leave a new, shorter one at a former branch point
+        neighbours = _axis_neighbours(axis)
+        junctions = axis & (neighbours >= 3)
+        near = ndimage.binary_dilation(junctions, np.ones((3, 3), bool))
+        pieces, count = ndimage.label(axis & ~near, np.ones((3, 3), bool))
+        if count == 0 or not junctions.any():
+            break
+        ends = axis & (neighbours == 1)
+        sizes = np.bincount(pieces.ravel(), minlength=count + 1)
+        has_end = np.bincount(pieces[ends], minlength=count + 1) > 0
+        # the width where each piece meets the rest: the largest distance along the piece
+        reach = np.zeros(count + 1)
+        np.maximum.at(reach, pieces[axis], distance[axis])
+        spur = has_end & (sizes < 2 * reach) & (np.arange(count + 1) > 0)
+        if not spur.any():
+            break
+        axis = axis & ~spur[pieces]
+    if not axis.any():
+        return 0.0, 2 * float(distance.max()) * resolution, 0
+    _, branches = ndimage.label(axis & (_axis_neighbours(axis) >= 3), np.ones((3, 3), bool))
+    length = float(axis.sum()) * resolution
+    return length, 2 * float(distance[axis].mean()) * resolution, int(branches)
+
+
+def _axis_neighbours(axis: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """Axis neighbours of every cell (8-connected)."""
+    ones = np.ones((3, 3), np.int64)
+    return ndimage.convolve(axis.astype(np.int64), ones, mode="constant") - 1
+
+
+def _span(points: NDArray[np.float64]) -> float:
+    """The largest distance between two of ``points`` (0 for fewer than two)."""
+    if len(points) < 2:
+        return 0.0
+    return float(np.max(np.linalg.norm(points[:, None] - points[None], axis=2)))
+
+
+def _fill_small_holes(mask: NDArray[np.bool_], most: int) -> NDArray[np.bool_]:
+    """``mask`` with its enclosed holes of at most ``most`` cells filled."""
+    holes, _ = ndimage.label(ndimage.binary_fill_holes(mask) & ~mask)
+    sizes = np.bincount(holes.ravel())
+    small = (sizes <= most) & (np.arange(len(sizes)) > 0)
+    return mask | small[holes]
+
+
+def feature_matrix(features: Mapping[str, NDArray[np.float64]]) -> NDArray[np.float64]:
+    """The feature columns as an ``(n_regions, len(FEATURES))`` matrix, ``id`` left out.
+
+    Examples
+    --------
+    >>> table = {name: np.zeros(3) for name in ("id", *FEATURES)}
+    >>> feature_matrix(table).shape == (3, len(FEATURES))
+    True
+    """
+    return np.column_stack([features[name] for name in FEATURES])
