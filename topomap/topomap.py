@@ -40,7 +40,7 @@ from segmentation.pipeline import MapSegmenter, Segmentation
 from segmentation.regions import Regions
 from segmentation.spectral import SpectralSegmenter
 from topomap.features import region_features
-from topomap.labels import Classifier, find_region, label_graph, rename
+from topomap.labels import GIVEN, Classifier, find_region, label_graph, rename
 
 if TYPE_CHECKING:
     from planners.hierarchical import HierarchicalPlanner
@@ -515,16 +515,19 @@ def _digest(path: Path) -> str:
 
 
 def _carry_names(graph: nx.Graph, previous: nx.Graph) -> None:
-    """Regions of ``graph`` that continue a region of ``previous`` (same id) with the same
-    label take its name back; a region whose name one of them took gets the first free number
-    of its label."""
+    """Regions of ``graph`` that continue a region of ``previous`` (same id) take its name back
+    when their label is the same or a user gave the name; a region whose name one of them took
+    gets the first free number of its label."""
     carried = {
         r: previous.nodes[r]["name"]
         for r, label in graph.nodes(data="label")
-        if r in previous and previous.nodes[r].get("label") == label
+        if r in previous
+        and (previous.nodes[r].get("label") == label or previous.nodes[r].get(GIVEN))
     }
     for region, name in carried.items():
         graph.nodes[region]["name"] = name
+        if previous.nodes[region].get(GIVEN):
+            graph.nodes[region][GIVEN] = True
     used = {str(name) for _, name in graph.nodes(data="name")}
     for region in sorted(graph.nodes):
         data = graph.nodes[region]
