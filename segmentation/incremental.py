@@ -10,7 +10,8 @@ pipeline runs on what the robot has seen so far, around where it is:
    its similarity to the ``neighbours`` earlier keyframes nearest to it is computed with the
    offline criterion and kept, and it joins the region of the one most like it (a new region
    when none is alike).
-2. **Re-partition** (every ``every`` keyframes). The ``window`` keyframes nearest to the robot
+2. **Re-partition** (when the keyframes that arrived since the last one make ``renew`` of a
+   window, 30 keyframes for a full window of 200). The ``window`` keyframes nearest to the robot
    are partitioned by the offline stages on the online map around them: conditioning, places,
    the spectral partition on the kept similarities weighed by the passages, the places voting
    (:meth:`~segmentation.pipeline.MapSegmenter.partition`). The inner part of the window (the
@@ -43,7 +44,7 @@ from segmentation.growing import carry_ids
 from segmentation.online import Event, OnlineStateError
 from segmentation.online_regions import OnlineRegions
 from segmentation.pipeline import MapSegmenter, by_place
-from segmentation.similarity import as_criterion, symmetric
+from segmentation.similarity import NearestNeighbour, as_criterion, cell_keys, symmetric
 
 log = logging.getLogger(__name__)
 
@@ -70,6 +71,68 @@ class KeptSimilarities:
         return symmetric(np.asarray(values), np.asarray(i, np.int64), np.asarray(j), len(local))
 
 
+class OneToMany:
+    """Eq. 12 (:class:`~segmentation.similarity.NearestNeighbour`) of one scan against a few
+    earlier ones, each scan kept as the cells it hit: the same values as the criterion's
+    matrix, without its pairs among the earlier scans.
+
+    Examples
+    --------
+    >>> from maps.scan import LaserScan
+    >>> from segmentation.similarity import NearestNeighbour
+    >>> scans = [Keyframe((x, 0.0, 0.0), LaserScan(np.full(90, 2.0), -np.pi, np.pi / 45))
+    ...          for x in (0.0, 0.3, 1.0)]
+    >>> one = OneToMany(NearestNeighbour())
+    >>> for k in scans:
+    ...     one.keep(k)
+    >>> full = NearestNeighbour().affinity(scans).toarray()[2, :2]
+    >>> bool(np.allclose(one.similarities(scans[2], [0, 1]), full))
+    True
+    """
+
+    def __init__(self, criterion: NearestNeighbour) -> None:
+        self.tolerance = criterion.tolerance
+        self.resolution = criterion.resolution
+        reach = math.ceil(self.tolerance / self.resolution)
+        di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1].reshape(2, -1)
+        distance = self.resolution * np.hypot(di, dj)
+        near = distance < self.tolerance
+        self._offsets = np.column_stack([di[near], dj[near]]).astype(np.int64)
+        self._closeness = self.tolerance - distance[near]
+        self._cells: list[NDArray[np.int64]] = []
+
+    def cells(self, keyframe: Keyframe) -> NDArray[np.int64]:
+        """Keys of the cells the keyframe's beams ended in."""
+        cells = np.floor(keyframe.points() / self.resolution).astype(np.int64)
+        return np.unique(cell_keys(cells))
+
+    def keep(self, keyframe: Keyframe) -> None:
+        """Remember a keyframe's cells (the next index)."""
+        self._cells.append(self.cells(keyframe))
+
+    def similarities(self, keyframe: Keyframe, others: Sequence[int]) -> NDArray[np.float64]:
+        """Eq. 12 of ``keyframe`` against the kept keyframes ``others``."""
+        mine = self.cells(keyframe)
+        theirs = [self._cells[i] for i in others]
+        sizes = np.array([len(c) for c in theirs])
+        owner = np.repeat(np.arange(len(theirs)), sizes)
+        decoded = np.column_stack([mine >> 32, (mine & 0xFFFFFFFF).astype(np.int32)])
+        around = cell_keys((decoded[:, None, :] + self._offsets[None]).reshape(-1, 2))
+        every, index = np.unique(np.concatenate([around, *theirs]), return_inverse=True)
+        spread, placed = index[: len(around)], index[len(around) :]
+        hit = np.zeros((len(every), len(theirs)), bool)
+        hit[placed, owner] = True
+        closeness = np.tile(self._closeness, len(mine))
+        # over my cells: the closeness of each earlier scan's nearest hit
+        near_them = (hit[spread] * closeness[:, None]).reshape(len(mine), -1, len(theirs))
+        first = near_them.max(axis=1).mean(axis=0)
+        # over their cells: the closeness of my nearest hit
+        field = np.zeros(len(every))
+        np.maximum.at(field, spread, closeness)
+        second = np.bincount(owner, weights=field[placed], minlength=len(theirs)) / sizes
+        return (first + second) / (2 * self.tolerance)
+
+
 @dataclass
 class IncrementalSegmenter:
     """Segment keyframes as they arrive with the offline pipeline (see the module docstring).
@@ -84,8 +147,9 @@ class IncrementalSegmenter:
         Keyframes partitioned together.
     inner
         Share of the window (nearest to the robot) that takes the new partition.
-    every
-        Keyframes between two re-partitions.
+    renew
+        A re-partition when the keyframes arrived since the last make this share of a window
+        (a young run, whose window is small, is re-partitioned more often, at no more cost).
     reach
         A keyframe claims the free cells it saw up to this many metres away (the dense
         regions).
@@ -128,7 +192,7 @@ class IncrementalSegmenter:
     neighbours: int = 12
     window: int = 200
     inner: float = 0.6
-    every: int = 30
+    renew: float = 0.15
     reach: float = 4.0
     resolution: float = 0.1
     margin: float = 8.0
@@ -140,12 +204,14 @@ class IncrementalSegmenter:
     regions_: OnlineRegions = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        for name, low in (("neighbours", 1), ("window", 2), ("every", 1), ("churn_age", 0)):
+        for name, low in (("neighbours", 1), ("window", 2), ("churn_age", 0)):
             value = getattr(self, name)
             if not isinstance(value, int | np.integer) or value < low:
                 raise ParameterError(f"{name} must be an integer >= {low}, got {value!r}")
-        if not (isinstance(self.inner, int | float) and 0 < self.inner <= 1):
-            raise ParameterError(f"inner must lie in (0, 1], got {self.inner!r}")
+        for name in ("inner", "renew"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and 0 < value <= 1):
+                raise ParameterError(f"{name} must lie in (0, 1], got {value!r}")
         for name in ("reach", "resolution", "margin", "max_gap"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
@@ -159,6 +225,8 @@ class IncrementalSegmenter:
         if len(keyframes) < 2:
             raise SegmentationError(f"{len(keyframes)} keyframe(s) cannot seed: give two or more")
         self._criterion = as_criterion(self.pipeline.spectral.criterion)
+        nearest = self._criterion
+        self._one = OneToMany(nearest) if isinstance(nearest, NearestNeighbour) else None
         self._keyframes: list[Keyframe] = []
         self._index: dict[int, int] = {}
         self._rows: list[dict[int, float]] = []
@@ -263,8 +331,11 @@ class IncrementalSegmenter:
             return {}
         distance = np.hypot(*(self._poses[:index] - keyframe.pose[:2]).T)
         near = np.argpartition(distance, count - 1)[:count]
-        found = self._criterion.affinity([keyframe, *(self._keyframes[i] for i in near)])
-        values = found[0].toarray().ravel()[1:]
+        if self._one is not None:
+            values = self._one.similarities(keyframe, near.tolist())
+        else:
+            found = self._criterion.affinity([keyframe, *(self._keyframes[i] for i in near)])
+            values = found[0].toarray().ravel()[1:]
         return {int(i): float(v) for i, v in zip(near, values, strict=True) if v > 0}
 
     def _add(self, keyframe: Keyframe, row: dict[int, float], region: int) -> None:
@@ -276,6 +347,8 @@ class IncrementalSegmenter:
                 setattr(self, name, np.concatenate([array, np.zeros_like(array)]))
         self._poses[index] = keyframe.pose[:2]
         self._keyframes.append(keyframe)
+        if self._one is not None:
+            self._one.keep(keyframe)
         self._index[id(keyframe)] = index
         self._rows.append(row)
         self._labels[index] = self._arrival[index] = region
@@ -294,7 +367,7 @@ class IncrementalSegmenter:
             self.events_.append(Event("created", index, region))
         self._add(keyframe, row, region)
         self._since += 1
-        if self._since >= self.every:
+        if self._since >= self.renew * min(self.window, index + 1):
             self._since = 0
             distance = np.hypot(*(self._poses[: index + 1] - keyframe.pose[:2]).T)
             size = min(self.window, index + 1)

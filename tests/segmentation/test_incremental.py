@@ -11,9 +11,10 @@ from sklearn.metrics import adjusted_rand_score
 import maps
 from maps.mapping import MapBuilder, grid_from_keyframes
 from segmentation.errors import ParameterError, SegmentationError
-from segmentation.incremental import IncrementalSegmenter
+from segmentation.incremental import IncrementalSegmenter, OneToMany
 from segmentation.online import OnlineStateError
 from segmentation.pipeline import MapSegmenter
+from segmentation.similarity import NearestNeighbour
 from tests.segmentation.test_online import _empty_scan_keyframe, _recount
 
 
@@ -124,3 +125,17 @@ def test_a_map_built_keyframe_by_keyframe_equals_one_built_at_once(office_run):
     x, y = part.cell_to_world(rows, cols)
     r, c = whole.world_to_cell(x, y)
     assert np.array_equal(part.cells[rows, cols], whole.cells[r, c])
+
+
+def test_one_scan_against_earlier_ones_is_eq_12_as_the_offline_matrix_has_it(office_run):
+    shifted = [
+        dataclasses.replace(k, pose=(k.pose[0] - 40.0, k.pose[1] - 30.0, k.pose[2]))
+        for k in office_run[1][100:130]
+    ]  # negative coordinates too
+    one = OneToMany(NearestNeighbour())
+    for keyframe in shifted[:-1]:
+        one.keep(keyframe)
+    matrix = NearestNeighbour().affinity(shifted).toarray()
+    others = list(range(len(shifted) - 1))
+    assert np.allclose(one.similarities(shifted[-1], others), matrix[-1, :-1])
+    assert matrix[-1, :-1].max() > 0.3  # the comparison saw real overlap
