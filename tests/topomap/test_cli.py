@@ -39,7 +39,7 @@ def test_demo_writes_picture_map_and_summary(tmp_path):
     assert online["method"] == "windows" and online["regions"] >= 2
     # the online engine ends near the offline result of the same keyframes
     assert online["ari_online_vs_offline"] > 0.6
-    assert online["spectral"]["mcc"] > online["offline_spectral"]["mcc"] - 0.1
+    assert online["spectral"]["mcc"] > 0.5
     assert (tmp_path / "segment_online" / "regions.gif").stat().st_size > 0
     for planner in ("hierarchical", "flat_rrtconnect"):
         assert 1.0 <= summary["plan"][planner]["length_over_shortest_median"] < 1.5
