@@ -150,9 +150,9 @@ class IncrementalSegmenter:
     renew
         A re-partition when the keyframes arrived since the last make this share of a window
         (a young run, whose window is small, is re-partitioned more often, at no more cost).
-    reach
-        A keyframe claims the free cells it saw up to this many metres away (the dense
-        regions).
+    reach, region_resolution
+        A keyframe claims the free cells it saw up to ``reach`` metres away, in cells of
+        ``region_resolution`` metres (the dense regions and their graph).
     resolution
         Cell size of the online map the windows are partitioned on (metres), built as
         :func:`~maps.mapping.grid_from_keyframes` builds the offline one.
@@ -194,6 +194,7 @@ class IncrementalSegmenter:
     inner: float = 0.6
     renew: float = 0.15
     reach: float = 4.0
+    region_resolution: float = 0.2
     resolution: float = 0.1
     margin: float = 8.0
     max_gap: float = 10.0
@@ -212,7 +213,7 @@ class IncrementalSegmenter:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and 0 < value <= 1):
                 raise ParameterError(f"{name} must lie in (0, 1], got {value!r}")
-        for name in ("reach", "resolution", "margin", "max_gap"):
+        for name in ("reach", "region_resolution", "resolution", "margin", "max_gap"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise ParameterError(f"{name} must be a finite number > 0 metres, got {value!r}")
@@ -234,7 +235,7 @@ class IncrementalSegmenter:
         self._labels = np.zeros(len(self._poses), np.int64)
         self._arrival = np.zeros_like(self._labels)
         self._late = np.zeros_like(self._labels)
-        self.regions_ = OnlineRegions(self.pipeline.cell_size, self.reach)
+        self.regions_ = OnlineRegions(self.region_resolution, self.reach)
         self._map = MapBuilder(self.resolution)
         self.events_ = []
         self._next_id = 1

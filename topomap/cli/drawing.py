@@ -167,11 +167,19 @@ def draw_regions(
         at = (8, round(30 * size) + 4)
         cv2.putText(band, title, at, font, 1.2 * size, (0, 0, 0), thick, cv2.LINE_AA)
         image = np.vstack([band, image])
+    return write_png(path, image)
+
+
+def write_png(path: str | Path, image: NDArray[Any]) -> Path:
+    """Write a BGR ``image`` as a PNG under a temporary name, renamed into place (callers
+    refuse existing files first)."""
+    import cv2
+
     path = Path(path)
     ok, encoded = cv2.imencode(".png", image)
     if not ok:
         raise OSError(f"could not encode {path}")
-    with written(path, overwrite=True) as partial:  # callers refuse existing files first
+    with written(path, overwrite=True) as partial:
         partial.write_bytes(encoded.tobytes())
     return path
 

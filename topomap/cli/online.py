@@ -35,7 +35,7 @@ from segmentation.online import Event, OnlineSegmenter
 from segmentation.refine import basins, count_basins
 from segmentation.regions import Regions, dense_labels
 from segmentation.spectral import SpectralSegmenter
-from topomap.cli.drawing import region_colours
+from topomap.cli.drawing import region_colours, write_png
 from topomap.errors import UsageError
 from topomap.labels import label_graph
 
@@ -191,49 +191,51 @@ def draw_online(
     path: Path, online: IncrementalSegmenter | OnlineSegmenter, title: str | None = None
 ) -> Path:
     """A picture of the online dense regions and the region graph so far: 1,000 x 750
-    pixels whatever the map (so the pictures can be frames of one GIF), region ids in 10 pt
-    letters on a white halo."""
-    from matplotlib import patheffects
-    from matplotlib.figure import Figure
+    pixels whatever the map (so the pictures can be frames of one GIF), the claimed area
+    scaled to fit, region ids in bold letters on a white halo (drawn with OpenCV)."""
+    import cv2
 
-    assert online.regions_ is not None
-    labels, extent = online.regions_.label_image()
-    fig = Figure(figsize=(10, 7.5), dpi=100)
-    ax = fig.subplots()
-    ax.set_facecolor("0.85")
-    ax.imshow(region_colours(int(labels.max(initial=0)))[labels], extent=extent)
-    graph = online.graph_
-    for a, b in graph.edges:
-        ax.plot(
-            [graph.nodes[a]["x"], graph.nodes[b]["x"]],
-            [graph.nodes[a]["y"], graph.nodes[b]["y"]],
-            color="black",
-            lw=0.5,
-            alpha=0.6,
-        )
-    halo = [patheffects.withStroke(linewidth=2.5, foreground="white")]
-    for node, data in graph.nodes(data=True):
-        ax.annotate(
-            str(node),
-            (data["x"], data["y"]),
-            fontsize=10,
-            fontweight="bold",
-            ha="center",
-            va="center",
-            path_effects=halo,
-        )
-    n = len(online.labels_)
-    ax.set_title(title or f"keyframe {n}: {online.n_regions_} regions")
+    width, height, band = 1000, 750, 36
+    regions = online.regions_
+    assert regions is not None  # both engines keep dense regions by default
+    labels, (xmin, _, _, ymax) = regions.label_image()
+    canvas = np.full((height, width, 3), 217, np.uint8)
     rows, cols = np.nonzero(labels)
     if len(rows):  # the claimed area, not the arrays' spare border
-        cell = (extent[1] - extent[0]) / labels.shape[1]
-        ax.set_xlim(extent[0] + cell * (cols.min() - 5), extent[0] + cell * (cols.max() + 5))
-        ax.set_ylim(extent[3] - cell * (rows.max() + 5), extent[3] - cell * (rows.min() - 5))
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    fig.savefig(path)
-    return path
+        top, left = max(rows.min() - 5, 0), max(cols.min() - 5, 0)
+        crop = labels[top : rows.max() + 6, left : cols.max() + 6]
+        scale = min((width - 20) / crop.shape[1], (height - band - 20) / crop.shape[0])
+        size = (max(1, round(crop.shape[1] * scale)), max(1, round(crop.shape[0] * scale)))
+        colours = np.round(255 * region_colours(int(labels.max(initial=0)))[:, :3]).astype(np.uint8)
+        colours[0] = 217  # not claimed: the background's grey
+        picture = cv2.resize(colours[crop][..., ::-1], size, interpolation=cv2.INTER_NEAREST)
+        y0, x0 = band + (height - band - size[1]) // 2, (width - size[0]) // 2
+        canvas[y0 : y0 + size[1], x0 : x0 + size[0]] = picture
+        cell = regions.resolution
+
+        def pixel(x: float, y: float) -> tuple[int, int]:
+            return (
+                round(x0 + ((x - xmin) / cell - left) * scale),
+                round(y0 + ((ymax - y) / cell - top) * scale),
+            )
+
+        graph = online.graph_
+        for a, b in graph.edges:
+            start = pixel(graph.nodes[a]["x"], graph.nodes[a]["y"])
+            end = pixel(graph.nodes[b]["x"], graph.nodes[b]["y"])
+            cv2.line(canvas, start, end, (90, 90, 90), 1, cv2.LINE_AA)
+        font = cv2.FONT_HERSHEY_SIMPLEX
+        for node, data in graph.nodes(data=True):
+            text = str(node)
+            (w, h), _ = cv2.getTextSize(text, font, 0.5, 2)
+            x, y = pixel(data["x"], data["y"])
+            at = (x - w // 2, y + h // 2)
+            cv2.putText(canvas, text, at, font, 0.5, (255, 255, 255), 4, cv2.LINE_AA)
+            cv2.putText(canvas, text, at, font, 0.5, (0, 0, 0), 2, cv2.LINE_AA)
+    caption = title or f"keyframe {len(online.labels_)}: {online.n_regions_} regions"
+    canvas[:band] = 255
+    cv2.putText(canvas, caption, (12, 25), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (0, 0, 0), 2, cv2.LINE_AA)
+    return write_png(path, canvas)
 
 
 def write_gif(frames: Sequence[Path], path: Path, seconds_per_frame: float = 0.4) -> Path:
