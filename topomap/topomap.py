@@ -9,7 +9,7 @@ import json
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -51,8 +51,8 @@ if TYPE_CHECKING:
 
 #: The files :meth:`TopoMap.save` writes besides the map's YAML and image.
 SAVED = ["regions.png", "graph.graphml", "graph.json", "regions.geojson", "topomap.json"]
-_PIPELINE = {f.name for f in fields(MapSegmenter) if f.init and f.name != "spectral"}
-_SPECTRAL = {f.name for f in fields(SpectralSegmenter) if f.init}
+_PIPELINE = set(MapSegmenter().get_params(deep=False)) - {"spectral"}
+_SPECTRAL = set(SpectralSegmenter().get_params(deep=False))
 
 
 def pipeline_from_options(options: dict[str, Any]) -> MapSegmenter:

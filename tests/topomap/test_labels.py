@@ -66,6 +66,23 @@ def test_hook_accepts_functions_and_estimators_and_checks_them():
     assert classify(forest, f) == ["corridor", "room"]
 
 
+def test_forest_is_a_scikit_learn_estimator():
+    from sklearn.base import clone
+
+    rng = np.random.default_rng(1)
+    x = rng.random((40, len(FEATURES)))
+    y = ["room" if v < 0.5 else "corridor" for v in x[:, 0]]
+    forest = ForestClassifier(n_estimators=7, min_samples_leaf=2, random_state=4)
+    copied = clone(forest)
+    given = {"min_samples_leaf": 2, "n_estimators": 7, "random_state": 4}
+    assert copied.get_params() == forest.get_params() == given
+    first = forest.fit(x, y).predict(x)
+    assert forest.fit(x, y).predict(x) == first and forest.classes_ == ["corridor", "room"]
+    assert not hasattr(copied, "forest_")  # the clone is unfitted
+    with pytest.raises(LabelError, match="n_estimators must be an integer >= 1, got 0"):
+        copied.set_params(n_estimators=0).fit(x, y)
+
+
 def test_forest_saves_with_skops_and_reloads_the_same(tmp_path):
     import skops.io
 
