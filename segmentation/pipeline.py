@@ -175,6 +175,7 @@ class MapSegmenter(Estimator):
             raise ParameterError(f"method must be one of {', '.join(METHODS)}, got {self.method!r}")
         if not (isinstance(self.block_places, int) and self.block_places >= 2):
             raise ParameterError(f"block_places must be an integer >= 2, got {self.block_places!r}")
+        self.spectral._validate_params()
 
     def segment(
         self,
