@@ -15,8 +15,8 @@ import yaml
 from maps.errors import MapFileNotFoundError, MapFormatError, OutputExistsError
 from maps.floorplan import generate_floor_plan
 from segmentation.errors import ExportFormatError
-from topomap.cli import main
 from topomap.cli.batch import BatchOptions, Job, find_inputs, process, scheduler_address
+from topomap.cli.main import main
 from topomap.errors import LabelError, SchedulerError
 from topomap.topomap import TopoMap
 
@@ -264,7 +264,7 @@ def test_batch_job_errors_are_typed(tmp_path):
 
 # ---------------------------------------------------------------- messages
 def test_ctrl_c_is_one_line(monkeypatch, capsys, tmp_path):
-    module = importlib.import_module("topomap.cli.main")
+    module = importlib.import_module("topomap.cli.commands.generate")
     monkeypatch.setattr(module, "cmd_generate", _interrupt)
     assert main(["generate", "--out", str(tmp_path)]) == 130
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
