@@ -290,3 +290,14 @@ def test_json_in_topomap_json_is_data_only(tmp_path, saved):
 
 def test_output_exists_error_is_a_file_exists_error():
     assert issubclass(OutputExistsError, FileExistsError)
+
+
+def test_a_folder_of_a_newer_or_unknown_version_is_refused(tmp_path, saved):
+    for version in (3, "2", 0, True):
+        folder = _copy(saved, tmp_path / f"v{version}")
+        about = json.loads((folder / "topomap.json").read_text())
+        assert about["version"] == 2
+        about["version"] = version
+        (folder / "topomap.json").write_text(json.dumps(about))
+        with pytest.raises(ExportFormatError, match=rf"field 'version' is {version!r}; .* 1 to 2"):
+            TopoMap.load(folder)

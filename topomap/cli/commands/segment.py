@@ -63,7 +63,8 @@ def cmd_segment(args: argparse.Namespace) -> int:
     from maps.grid import OccupancyGrid
     from maps.scan import select_keyframes
     from topomap.cli.drawing import draw_regions
-    from topomap.topomap import SAVED, TopoMap
+    from topomap.saving import SAVED
+    from topomap.topomap import TopoMap
 
     out = Path(args.out)
     if args.online:
