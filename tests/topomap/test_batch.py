@@ -10,7 +10,8 @@ import pytest
 from maps.errors import FormatError, MapFileNotFoundError
 from maps.floorplan import generate_floor_plan
 from tests.maps.bags import Robot, tf_bag
-from topomap.cli.batch import dask_client, dask_map, find_inputs, run_batch
+from topomap.cli.batch import dask_client, dask_map, run_batch
+from topomap.cli.inputs import find_inputs
 from topomap.cli.main import main
 from topomap.topomap import TopoMap
 

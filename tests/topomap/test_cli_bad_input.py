@@ -15,7 +15,8 @@ import yaml
 from maps.errors import MapFileNotFoundError, MapFormatError, OutputExistsError
 from maps.floorplan import generate_floor_plan
 from segmentation.errors import ExportFormatError
-from topomap.cli.batch import BatchOptions, Job, find_inputs, process, scheduler_address
+from topomap.cli.batch import BatchOptions, process, scheduler_address
+from topomap.cli.inputs import Job, find_inputs
 from topomap.cli.main import main
 from topomap.errors import LabelError, SchedulerError
 from topomap.topomap import TopoMap

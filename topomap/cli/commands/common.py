@@ -28,10 +28,11 @@ def refuse_existing(out: Path, names: Iterable[str], force: bool) -> None:
 
 
 def read_keyframes(source: Path, args: argparse.Namespace) -> list:
+    """The scans of a CARMEN log or a ROS bag (by :func:`read_as_bag`)."""
     from maps.carmen import read_carmen
     from maps.rosbag import read_bag_scans
 
-    if is_bag(source):
+    if read_as_bag(source):
         found = read_bag_scans(
             source,
             scan_topic=args.scan_topic,
@@ -43,9 +44,12 @@ def read_keyframes(source: Path, args: argparse.Namespace) -> list:
     return read_carmen(source)
 
 
-def is_bag(source: Path) -> bool:
-    """A ROS 1 ``.bag`` or a ROS 2 bag folder."""
-    return source.is_dir() or source.suffix in (".bag", ".mcap", ".db3")
+def read_as_bag(source: Path) -> bool:
+    """A bag (:func:`topomap.cli.inputs.is_bag`), or a folder named as one: the bag reader
+    then says what it lacks."""
+    from topomap.cli.inputs import is_bag
+
+    return source.is_dir() or is_bag(source)
 
 
 def add_bag_options(parser: argparse.ArgumentParser, *, map_topic: bool) -> None:

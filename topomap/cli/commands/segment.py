@@ -12,7 +12,7 @@ from topomap.cli.commands.common import (
     DISTANCE,
     add_bag_options,
     add_segmenter_options,
-    is_bag,
+    read_as_bag,
     read_keyframes,
     refuse_existing,
     segmenter_options,
@@ -88,7 +88,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
             topo = TopoMap.from_keyframes(keyframes, **options)
         source = args.scans
     else:
-        if args.map_topic is not None or is_bag(Path(args.map)):
+        if args.map_topic is not None or read_as_bag(Path(args.map)):
             from maps.rosbag import read_rosbag_map
 
             grid = read_rosbag_map(args.map, topic=args.map_topic, stamp=args.stamp)
