@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -47,6 +48,28 @@ class LaserScan:
             )
         ranges.setflags(write=False)
         object.__setattr__(self, "ranges", ranges)
+
+    @classmethod
+    def from_msg_fields(cls, message: Any) -> LaserScan:
+        """The scan of a sensor_msgs/LaserScan message (a ROS or rosbags message, or any
+        object with its fields).
+
+        Examples
+        --------
+        >>> from types import SimpleNamespace
+        >>> message = SimpleNamespace(
+        ...     ranges=[1.0, 2.0], angle_min=0.0, angle_increment=0.5, range_min=0.1, range_max=9.0
+        ... )
+        >>> LaserScan.from_msg_fields(message).points().round(3).tolist()
+        [[1.0, 0.0], [1.755, 0.959]]
+        """
+        return cls(
+            np.asarray(message.ranges, dtype=float),
+            float(message.angle_min),
+            float(message.angle_increment),
+            float(message.range_min),
+            float(message.range_max),
+        )
 
     def __len__(self) -> int:
         return int(self.ranges.size)
