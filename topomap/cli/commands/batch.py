@@ -10,8 +10,8 @@ from topomap.cli.commands.common import (
     add_bag_options,
     add_segmenter_options,
     segmenter_options,
-    table,
 )
+from topomap.cli.tables import markdown_table
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -53,7 +53,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         records = run_batch(
             args.inputs, args.out, client=client, force=args.force, options=options, progress=bar
         )
-    print(table(records, ["name", "status", "regions", "keyframes", "seconds", "error"]))
+    print(markdown_table(records, ["name", "status", "regions", "keyframes", "seconds", "error"]))
     statuses = [r["status"] for r in records]
     print(
         f"{statuses.count('ok')} done, {statuses.count('skipped')} skipped (done before), "

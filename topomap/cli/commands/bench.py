@@ -6,7 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
-from topomap.cli.commands.common import ROBOT_HELP, refuse_existing, table
+from topomap.cli.commands.common import ROBOT_HELP, refuse_existing
+from topomap.cli.tables import markdown_table
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -109,7 +110,7 @@ def cmd_bench_sim(args: argparse.Namespace) -> int:
     records = bench_sim(
         args.out, scans=tuple(args.scans), beams=tuple(args.beams), progress=args.progress
     )
-    print(table(records, ["scans", "beams", "seconds", "scans_per_s", "rays_per_s"]))
+    print(markdown_table(records, ["scans", "beams", "seconds", "scans_per_s", "rays_per_s"]))
     print(
         f"set-up (distance transform of {records[0]['map_cells']} cells): "
         f"{records[0]['setup_seconds']} s; wrote {args.out}/results.json"
@@ -141,7 +142,7 @@ def cmd_bench_segment(args: argparse.Namespace) -> int:
                 "regions": by["topomap"]["regions"],
             }
         )
-    print(table(rows, ["keyframes", "topomap_s", "naive_s", "speed-up", "regions"]))
+    print(markdown_table(rows, ["keyframes", "topomap_s", "naive_s", "speed-up", "regions"]))
     print(f"wrote {args.out}/results.json")
     return 0
 
@@ -155,7 +156,7 @@ def cmd_bench_maps(args: argparse.Namespace) -> int:
         records = bench_command(args.command, args.out, progress=args.progress)
         columns = ["map", "seconds", "startup_s", "segmentation_s", "outputs_s"]
         mean = {c: round(sum(r[c] for r in records) / len(records), 3) for c in columns[1:]}
-        print(table([*records, {"map": "mean", **mean}], columns))
+        print(markdown_table([*records, {"map": "mean", **mean}], columns))
         print(f"wrote {args.out}/command.json")
         return 0
     refuse_existing(Path(args.out), ["results.json"], args.force)
@@ -164,7 +165,7 @@ def cmd_bench_maps(args: argparse.Namespace) -> int:
         raise MapFileNotFoundError(f"no such folder of CARMEN logs: {logs}")
     records = bench_maps(args.out, sizes=args.sizes, logs=logs, progress=args.progress)
     columns = ["map", "free_m2", "free_cells", "regions", "keyframes", "seconds", "cpu_seconds"]
-    print(table(records, [*columns, "s_per_m_free_cells"]))
+    print(markdown_table(records, [*columns, "s_per_m_free_cells"]))
     print(f"wrote {args.out}/results.json")
     return 0
 
@@ -191,19 +192,20 @@ def cmd_bench_online(args: argparse.Namespace) -> int:
         columns += ["cpu_p95_ms", "cpu_max_ms", "offline_rerun_s", "regions"]
         batches = results["latency"]["batches"]
         step = max(1, len(batches) // 20)
-        print(table(batches[::step] + batches[-1:] if len(batches) > 1 else batches, columns))
+        shown = batches[::step] + batches[-1:] if len(batches) > 1 else batches
+        print(markdown_table(shown, columns))
         print(json.dumps(results["latency"]["summary"], indent=2))
     if "quality" in results:
         columns = ["run", "method", "keyframes", "seed_keyframes", "offline_regions"]
         columns += ["online_regions", "ari", "churn", "mcc_offline", "mcc_online"]
         columns += ["median_ms", "p95_ms", "max_ms"]
         rows = [{c: r.get(c, "-") for c in columns} for r in results["quality"]]
-        print(table(rows, columns))
+        print(markdown_table(rows, columns))
     if "growing" in results:
         columns = ["map", "regions", "rose2_iou", "released_iou", "kept", "merged", "split"]
         columns += ["created", "removed", "rooms_unchanged", "ids_kept"]
         rows = [{c: r.get(c, "-") for c in columns} for r in results["growing"]]
-        print(table(rows, columns))
+        print(markdown_table(rows, columns))
         unchanged = sum(r.get("rooms_unchanged", 0) for r in results["growing"])
         kept = sum(r.get("ids_kept", 0) for r in results["growing"])
         print(f"ids kept where the room did not change: {kept} of {unchanged}")
@@ -212,8 +214,8 @@ def cmd_bench_online(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_plan(args: argparse.Namespace) -> int:
-    from planners.benchmark import markdown_table
     from topomap.cli.bench import bench_plan
+    from topomap.cli.plan_report import COLUMNS
 
     written = ["results.json", "results.md", "summary.json", "preprocessing.json", "times.png"]
     refuse_existing(Path(args.out), written, args.force)
@@ -230,7 +232,7 @@ def cmd_bench_plan(args: argparse.Namespace) -> int:
         robot=args.robot,
         progress=args.progress,
     )
-    print(markdown_table(summary))
+    print(markdown_table(summary, COLUMNS))
     skipped = json.loads((Path(args.out) / "preprocessing.json").read_text())
     for name, pre in skipped.items():
         if pre["skipped_queries"]:
@@ -253,9 +255,9 @@ def cmd_bench_batch(args: argparse.Namespace) -> int:
         campus=args.campus,
     )
     columns = ["workers", "maps", "startup_s", "seconds", "maps_per_min", "speedup", "failed"]
-    print(table(results["batch"], columns))
+    print(markdown_table(results["batch"], columns))
     if "campus_blocks" in results:
         campus = results["campus_blocks"]
-        print(table(campus, list(campus[0])))
+        print(markdown_table(campus, list(campus[0])))
     print(f"wrote {args.out}/results.json")
     return 0

@@ -13,13 +13,6 @@ from maps.limits import MAX_LENGTH, MAX_ROBOT_RADIUS, RESOLUTION_RANGE, finite_i
 from topomap.errors import UsageError
 
 
-def table(rows: list[dict[str, object]], columns: list[str]) -> str:
-    """A markdown table of ``rows`` restricted to ``columns``."""
-    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    lines += ["| " + " | ".join(str(r.get(c, "-")) for c in columns) + " |" for r in rows]
-    return "\n".join(lines)
-
-
 def refuse_existing(out: Path, names: Iterable[str], force: bool) -> None:
     """Stop before any work when a file the command would write exists and ``--force`` is
     not given, or when ``out`` or a file in it cannot be written (a file in the place of the

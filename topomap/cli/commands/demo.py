@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from topomap.cli.commands.common import table
+from topomap.cli.tables import markdown_table
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -25,7 +25,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     summary = run_demo(
         args.out, size=args.size, seed=args.seed, jobs=args.jobs, on_stage=args.progress.stage
     )
-    print(table(summary_rows(summary), ["stage", "seconds", "result"]))
+    print(markdown_table(summary_rows(summary), ["stage", "seconds", "result"]))
     names = summary["segment_plan"]["names"].values()
     print(
         "regions of the plan that are not rooms: "

@@ -11,8 +11,8 @@ from topomap.cli.commands.common import (
     add_segmenter_options,
     refuse_existing,
     segmenter_options,
-    table,
 )
+from topomap.cli.tables import markdown_table
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -61,11 +61,11 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
     records = evaluate_all(args.data, progress=args.progress, **segmenter_options(args))
     columns = ["map", "furnished", "variant", "segments", "rooms", "recall", "precision", "mcc"]
     columns += ["ari", "rose2_precision", "rose2_recall", "rose2_iou", "seconds"]
-    print(table(records, columns))
+    print(markdown_table(records, columns))
     print()
     summary = means(records, read_anchors(args.data))
     print(
-        table(
+        markdown_table(
             summary,
             [
                 *["method", "furnished", "maps", "recall", "precision", "mcc", "min_mcc", "ari"],
@@ -83,5 +83,5 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
     from topomap.cli.label_report import run
 
     refuse_existing(Path(args.out), ["results.json"], args.force)
-    run(args, table)
+    run(args)
     return 0
