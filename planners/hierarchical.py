@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage, sparse
 from scipy.sparse.csgraph import dijkstra
 
+from maps.geometry import polyline_length
 from maps.grid import OccupancyGrid
 from planners.doors import find_doors
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
@@ -250,7 +251,7 @@ class HierarchicalPlanner:
         ends = self.reach(s), self.reach(g)
         direct = self._direct(s, g) if ends[0].part == ends[1].part else None
         local = time.perf_counter()
-        bound = math.inf if direct is None else _length(direct)
+        bound = math.inf if direct is None else polyline_length(direct)
         doors = self._search(matrix, *ends, bound)
         searched = time.perf_counter()
         crossings: dict[int, int] = {}
@@ -399,10 +400,6 @@ def regions_along(
     found = found[found > 0]
     keep = np.concatenate([[len(found) > 0], found[1:] != found[:-1]])
     return tuple(int(r) for r in found[keep[: len(found)]])
-
-
-def _length(waypoints: NDArray[np.float64]) -> float:
-    return float(np.hypot(*np.diff(waypoints, axis=0).T).sum())
 
 
 def fill_unlabelled(labels: NDArray[np.integer], free: NDArray[np.bool_]) -> NDArray[np.int32]:

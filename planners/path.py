@@ -9,13 +9,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from maps.geometry import polyline_length
 from planners.workspace import PointLike, Workspace
-
-
-def polyline_length(waypoints: ArrayLike) -> float:
-    """Length of a polyline, metres."""
-    p = np.asarray(waypoints, float).reshape(-1, 2)
-    return float(np.hypot(*np.diff(p, axis=0).T).sum())
 
 
 @dataclass(frozen=True)
