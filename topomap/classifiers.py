@@ -17,13 +17,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from segmentation.base import Estimator
+from segmentation.names import SYNONYMS
 from topomap.errors import LabelError
 from topomap.features import FEATURES, feature_matrix
 
 #: The place types, in table order.
 PLACE_TYPES = ("room", "corridor", "hall", "doorway")
-#: Other words for a place type, accepted in names and queries ("aisle 2" is "corridor 2").
-SYNONYMS = {"aisle": "corridor", "hallway": "corridor", "door": "doorway"}
 
 Classifier = Callable[[Mapping[str, NDArray[np.float64]]], Sequence[str]] | Any
 

@@ -278,7 +278,8 @@ class TopoMap:
         return region_features(self.regions, self.graph)
 
     def region(self, query: int | str) -> int:
-        """Region id of a region id or name ("hall 1", "aisle 2"); the error lists the names."""
+        """Region id of a region id or name ("hall 1", "aisle 2"), as every query takes them
+        (:func:`segmentation.names.find_region`); the error lists the names."""
         return find_region(self.graph, query)
 
     def rename(self, region: int | str, name: str) -> None:
@@ -287,7 +288,7 @@ class TopoMap:
 
     def planner(self, robot_radius: float = 0.2, **options: Any) -> HierarchicalPlanner:
         """The hierarchical planner on this map for a disc robot of ``robot_radius`` metres
-        (made once per radius and kept, with its leg cache). ``options`` go to
+        (made once per radius and options, and kept). ``options`` go to
         :class:`~planners.hierarchical.HierarchicalPlanner`."""
         from planners.hierarchical import HierarchicalPlanner
         from planners.workspace import Workspace
@@ -356,26 +357,24 @@ class TopoMap:
 
     def plan(
         self,
-        start: ArrayLike,
+        start: ArrayLike | int | str,
         goal: ArrayLike | int | str,
         *,
         robot_radius: float = 0.2,
         robot: str | Robot | None = None,
     ) -> PlannedPath:
-        """Plan from ``start`` to ``goal`` (a point, a pose ``(x, y, yaw)`` for a footprint
-        robot, a region id or a region name): with :meth:`planner` for a disc of
-        ``robot_radius`` (``robot`` None, a :class:`~planners.robots.Disc` or ``"disc:R"``),
-        with :meth:`kinematic_planner` for a footprint robot."""
+        """Plan from ``start`` to ``goal``, each a point, a pose ``(x, y, yaw)`` for a
+        footprint robot, or a region (an id or a name, as :meth:`region` and :meth:`route`
+        take them: its most open point): with :meth:`planner` for a disc of ``robot_radius``
+        (``robot`` None, a :class:`~planners.robots.Disc` or ``"disc:R"``), with
+        :meth:`kinematic_planner` for a footprint robot."""
         from planners.robots import Disc, parse_robot
 
-        target = self.region(goal) if isinstance(goal, int | str) else goal
         model = None if robot is None else parse_robot(robot)
         if model is None or isinstance(model, Disc):
             radius = robot_radius if model is None else model.radius
-            return self.planner(radius).plan(start, target)
-        return self.kinematic_planner(robot if isinstance(robot, str) else model).plan(
-            start, target
-        )
+            return self.planner(radius).plan(start, goal)
+        return self.kinematic_planner(robot if isinstance(robot, str) else model).plan(start, goal)
 
     def keyframe_regions(self) -> NDArray[np.int64]:
         """Region of each keyframe's position (0 if it is not on a labelled cell)."""
