@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike
 
 from maps.seeding import RandomState, as_generator
 from planners.errors import InvalidQueryError, PlanningError
-from planners.path import Path as PlannedPath
+from planners.path import PlannedPath
 from planners.workspace import Point, Workspace
 
 #: Benchmark names of the planners, in table order (``grid_astar`` is the pure-Python
@@ -36,7 +36,7 @@ PLANNER_NAMES = (
 
 
 class Planner(Protocol):
-    """Anything with a ``name`` and ``plan(start, goal) -> Path``."""
+    """Anything with a ``name`` and ``plan(start, goal) -> PlannedPath``."""
 
     name: str
 

@@ -31,7 +31,7 @@ from maps.geometry import polyline_length
 from maps.grid import OccupancyGrid
 from planners.doors import find_doors
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
-from planners.path import Path, shortcut, tighten
+from planners.path import PlannedPath, shortcut, tighten
 from planners.submaps import convex_parts
 from planners.visibility import VisibilityGraph
 from planners.workspace import Point, Workspace, sample_polyline
@@ -234,7 +234,7 @@ class HierarchicalPlanner:
         return self._matrices[key]
 
     # ------------------------------------------------------------------ planning
-    def plan(self, start: Goal, goal: Goal) -> Path:
+    def plan(self, start: Goal, goal: Goal) -> PlannedPath:
         """Plan from ``start`` to ``goal``: each a point, or a region (an id or a name,
         :func:`segmentation.names.find_region`) standing for its most open point.
 
@@ -279,7 +279,7 @@ class HierarchicalPlanner:
             "smoothing": time.perf_counter() - searched,
         }
         crossed = regions_along(self.space.grid, self.labels, waypoints)
-        return Path(waypoints, self.name, crossed, seconds)
+        return PlannedPath(waypoints, self.name, crossed, seconds)
 
     def reach(self, point: Point) -> Reach:
         """The open doors of ``point``'s part and the shortest distances to them inside the

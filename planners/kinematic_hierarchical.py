@@ -32,7 +32,7 @@ from planners.errors import InvalidQueryError, NoPathError, PlannerParameterErro
 from planners.flat import _seed_once
 from planners.hierarchical import HierarchicalPlanner, regions_along
 from planners.kinematic import KinematicOMPL, Pose, check_pose
-from planners.path import Path
+from planners.path import PlannedPath
 from planners.region_route import region_routes
 from planners.workspace import Workspace, sample_polyline
 from segmentation.names import find_region
@@ -108,7 +108,7 @@ class KinematicHierarchicalPlanner:
         """Region id at map point ``(x, y)`` (0 when off the map or in no region)."""
         return self.doors.region_at(x, y)
 
-    def plan(self, start: ArrayLike | int | str, goal: ArrayLike | int | str) -> Path:
+    def plan(self, start: ArrayLike | int | str, goal: ArrayLike | int | str) -> PlannedPath:
         """Plan from ``start`` to ``goal``: poses ``(x, y, yaw)`` or points ``(x, y)`` (the
         valid heading nearest 0), or regions (an id or a name,
         :func:`segmentation.names.find_region`) standing for their most open points.
@@ -150,7 +150,7 @@ class KinematicHierarchicalPlanner:
             poses = self._inside(labels, boxes, ids, s, g, seconds)
             if poses is not None:
                 crossed = regions_along(self.cspace.grid, self.labels, poses[:, :2])
-                return Path.from_poses(poses, self.name, crossed, seconds)
+                return PlannedPath.from_poses(poses, self.name, crossed, seconds)
         if not tried:
             raise NoPathError(
                 f"no route from {s} to {g} through doors at least {self.min_width:g} m wide"

@@ -14,7 +14,7 @@ from planners.workspace import PointLike, Workspace
 
 
 @dataclass(frozen=True)
-class Path:
+class PlannedPath:
     """A collision-free path from start to goal.
 
     Attributes
@@ -45,7 +45,7 @@ class Path:
         planner: str,
         regions: tuple[int, ...] = (),
         seconds: dict[str, float] | None = None,
-    ) -> Path:
+    ) -> PlannedPath:
         """A path of ``(n, 3)`` poses ``(x, y, yaw)``."""
         p = np.asarray(poses, float).reshape(-1, 3)
         return cls(p[:, :2], planner, regions, dict(seconds or {}), p[:, 2])

@@ -32,7 +32,7 @@ from topomap.saving import SavedPartition
 if TYPE_CHECKING:
     from planners.hierarchical import HierarchicalPlanner
     from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
-    from planners.path import Path as PlannedPath
+    from planners.path import PlannedPath
     from planners.region_route import RegionRoute
     from planners.robots import Footprint, Robot
 

@@ -26,7 +26,7 @@ from planners.grid_astar import GridAStar
 from planners.grid_mcp import GridMCP
 from planners.kinematic import FlatKinematicPlanner
 from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
-from planners.path import Path as PlannedPath
+from planners.path import PlannedPath
 from planners.robots import Disc, Footprint, parse_robot
 from planners.sweep import footprint_collisions
 from planners.visibility import VisibilityGraph
