@@ -239,6 +239,19 @@ class OccupancyGrid:
         """Boolean mask of unknown cells (-1)."""
         return self.cells < FREE
 
+    def __repr__(self) -> str:
+        """One line: the size, resolution and origin (not the cells).
+
+        Examples
+        --------
+        >>> OccupancyGrid(np.zeros((2, 3), np.int8), resolution=0.05)
+        OccupancyGrid(3 x 2 cells of 0.05 m, origin (0.0, 0.0, 0.0))
+        """
+        rows, cols = self.shape
+        return (
+            f"OccupancyGrid({cols} x {rows} cells of {self.resolution:g} m, origin {self.origin})"
+        )
+
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, OccupancyGrid):
             return NotImplemented

@@ -74,6 +74,20 @@ class LaserScan:
     def __len__(self) -> int:
         return int(self.ranges.size)
 
+    def __repr__(self) -> str:
+        """One line, without the ranges.
+
+        Examples
+        --------
+        >>> LaserScan(np.ones(181), -1.5708, 0.01745, 0.1, 30.0)
+        LaserScan(181 beams, 181 valid, angle_min=-1.5708, angle_increment=0.01745, range 0.1-30 m)
+        """
+        return (
+            f"LaserScan({len(self)} beams, {int(self.valid.sum())} valid, "
+            f"angle_min={self.angle_min:g}, angle_increment={self.angle_increment:g}, "
+            f"range {self.range_min:g}-{self.range_max:g} m)"
+        )
+
     @property
     def angles(self) -> NDArray[np.float64]:
         """Beam angles in radians, sensor frame."""
@@ -148,6 +162,10 @@ class Keyframe:
         object.__setattr__(self, "pose", check_pose(self.pose))
         if int(self.scan_index) != self.scan_index or self.scan_index < 0:
             raise InvalidScanError(f"scan_index must be an integer >= 0, got {self.scan_index!r}")
+
+    def __repr__(self) -> str:
+        pose = ", ".join(f"{v:.3f}" for v in self.pose)
+        return f"Keyframe(pose=({pose}), scan_index={self.scan_index}, {len(self.scan)} beams)"
 
     def points(self) -> NDArray[np.float64]:
         """``(n, 2)`` end points of the valid beams in the map frame, metres."""

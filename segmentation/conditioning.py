@@ -67,6 +67,9 @@ class ConditionedMap:
     clutter: NDArray[np.bool_]
     dropped: dict[str, int]
 
+    def __repr__(self) -> str:
+        return f"ConditionedMap({self.summary()})"
+
     def summary(self) -> dict[str, int]:
         """Counts of cells kept, clutter and dropped, for reports."""
         return {

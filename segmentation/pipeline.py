@@ -102,6 +102,12 @@ class Segmentation:
     seconds: dict[str, float]
     method: str = "spectral"
 
+    def __repr__(self) -> str:
+        return (
+            f"Segmentation({len(self.regions.ids)} regions by {self.method!r}, "
+            f"{len(self.keyframes)} keyframes, {self.working!r})"
+        )
+
     def keyframe_regions(self) -> NDArray[np.int64]:
         """Region of each keyframe's position (0 if it is not on a labelled cell)."""
         poses = poses_array(self.keyframes)

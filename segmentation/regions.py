@@ -177,6 +177,9 @@ class Regions:
     grid: OccupancyGrid
     labels: NDArray[np.int32]
 
+    def __repr__(self) -> str:
+        return f"Regions({len(self.ids)} regions on {self.grid!r})"
+
     def __post_init__(self) -> None:
         if self.labels.shape != self.grid.shape:
             raise SegmentationError(

@@ -212,6 +212,22 @@ class TopoMap:
         seconds["labels"] = time.perf_counter() - start
         return topo
 
+    def __repr__(self) -> str:
+        """One line: the regions, the doors and the map.
+
+        Examples
+        --------
+        >>> import maps
+        >>> TopoMap.from_grid(maps.generate_floor_plan("flat", random_state=0).grid)
+        ... # doctest: +ELLIPSIS
+        TopoMap(... regions, ... doors by 'spectral' on OccupancyGrid(420 x 320 cells of 0.05 m...))
+        """
+        doors = sum(len(d) for _, _, d in self.graph.edges(data="doors"))
+        return (
+            f"TopoMap({self.graph.number_of_nodes()} regions, {doors} doors by "
+            f"{self.method!r} on {self.grid!r})"
+        )
+
     @property
     def found(self) -> Segmentation:
         """:attr:`segmentation`, or a clear error for a map read back with :meth:`load`."""
