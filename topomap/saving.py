@@ -1,6 +1,7 @@
 """A :class:`~topomap.topomap.TopoMap` as a folder of files, and back.
 
-:func:`save` writes ``map.yaml`` + ``map.pgm`` (map_server), ``regions.png`` (16-bit labels),
+:func:`save` writes ``map.yaml`` + ``map.pgm`` (map_server), ``regions.png`` (16-bit labels)
+and beside it ``regions_colour.png`` (the same regions in colour, for people),
 ``graph.graphml`` and ``graph.json`` (labels and names included), ``regions.geojson`` and last
 ``topomap.json``: the format and its :data:`VERSION`, seconds, what conditioning dropped, the
 fitted partition and the SHA-256 of every other file. :func:`load` reads data only (nothing in
@@ -32,6 +33,7 @@ from segmentation.errors import ExportFormatError
 from segmentation.export import (
     read_graphml,
     read_label_image,
+    write_colour_image,
     write_geojson,
     write_graphml,
     write_label_image,
@@ -43,7 +45,14 @@ if TYPE_CHECKING:
     from topomap.topomap import TopoMap
 
 #: The files :func:`save` writes besides the map's YAML and image; ``topomap.json`` last.
-SAVED = ["regions.png", "graph.graphml", "graph.json", "regions.geojson", "topomap.json"]
+SAVED = [
+    "regions.png",
+    "regions_colour.png",
+    "graph.graphml",
+    "graph.json",
+    "regions.geojson",
+    "topomap.json",
+]
 #: The version of the folder :func:`save` writes; :func:`load` reads it and every older one
 #: (1: no file digests).
 VERSION = 2
@@ -86,6 +95,7 @@ def save(topo: TopoMap, out: str | Path, *, overwrite: bool = False) -> list[Pat
     with OutputFolder(out, names, overwrite=overwrite, last="topomap.json") as work:
         topo.grid.save(work / "map.yaml")
         write_label_image(topo.regions.labels, work / "regions.png")
+        write_colour_image(topo.regions.labels, work / "regions_colour.png")
         write_graphml(topo.graph, work / "graph.graphml")
         write_node_link(topo.graph, work / "graph.json")
         write_geojson(topo.graph, work / "regions.geojson")

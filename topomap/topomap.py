@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -133,7 +133,8 @@ class TopoMap:
         ``options`` are those of :func:`pipeline_from_options` (or give ``pipeline``).
         """
         pipeline = _pipeline(pipeline, options)
-        return cls._build(grid, pipeline.segment(grid, random_state=random_state))
+        found = pipeline.segment(grid, random_state=random_state)
+        return cls._build(grid, found, pipeline.on_stage)
 
     @classmethod
     def from_keyframes(
@@ -154,7 +155,7 @@ class TopoMap:
         grid = grid_from_keyframes(keyframes, resolution) if grid is None else grid
         mapped = time.perf_counter() - start
         found = pipeline.segment(grid, keyframes, random_state=random_state)
-        topo = cls._build(grid, found)
+        topo = cls._build(grid, found, pipeline.on_stage)
         if built:
             topo.seconds = {"map": mapped, **topo.seconds}
         return topo
@@ -194,19 +195,27 @@ class TopoMap:
         regions = Regions(grid, carried.labels)
         same = found.spectral is found.regions
         found = replace(found, regions=regions, spectral=regions if same else found.spectral)
-        topo = self._build(grid, found)
+        topo = self._build(grid, found, pipeline.on_stage)
         topo.next_id, topo.changes = carried.next_id, carried.events
         _carry_names(topo.graph, self.graph)
         return topo
 
     @classmethod
-    def _build(cls, grid: OccupancyGrid, found: Segmentation) -> TopoMap:
+    def _build(
+        cls,
+        grid: OccupancyGrid,
+        found: Segmentation,
+        on_stage: Callable[[str], None] | None = None,
+    ) -> TopoMap:
         seconds = dict(found.seconds)
+        stage = on_stage or (lambda name: None)
+        stage("graph")
         start = time.perf_counter()
         graph = region_graph(found.regions, found.keyframe_regions())
         seconds["graph"] = time.perf_counter() - start
         next_id = max(found.regions.ids, default=0) + 1
         topo = cls(grid, found.regions, graph, found, seconds, found.method, next_id=next_id)
+        stage("labels")
         start = time.perf_counter()
         topo.label()
         seconds["labels"] = time.perf_counter() - start

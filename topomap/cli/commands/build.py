@@ -11,6 +11,7 @@ from topomap.cli.commands.common import (
     LENGTH,
     RESOLUTION,
     add_bag_options,
+    add_picture_option,
     read_keyframes,
     refuse_existing,
 )
@@ -28,6 +29,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     build.add_argument("--pose-topic")
     add_bag_options(build, map_topic=False)
     build.add_argument("--force", action="store_true", help="overwrite existing map files")
+    add_picture_option(build, "map.png")
     build.set_defaults(func=cmd_map)
 
 
@@ -37,7 +39,7 @@ def cmd_map(args: argparse.Namespace) -> int:
     from topomap.cli.drawing import draw_map
 
     out = Path(args.out)
-    names = ["map.yaml", "map.pgm", "map.png"]
+    names = ["map.yaml", "map.pgm", *([] if args.no_picture else ["map.png"])]
     refuse_existing(out, names, args.force)
     args.progress.stage(f"reading {args.log}")
     frames = read_keyframes(Path(args.log), args)
@@ -46,9 +48,11 @@ def cmd_map(args: argparse.Namespace) -> int:
     grid = grid_from_keyframes(keyframes, args.resolution, max_range=args.max_range)
     with OutputFolder(out, names, overwrite=args.force, how="--force") as work:
         grid.save(work / "map.yaml")
-        draw_map(
-            work / "map.png", grid, keyframes=poses_array(keyframes), title=Path(args.log).name
-        )
+        if not args.no_picture:
+            args.progress.stage("drawing map.png")
+            draw_map(
+                work / "map.png", grid, keyframes=poses_array(keyframes), title=Path(args.log).name
+            )
     print(
         f"{len(frames)} scans, {len(keyframes)} keyframes -> {out / 'map.yaml'} "
         f"({grid.shape[1]} x {grid.shape[0]} cells)"

@@ -59,6 +59,11 @@ def add_bag_options(parser: argparse.ArgumentParser, *, map_topic: bool) -> None
         )
 
 
+def add_picture_option(parser: argparse.ArgumentParser, picture: str) -> None:
+    """``--no-picture``: skip drawing ``picture`` (matplotlib), for scripts and batches."""
+    parser.add_argument("--no-picture", action="store_true", help=f"do not draw {picture} (faster)")
+
+
 def segmenter_options(args: argparse.Namespace) -> dict[str, Any]:
     """The segmentation options of ``topomap segment``, ``eval segment`` and ``batch``."""
     return {

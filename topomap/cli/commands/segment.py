@@ -11,6 +11,7 @@ from maps.files import OutputFolder, write_text
 from topomap.cli.commands.common import (
     DISTANCE,
     add_bag_options,
+    add_picture_option,
     add_segmenter_options,
     read_as_bag,
     read_keyframes,
@@ -56,6 +57,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="DIR",
         help="the output of an earlier map of this building: continued regions keep their ids",
     )
+    add_picture_option(seg, "segmentation.png")
     seg.set_defaults(func=cmd_segment)
 
 
@@ -69,7 +71,8 @@ def cmd_segment(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if args.online:
         return _segment_online(args, out)
-    written_names = [*SAVED, "map.yaml", "map.pgm", "segmentation.png", "summary.json"]
+    pictures = [] if args.no_picture else ["segmentation.png"]
+    written_names = [*SAVED, "map.yaml", "map.pgm", *pictures, "summary.json"]
     if args.scans is not None:
         written_names.append("keyframes.csv")
     if args.previous is not None:
@@ -107,15 +110,17 @@ def cmd_segment(args: argparse.Namespace) -> int:
         if args.scans is not None:
             written.append(topo.save_keyframes(work / "keyframes.csv"))
         count = topo.graph.number_of_nodes()
-        written.append(
-            draw_regions(
-                work / "segmentation.png",
-                topo.grid,
-                topo.regions.labels,
-                topo.graph,
-                title=f"{Path(source).name}: {count} regions",
+        if not args.no_picture:
+            args.progress.stage("drawing segmentation.png")
+            written.append(
+                draw_regions(
+                    work / "segmentation.png",
+                    topo.grid,
+                    topo.regions.labels,
+                    topo.graph,
+                    title=f"{Path(source).name}: {count} regions",
+                )
             )
-        )
         summary = _write_summary(work / "summary.json", topo, source, count)
         if previous is not None:
             write_text(work / "changes.json", json.dumps(topo.changes, indent=1))
