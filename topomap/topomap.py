@@ -112,7 +112,7 @@ class TopoMap:
     partition: SavedPartition | None = None
     next_id: int = 0
     changes: list[dict[str, Any]] = field(default_factory=list)
-    _planners: dict[tuple, HierarchicalPlanner] = field(
+    _planners: dict[float, HierarchicalPlanner] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
     _kinematic: dict[tuple, KinematicHierarchicalPlanner] = field(
@@ -311,20 +311,18 @@ class TopoMap:
         """Rename a region (by id or name); a name already taken is refused, nothing changes."""
         rename(self.graph, region, name)
 
-    def planner(self, robot_radius: float = 0.2, **options: Any) -> HierarchicalPlanner:
-        """The hierarchical planner on this map for a disc robot of ``robot_radius`` metres
-        (made once per radius and options, and kept). ``options`` go to
-        :class:`~planners.hierarchical.HierarchicalPlanner`."""
+    def planner(self, robot_radius: float = 0.2) -> HierarchicalPlanner:
+        """The hierarchical planner (:class:`~planners.hierarchical.HierarchicalPlanner`) on
+        this map for a disc robot of ``robot_radius`` metres, made once per radius and kept."""
         from planners.hierarchical import HierarchicalPlanner
         from planners.workspace import Workspace
 
-        key = (robot_radius, tuple(sorted(options.items())))
-        if key not in self._planners:
+        if robot_radius not in self._planners:
             space = Workspace(self.grid, robot_radius)
-            self._planners[key] = HierarchicalPlanner(
-                space, self.regions.labels, self.graph, **options
+            self._planners[robot_radius] = HierarchicalPlanner(
+                space, self.regions.labels, self.graph
             )
-        return self._planners[key]
+        return self._planners[robot_radius]
 
     def kinematic_planner(
         self, robot: str | Footprint, **options: Any

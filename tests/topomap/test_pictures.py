@@ -1,4 +1,5 @@
-"""The pictures beside the data: a colour copy of the label image, and --no-picture."""
+"""The pictures beside the data (a colour copy of the label image, --no-picture) and what a
+command says when it will not overwrite."""
 
 import cv2
 import numpy as np
@@ -21,3 +22,19 @@ def test_segment_writes_a_colour_picture_beside_the_labels_and_can_skip_drawing(
     assert len(pairs) == len(np.unique(labels)) == len(np.unique(pairs[:, 1:], axis=0))
     assert pairs[pairs[:, 0] == 0, 1:].tolist() == [[235, 235, 235]]
     assert main(["-q", "map", "nothing.log", "--out", str(tmp_path / "m"), "--no-picture"]) == 2
+
+
+def test_export_names_the_command_line_flag_when_it_refuses_to_overwrite(tmp_path, capsys):
+    from topomap.topomap import TopoMap
+
+    plan = generate_floor_plan((16.0, 12.0), random_state=1)
+    plan.grid.save(tmp_path / "map.yaml")
+    TopoMap.from_grid(plan.grid, random_state=1).save(tmp_path / "regions")
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    (bag / "metadata.yaml").write_text("kept\n")
+    argv = ["export", str(tmp_path / "map.yaml"), "--regions", str(tmp_path / "regions")]
+    assert main([*argv, "--rosbag", str(bag)]) == 2
+    error = capsys.readouterr().err
+    assert "--force" in error and "overwrite=True" not in error
+    assert (bag / "metadata.yaml").read_text() == "kept\n"

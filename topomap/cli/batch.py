@@ -195,7 +195,10 @@ class Index:
         write_text(self.out / "summary.json", json.dumps(summary, indent=1), overwrite=True)
 
 
-class Progress(Protocol):
+class Bar(Protocol):
+    """A progress bar (tqdm's interface): the batch driver's, not the commands' stages
+    (:class:`topomap.cli.progress.Progress`)."""
+
     def update(self, n: int = 1) -> object: ...
 
     def close(self) -> object: ...
@@ -266,7 +269,7 @@ def scheduler_address(text: str) -> str:
     return text.strip() if found.group(1) else f"tcp://{text.strip()}"
 
 
-def tqdm_bar(total: int) -> Progress:
+def tqdm_bar(total: int) -> Bar:
     """A tqdm bar over ``total`` inputs on stderr."""
     from tqdm import tqdm
 
@@ -304,7 +307,7 @@ def run_batch(
     client: Any,
     force: bool = False,
     options: BatchOptions | None = None,
-    progress: Callable[[int], Progress] | None = None,
+    progress: Callable[[int], Bar] | None = None,
 ) -> list[dict[str, Any]]:
     """Segment, label and export every input on a Dask ``client``, one folder each in ``out``.
 

@@ -32,7 +32,8 @@ def run_export(args: argparse.Namespace) -> int:
         if out is not None:
             check_output_file(out, overwrite=args.force, how="--force")
     if args.rosbag is not None:
-        check_outputs(args.rosbag, bag_files(args.rosbag, args.storage), overwrite=args.force)
+        names = bag_files(args.rosbag, args.storage)
+        check_outputs(args.rosbag, names, overwrite=args.force, how="--force")
     topo = load_map(args)
     planner = topo.planner(args.robot_radius)
     if args.nav2_route is not None:
