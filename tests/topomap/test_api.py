@@ -133,3 +133,10 @@ def test_file_errors_print_their_message_and_survive_pickling():
         again = pickle.loads(pickle.dumps(error))
         assert type(again) is type(error) and str(again) == str(error)
         assert again.errno == error.errno and again.filename == error.filename
+
+
+def test_every_folder_of_modules_is_a_package_a_wheel_keeps():
+    # setuptools' find (pyproject.toml) leaves out a folder without __init__.py
+    for name in ("maps", "segmentation", "planners", "topomap"):
+        for folder in {p.parent for p in (ROOT / name).rglob("*.py")}:
+            assert (folder / "__init__.py").is_file(), folder
