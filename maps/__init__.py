@@ -51,41 +51,10 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from maps.scan import select_keyframes as select_keyframes
     from maps.tf import TransformTree as TransformTree
 
-_EXPORTS = {
-    "FloorPlan": "maps.floorplan",
-    "FormatError": "maps.errors",
-    "InvalidMapError": "maps.errors",
-    "InvalidScanError": "maps.errors",
-    "Keyframe": "maps.scan",
-    "LaserModel": "maps.laser_sim",
-    "LaserScan": "maps.scan",
-    "LogFormatError": "maps.errors",
-    "MapError": "maps.errors",
-    "MapFileNotFoundError": "maps.errors",
-    "MapFormatError": "maps.errors",
-    "MapsError": "maps.errors",
-    "OccupancyGrid": "maps.grid",
-    "OutputExistsError": "maps.errors",
-    "RayCaster": "maps.laser_sim",
-    "TopomapError": "maps.errors",
-    "TransformError": "maps.errors",
-    "TransformTree": "maps.tf",
-    "BagScans": "maps.rosbag",
-    "read_bag_scans": "maps.rosbag",
-    "read_rosbag_map": "maps.rosbag",
-    "generate_floor_plan": "maps.floorplan",
-    "grid_from_keyframes": "maps.mapping",
-    "read_carmen": "maps.carmen",
-    "read_rosbag": "maps.rosbag",
-    "select_keyframes": "maps.scan",
-    "simulate_scans": "maps.laser_sim",
-}
-__all__ = sorted([*_EXPORTS, "Route", "wander"])
-
 
 def __getattr__(name: str) -> Any:
-    return _exports.load(__name__, _EXPORTS, name)
+    return _exports.load(__name__, name)
 
 
 def __dir__() -> list[str]:
-    return _exports.names(__name__, _EXPORTS)
+    return _exports.names(__name__)

@@ -277,7 +277,7 @@ def read_bag_scans(
             message = _deserialize(reader, raw, connection, path)
             if connection.topic == scan_name:
                 try:
-                    scan = _scan_of(message)
+                    scan = LaserScan.from_msg_fields(message)
                 except InvalidScanError as err:
                     field = f"{scan_name} message {len(scans)}"
                     raise LogFormatError(str(err), path=path, field=field) from err
@@ -402,7 +402,7 @@ def read_rosbag_map(
     Parameters
     ----------
     path
-        A ROS 1 ``.bag`` file or a ROS 2 bag folder.
+        A ROS 1 ``.bag`` file or a ROS 2 bag (a folder, or its ``.mcap`` or ``.db3`` file).
     topic
         The map topic; by default the bag's only OccupancyGrid topic (``/map`` usually).
     stamp
@@ -440,13 +440,3 @@ def read_rosbag_map(
         return OccupancyGrid.from_msg_fields(message)
     except InvalidMapError as err:
         raise LogFormatError(str(err), path=path, field=f"{name} message {count - 1}") from err
-
-
-def _scan_of(message: Any) -> LaserScan:
-    return LaserScan(
-        np.asarray(message.ranges, dtype=float),
-        float(message.angle_min),
-        float(message.angle_increment),
-        float(message.range_min),
-        float(message.range_max),
-    )

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -48,8 +49,44 @@ class LaserScan:
         ranges.setflags(write=False)
         object.__setattr__(self, "ranges", ranges)
 
+    @classmethod
+    def from_msg_fields(cls, message: Any) -> LaserScan:
+        """The scan of a sensor_msgs/LaserScan message (a ROS or rosbags message, or any
+        object with its fields).
+
+        Examples
+        --------
+        >>> from types import SimpleNamespace
+        >>> message = SimpleNamespace(
+        ...     ranges=[1.0, 2.0], angle_min=0.0, angle_increment=0.5, range_min=0.1, range_max=9.0
+        ... )
+        >>> LaserScan.from_msg_fields(message).points().round(3).tolist()
+        [[1.0, 0.0], [1.755, 0.959]]
+        """
+        return cls(
+            np.asarray(message.ranges, dtype=float),
+            float(message.angle_min),
+            float(message.angle_increment),
+            float(message.range_min),
+            float(message.range_max),
+        )
+
     def __len__(self) -> int:
         return int(self.ranges.size)
+
+    def __repr__(self) -> str:
+        """One line, without the ranges.
+
+        Examples
+        --------
+        >>> LaserScan(np.ones(181), -1.5708, 0.01745, 0.1, 30.0)
+        LaserScan(181 beams, 181 valid, angle_min=-1.5708, angle_increment=0.01745, range 0.1-30 m)
+        """
+        return (
+            f"LaserScan({len(self)} beams, {int(self.valid.sum())} valid, "
+            f"angle_min={self.angle_min:g}, angle_increment={self.angle_increment:g}, "
+            f"range {self.range_min:g}-{self.range_max:g} m)"
+        )
 
     @property
     def angles(self) -> NDArray[np.float64]:
@@ -125,6 +162,10 @@ class Keyframe:
         object.__setattr__(self, "pose", check_pose(self.pose))
         if int(self.scan_index) != self.scan_index or self.scan_index < 0:
             raise InvalidScanError(f"scan_index must be an integer >= 0, got {self.scan_index!r}")
+
+    def __repr__(self) -> str:
+        pose = ", ".join(f"{v:.3f}" for v in self.pose)
+        return f"Keyframe(pose=({pose}), scan_index={self.scan_index}, {len(self.scan)} beams)"
 
     def points(self) -> NDArray[np.float64]:
         """``(n, 2)`` end points of the valid beams in the map frame, metres."""

@@ -12,6 +12,7 @@ from scipy import ndimage
 from skimage.graph import MCP_Geometric
 
 from maps.errors import InvalidMapError
+from maps.geometry import polyline_length
 from maps.grid import OccupancyGrid
 from maps.seeding import RandomState, as_generator
 
@@ -30,7 +31,7 @@ class Route:
     @property
     def length(self) -> float:
         """Distance driven, metres."""
-        return float(np.hypot(*np.diff(self.poses[:, :2], axis=0).T).sum())
+        return polyline_length(self.poses)
 
 
 def _visible(passable: NDArray[np.bool_], a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:

@@ -2,7 +2,7 @@
 (:class:`HierarchicalPlanner`: the region graph first, then OMPL inside each submap), the flat
 OMPL baseline (:class:`FlatPlanner`), the reference planners (:class:`GridAStar`, the exact
 :class:`VisibilityGraph`), the shared validity rule (:class:`Workspace`) and planned paths
-(:class:`Path`). Names are imported lazily: OMPL is loaded only with the first planner that
+(:class:`PlannedPath`). Names are imported lazily: OMPL is loaded only with the first planner that
 uses it.
 """
 
@@ -24,34 +24,15 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from planners.nav2_route import RouteGraphError as RouteGraphError
     from planners.nav2_route import read_nav2_route as read_nav2_route
     from planners.nav2_route import write_nav2_route as write_nav2_route
-    from planners.path import Path as Path
+    from planners.path import PlannedPath as PlannedPath
     from planners.region_route import RegionRoute as RegionRoute
     from planners.visibility import VisibilityGraph as VisibilityGraph
     from planners.workspace import Workspace as Workspace
 
-_EXPORTS = {
-    "FlatPlanner": "planners.flat",
-    "GridAStar": "planners.grid_astar",
-    "GridMCP": "planners.grid_mcp",
-    "HierarchicalPlanner": "planners.hierarchical",
-    "InvalidQueryError": "planners.errors",
-    "NoPathError": "planners.errors",
-    "Path": "planners.path",
-    "PlannerParameterError": "planners.errors",
-    "PlanningError": "planners.errors",
-    "RegionRoute": "planners.region_route",
-    "RouteGraphError": "planners.nav2_route",
-    "VisibilityGraph": "planners.visibility",
-    "Workspace": "planners.workspace",
-    "read_nav2_route": "planners.nav2_route",
-    "write_nav2_route": "planners.nav2_route",
-}
-__all__ = sorted(_EXPORTS)
-
 
 def __getattr__(name: str) -> Any:
-    return _exports.load(__name__, _EXPORTS, name)
+    return _exports.load(__name__, name)
 
 
 def __dir__() -> list[str]:
-    return _exports.names(__name__, _EXPORTS)
+    return _exports.names(__name__)

@@ -13,7 +13,7 @@ from ompl import util as ou
 
 from maps.seeding import RandomState, as_generator
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
-from planners.path import Path
+from planners.path import PlannedPath
 from planners.workspace import Workspace
 
 #: OMPL geometric planners that solve a single start/goal query.
@@ -154,7 +154,7 @@ class FlatPlanner:
             raise PlannerParameterError(f"{self.name} keeps no roadmap")
         self._planner.growRoadmap(seconds)
 
-    def plan(self, start: ArrayLike, goal: ArrayLike) -> Path:
+    def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:
         """Plan from ``start`` to ``goal``.
 
         Raises
@@ -185,7 +185,7 @@ class FlatPlanner:
             ]
         )
         done = time.perf_counter()
-        return Path(
+        return PlannedPath(
             waypoints,
             self.name,
             seconds={"planning": planned - clock, "simplification": done - planned},

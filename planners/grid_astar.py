@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from planners.errors import NoPathError
-from planners.path import Path
+from planners.path import PlannedPath
 from planners.workspace import Workspace
 
 _SQRT2 = math.sqrt(2.0)
@@ -40,7 +40,7 @@ class GridAStar:
         self._free = padded.tobytes()  # bytes: fast to index, not tracked by the GC
         self._padded_width = w + 2
 
-    def plan(self, start: ArrayLike, goal: ArrayLike) -> Path:
+    def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:
         """Shortest 8-connected grid path from ``start`` to ``goal``.
 
         Raises
@@ -63,7 +63,7 @@ class GridAStar:
         waypoints = np.vstack([s, np.column_stack([xs, ys])[1:-1], g])
         if len(cells) == 1:
             waypoints = np.array([s, g])
-        return Path(waypoints, self.name, seconds={"search": time.perf_counter() - clock})
+        return PlannedPath(waypoints, self.name, seconds={"search": time.perf_counter() - clock})
 
     def _search(self, source: int, target: int, goal_row: int, goal_col: int) -> list[int]:
         free, pw = self._free, self._padded_width

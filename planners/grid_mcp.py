@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 from skimage.graph import MCP_Geometric
 
 from planners.errors import NoPathError
-from planners.path import Path
+from planners.path import PlannedPath
 from planners.workspace import Workspace
 
 
@@ -45,7 +45,7 @@ class GridMCP:
         self._mcp = MCP_Geometric(np.where(space.free, 1.0, np.inf), fully_connected=True)
         self.build_seconds = time.perf_counter() - clock
 
-    def plan(self, start: ArrayLike, goal: ArrayLike) -> Path:
+    def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:
         """Shortest grid path from ``start`` to ``goal`` through cell centres.
 
         Raises
@@ -66,4 +66,4 @@ class GridMCP:
         rows, cols = np.array(self._mcp.traceback(target)).T
         xs, ys = space.grid.cell_to_world(rows, cols)
         waypoints = np.vstack([s, np.column_stack([xs, ys]), g])
-        return Path(waypoints, self.name, seconds={"search": time.perf_counter() - clock})
+        return PlannedPath(waypoints, self.name, seconds={"search": time.perf_counter() - clock})

@@ -27,18 +27,20 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage, sparse
 from scipy.sparse.csgraph import dijkstra
 
+from maps.geometry import polyline_length
 from maps.grid import OccupancyGrid
 from planners.doors import find_doors
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
-from planners.path import Path, shortcut, tighten
+from planners.path import PlannedPath, shortcut, tighten
 from planners.submaps import convex_parts
 from planners.visibility import VisibilityGraph
 from planners.workspace import Point, Workspace, sample_polyline
+from segmentation.names import find_region
 from segmentation.transitions import find_transitions
 
 log = logging.getLogger(__name__)
 
-Goal = ArrayLike | int
+Goal = ArrayLike | int | str
 #: Metres a submap reaches beyond its part, so legs can pass the doorways they end in.
 SUBMAP_MARGIN = 0.5
 #: Moves the final tightening tries per point and pass (the full move, then its halves).
@@ -182,6 +184,12 @@ class HierarchicalPlanner:
             self._centres[region] = (float(x), float(y))
         return self._centres[region]
 
+    def _end(self, end: Goal, what: str) -> Point:
+        """A query's end as a point: a region's most open point, or the point checked."""
+        if isinstance(end, int | np.integer | str):
+            return self.centre(find_region(self.graph, end))
+        return self.space.check(end, what)
+
     def region_space(self, region: int) -> Workspace:
         """The free space of ``region`` and :data:`SUBMAP_MARGIN` around it (so paths can
         pass the doorways at its edge)."""
@@ -226,23 +234,20 @@ class HierarchicalPlanner:
         return self._matrices[key]
 
     # ------------------------------------------------------------------ planning
-    def plan(self, start: ArrayLike, goal: Goal) -> Path:
-        """Plan from ``start`` to ``goal``: a point, or a region id (its most open point).
+    def plan(self, start: Goal, goal: Goal) -> PlannedPath:
+        """Plan from ``start`` to ``goal``: each a point, or a region (an id or a name,
+        :func:`segmentation.names.find_region`) standing for its most open point.
 
         Raises
         ------
         InvalidQueryError
-            A start or goal a robot cannot stand on, or an unknown region id.
+            A start or goal a robot cannot stand on.
+        RegionNotFoundError
+            An unknown region.
         NoPathError
             No route: disconnected free space, or every route needs a closed door.
         """
-        s = self.space.check(start, "start")
-        if isinstance(goal, int | np.integer):
-            if goal not in self.graph:
-                raise InvalidQueryError(f"no region {goal}; ids: {sorted(self.graph.nodes)}")
-            g = self.centre(int(goal))
-        else:
-            g = self.space.check(goal, "goal")
+        s, g = self._end(start, "start"), self._end(goal, "goal")
         if self.space.component_at(s) != self.space.component_at(g):
             raise NoPathError(f"start {s} and goal {g} lie in different parts of the free space")
         matrix = self.door_matrix()
@@ -250,7 +255,7 @@ class HierarchicalPlanner:
         ends = self.reach(s), self.reach(g)
         direct = self._direct(s, g) if ends[0].part == ends[1].part else None
         local = time.perf_counter()
-        bound = math.inf if direct is None else _length(direct)
+        bound = math.inf if direct is None else polyline_length(direct)
         doors = self._search(matrix, *ends, bound)
         searched = time.perf_counter()
         crossings: dict[int, int] = {}
@@ -274,7 +279,7 @@ class HierarchicalPlanner:
             "smoothing": time.perf_counter() - searched,
         }
         crossed = regions_along(self.space.grid, self.labels, waypoints)
-        return Path(waypoints, self.name, crossed, seconds)
+        return PlannedPath(waypoints, self.name, crossed, seconds)
 
     def reach(self, point: Point) -> Reach:
         """The open doors of ``point``'s part and the shortest distances to them inside the
@@ -399,10 +404,6 @@ def regions_along(
     found = found[found > 0]
     keep = np.concatenate([[len(found) > 0], found[1:] != found[:-1]])
     return tuple(int(r) for r in found[keep[: len(found)]])
-
-
-def _length(waypoints: NDArray[np.float64]) -> float:
-    return float(np.hypot(*np.diff(waypoints, axis=0).T).sum())
 
 
 def fill_unlabelled(labels: NDArray[np.integer], free: NDArray[np.bool_]) -> NDArray[np.int32]:

@@ -32,7 +32,7 @@ from planners.flat import (
     plane_bounds,
     solve_query,
 )
-from planners.path import Path
+from planners.path import PlannedPath
 
 Pose = tuple[float, float, float]
 #: Largest distance between two poses of a returned path, metres.
@@ -177,7 +177,7 @@ class FlatKinematicPlanner:
         self.name = f"flat_{planner.lower()}"
         self.ompl = KinematicOMPL(cspace, planner, random_state)
 
-    def plan(self, start: ArrayLike, goal: ArrayLike) -> Path:
+    def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:
         """Plan from ``start`` to ``goal`` (poses, or points: see :func:`check_pose`).
 
         Raises
@@ -191,4 +191,4 @@ class FlatKinematicPlanner:
         poses, seconds = self.ompl.solve(s, g, self.time_limit)
         if poses is None:
             raise NoPathError(f"{self.name} found no path from {s} to {g} in {self.time_limit:g} s")
-        return Path.from_poses(poses, self.name, seconds=seconds)
+        return PlannedPath.from_poses(poses, self.name, seconds=seconds)

@@ -32,9 +32,10 @@ from planners.errors import InvalidQueryError, NoPathError, PlannerParameterErro
 from planners.flat import _seed_once
 from planners.hierarchical import HierarchicalPlanner, regions_along
 from planners.kinematic import KinematicOMPL, Pose, check_pose
-from planners.path import Path
+from planners.path import PlannedPath
 from planners.region_route import region_routes
 from planners.workspace import Workspace, sample_polyline
+from segmentation.names import find_region
 
 log = logging.getLogger(__name__)
 
@@ -107,9 +108,10 @@ class KinematicHierarchicalPlanner:
         """Region id at map point ``(x, y)`` (0 when off the map or in no region)."""
         return self.doors.region_at(x, y)
 
-    def plan(self, start: ArrayLike, goal: ArrayLike | int) -> Path:
+    def plan(self, start: ArrayLike | int | str, goal: ArrayLike | int | str) -> PlannedPath:
         """Plan from ``start`` to ``goal``: poses ``(x, y, yaw)`` or points ``(x, y)`` (the
-        valid heading nearest 0); ``goal`` may be a region id (its most open point).
+        valid heading nearest 0), or regions (an id or a name,
+        :func:`segmentation.names.find_region`) standing for their most open points.
 
         The first route is the door graph's shortest path for a disc as wide as the
         narrowest door the robot takes, its submaps the near-convex parts it crosses; the next
@@ -119,13 +121,17 @@ class KinematicHierarchicalPlanner:
         ------
         InvalidQueryError
             A start or goal in collision, off the map or in no region.
+        RegionNotFoundError
+            An unknown region.
         NoPathError
             No route through doors the robot fits, or OMPL failed on every route tried.
         """
-        if isinstance(goal, int | np.integer):
-            if goal not in self.graph:
-                raise InvalidQueryError(f"no region {goal}; ids: {sorted(self.graph.nodes)}")
-            goal = self.doors.centre(int(goal))
+        start, goal = (
+            self.doors.centre(find_region(self.graph, end))
+            if isinstance(end, int | np.integer | str)
+            else end
+            for end in (start, goal)
+        )
         s, g = check_pose(self.cspace, start, "start"), check_pose(self.cspace, goal, "goal")
         for what, pose in (("start", s), ("goal", g)):
             if self.region_at(pose[0], pose[1]) not in self.graph:
@@ -144,7 +150,7 @@ class KinematicHierarchicalPlanner:
             poses = self._inside(labels, boxes, ids, s, g, seconds)
             if poses is not None:
                 crossed = regions_along(self.cspace.grid, self.labels, poses[:, :2])
-                return Path.from_poses(poses, self.name, crossed, seconds)
+                return PlannedPath.from_poses(poses, self.name, crossed, seconds)
         if not tried:
             raise NoPathError(
                 f"no route from {s} to {g} through doors at least {self.min_width:g} m wide"

@@ -24,6 +24,7 @@ import networkx as nx
 import numpy as np
 
 from maps.files import check_output_file, write_text
+from maps.geometry import polyline_length
 from planners.errors import PlanningError
 from planners.hierarchical import HierarchicalPlanner
 
@@ -171,7 +172,7 @@ def planner_route_graph(planner: HierarchicalPlanner) -> nx.DiGraph:
         points = tuple((float(x), float(y)) for x, y in line)
         points = ((route.nodes[a]["x"], route.nodes[a]["y"]), *points[1:-1])
         points += ((route.nodes[b]["x"], route.nodes[b]["y"]),)
-        cost = float(np.hypot(*np.diff(np.asarray(points), axis=0).T).sum())
+        cost = polyline_length(points)
         about = {"region": region, "name": names[region], "label": labels[region]}
         for start, end, ends in ((a, b, points), (b, a, points[::-1])):
             route.add_edge(start, end, cost=cost, overridable=False, line=ends, metadata=about)

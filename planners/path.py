@@ -9,17 +9,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from maps.geometry import polyline_length
 from planners.workspace import PointLike, Workspace
 
 
-def polyline_length(waypoints: ArrayLike) -> float:
-    """Length of a polyline, metres."""
-    p = np.asarray(waypoints, float).reshape(-1, 2)
-    return float(np.hypot(*np.diff(p, axis=0).T).sum())
-
-
 @dataclass(frozen=True)
-class Path:
+class PlannedPath:
     """A collision-free path from start to goal.
 
     Attributes
@@ -50,7 +45,7 @@ class Path:
         planner: str,
         regions: tuple[int, ...] = (),
         seconds: dict[str, float] | None = None,
-    ) -> Path:
+    ) -> PlannedPath:
         """A path of ``(n, 3)`` poses ``(x, y, yaw)``."""
         p = np.asarray(poses, float).reshape(-1, 3)
         return cls(p[:, :2], planner, regions, dict(seconds or {}), p[:, 2])

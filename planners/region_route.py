@@ -15,7 +15,8 @@ from dataclasses import dataclass
 
 import networkx as nx
 
-from planners.errors import InvalidQueryError, NoPathError
+from planners.errors import NoPathError
+from segmentation.names import find_region
 from segmentation.transitions import Transition
 
 
@@ -42,23 +43,6 @@ class RegionRoute:
     length: float
 
 
-def resolve_region(graph: nx.Graph, query: int | str) -> int:
-    """A region id from an id or a name (the nodes' ``name`` attribute).
-
-    Raises
-    ------
-    InvalidQueryError
-        No region with that id or name (the message lists the names).
-    """
-    if not isinstance(query, str) and query in graph:
-        return int(query)
-    for region, name in graph.nodes(data="name"):
-        if name == query or str(region) == str(query):
-            return int(region)
-    names = sorted(str(n) for _, n in graph.nodes(data="name", default=None) if n is not None)
-    raise InvalidQueryError(f"no region {query!r}; names: {', '.join(names) or 'none'}")
-
-
 def region_route(
     graph: nx.Graph,
     source: int | str,
@@ -75,7 +59,7 @@ def region_route(
         Region adjacency graph: nodes with ``x``, ``y`` (a point inside) and optionally
         ``name``; edges with ``doors`` (:class:`~segmentation.transitions.Transition`).
     source, target
-        Region ids or names.
+        Region ids or names (:func:`segmentation.names.find_region`).
     closed
         Region pairs whose doors are closed.
     min_width
@@ -83,7 +67,7 @@ def region_route(
 
     Raises
     ------
-    InvalidQueryError
+    RegionNotFoundError
         An unknown region.
     NoPathError
         No route through open doors.
@@ -120,12 +104,12 @@ def region_routes(
 
     Raises
     ------
-    InvalidQueryError
+    RegionNotFoundError
         An unknown region (when the first route is asked for).
     NoPathError
         No route at all through open doors wide enough.
     """
-    a, b = resolve_region(graph, source), resolve_region(graph, target)
+    a, b = find_region(graph, source), find_region(graph, target)
     shut = {(min(u, v), max(u, v)) for u, v in closed}
 
     def usable(u: int, v: int) -> Transition | None:

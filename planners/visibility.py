@@ -17,7 +17,7 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
 from planners.errors import NoPathError
-from planners.path import Path
+from planners.path import PlannedPath
 from planners.workspace import Workspace, cell_beyond
 
 #: Candidate pairs tested at once (bounds memory, not results).
@@ -158,7 +158,7 @@ class VisibilityGraph:
             alive[chunk] = self.space.lattice_segments_free(a[chunk], b[chunk])
         return alive
 
-    def plan(self, start: ArrayLike, goal: ArrayLike) -> Path:
+    def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:
         """The shortest valid path from ``start`` to ``goal``.
 
         Raises
@@ -198,7 +198,7 @@ class VisibilityGraph:
         nodes = np.vstack([self.nodes, space.to_lattice([s, g])])
         waypoints = space.from_lattice(nodes[order[::-1]])
         waypoints[0], waypoints[-1] = s, g
-        return Path(waypoints, self.name, seconds={"search": time.perf_counter() - clock})
+        return PlannedPath(waypoints, self.name, seconds={"search": time.perf_counter() - clock})
 
 
 def _convex_corners(free: NDArray[np.bool_]) -> tuple[NDArray[np.float64], NDArray[np.int8]]:

@@ -27,6 +27,7 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from segmentation.coverage import cover as cover
     from segmentation.errors import ExportFormatError as ExportFormatError
     from segmentation.errors import ParameterError as ParameterError
+    from segmentation.errors import RegionNotFoundError as RegionNotFoundError
     from segmentation.errors import SegmentationError as SegmentationError
     from segmentation.export import read_geojson as read_geojson
     from segmentation.export import read_graphml as read_graphml
@@ -42,6 +43,7 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from segmentation.metrics import colour_labels as colour_labels
     from segmentation.metrics import rose2_score as rose2_score
     from segmentation.metrics import score as score
+    from segmentation.names import find_region as find_region
     from segmentation.online import OnlineSegmenter as OnlineSegmenter
     from segmentation.online import OnlineStateError as OnlineStateError
     from segmentation.online_regions import OnlineRegions as OnlineRegions
@@ -54,48 +56,10 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from segmentation.views import SharedView as SharedView
     from segmentation.virtual import virtual_keyframes as virtual_keyframes
 
-_EXPORTS = {
-    "BlockSpectralSegmenter": "segmentation.blocks",
-    "ConditionedMap": "segmentation.conditioning",
-    "Coverage": "segmentation.coverage",
-    "ExportFormatError": "segmentation.errors",
-    "MapSegmenter": "segmentation.pipeline",
-    "OnlineRegions": "segmentation.online_regions",
-    "OnlineSegmenter": "segmentation.online",
-    "OnlineStateError": "segmentation.online",
-    "ParameterError": "segmentation.errors",
-    "PassageAffinity": "segmentation.affinity",
-    "Regions": "segmentation.regions",
-    "Rose2Scores": "segmentation.metrics",
-    "Scores": "segmentation.metrics",
-    "Segmentation": "segmentation.pipeline",
-    "SegmentationError": "segmentation.errors",
-    "SharedView": "segmentation.views",
-    "SpectralSegmenter": "segmentation.spectral",
-    "Transition": "segmentation.transitions",
-    "colour_labels": "segmentation.metrics",
-    "condition": "segmentation.conditioning",
-    "cover": "segmentation.coverage",
-    "find_transitions": "segmentation.transitions",
-    "read_geojson": "segmentation.export",
-    "read_graphml": "segmentation.export",
-    "read_label_image": "segmentation.export",
-    "read_node_link": "segmentation.export",
-    "region_graph": "segmentation.graph",
-    "rose2_score": "segmentation.metrics",
-    "score": "segmentation.metrics",
-    "virtual_keyframes": "segmentation.virtual",
-    "write_geojson": "segmentation.export",
-    "write_graphml": "segmentation.export",
-    "write_label_image": "segmentation.export",
-    "write_node_link": "segmentation.export",
-}
-__all__ = sorted(_EXPORTS)
-
 
 def __getattr__(name: str) -> Any:
-    return _exports.load(__name__, _EXPORTS, name)
+    return _exports.load(__name__, name)
 
 
 def __dir__() -> list[str]:
-    return _exports.names(__name__, _EXPORTS)
+    return _exports.names(__name__)

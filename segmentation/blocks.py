@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -22,6 +22,7 @@ from scipy.spatial import cKDTree
 
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
+from segmentation.base import Estimator, clone
 from segmentation.errors import ParameterError
 from segmentation.spectral import SpectralSegmenter, kmeans
 
@@ -83,14 +84,15 @@ def _centres(basin: NDArray[np.int32], which: NDArray[np.int64]) -> NDArray[np.f
     return total / np.maximum(np.bincount(order, minlength=len(which)), 1)[:, None]
 
 
-@dataclass
-class BlockSpectralSegmenter:
+@dataclass(eq=False)
+class BlockSpectralSegmenter(Estimator):
     """:class:`SpectralSegmenter` run block by block (see the module docstring).
 
     Parameters
     ----------
     segmenter
-        The settings of each block's partition; its ``k`` is replaced by the block's count.
+        The settings of each block's partition, cloned per block with ``k`` = the block's
+        count (never fitted itself).
     blocks
         Block of each keyframe (from :func:`keyframe_blocks`).
     places
@@ -114,30 +116,39 @@ class BlockSpectralSegmenter:
     blocks: NDArray[np.int64]
     places: NDArray[np.int64]
     map_blocks: BlockMap | None = field(default=None, repr=False)
-    labels_: NDArray[np.int64] = field(init=False, repr=False)
-    n_regions_: int = field(init=False, default=0)
-    segmenters_: list[SpectralSegmenter] = field(init=False, default_factory=list, repr=False)
-    silhouette_by_k_: dict[int, float] = field(init=False, default_factory=dict, repr=False)
+
+    def _validate_params(self) -> None:
+        blocks = np.asarray(self.blocks)
+        if blocks.ndim != 1 or not np.issubdtype(blocks.dtype, np.integer) or (blocks < 0).any():
+            raise ParameterError("blocks must be one integer >= 0 per keyframe")
+        if len(blocks) and len(self.places) <= blocks.max():
+            raise ParameterError(
+                f"places has {len(self.places)} entries for block ids up to {blocks.max()}"
+            )
+        self.segmenter._validate_params()
 
     def fit(self, keyframes: Sequence[Keyframe]) -> BlockSpectralSegmenter:
         """Partition each block's keyframes (through :attr:`map_blocks`)."""
+        self._validate_params()
         if len(self.blocks) != len(keyframes):
             raise ParameterError(f"{len(self.blocks)} block ids for {len(keyframes)} keyframes")
         members = [np.flatnonzero(self.blocks == block) for block in np.unique(self.blocks)]
         work = [
             (
-                replace(self.segmenter, k=int(min(max(1, self.places[block]), len(m)))),
+                clone(self.segmenter, k=int(min(max(1, self.places[block]), len(m)))),
                 [keyframes[int(i)] for i in m],
             )
             for block, m in zip(np.unique(self.blocks), members, strict=True)
         ]
         parts = (self.map_blocks or _in_turn)(fit_block, work)
-        self.labels_ = np.zeros(len(keyframes), np.int64)
+        labels = np.zeros(len(keyframes), np.int64)
         offset = 0
         for m, part in zip(members, parts, strict=True):
-            self.labels_[m] = part.labels_ + offset
+            labels[m] = part.labels_ + offset
             offset += part.n_regions_
-        self.segmenters_ = list(parts)
+        self.labels_ = labels
+        self.segmenters_: list[SpectralSegmenter] = list(parts)
+        self.silhouette_by_k_: dict[int, float] = {}
         self.n_regions_ = offset
         return self
 

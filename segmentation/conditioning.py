@@ -30,24 +30,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.grid import OccupancyGrid
+from maps.grid import OccupancyGrid, clearance_of
 from maps.limits import MAX_LENGTH, MAX_ROBOT_RADIUS, finite_in
 from segmentation.errors import ParameterError
-
-
-def clearance_of(space: NDArray[np.bool_], resolution: float) -> NDArray[np.float32]:
-    """Distance in metres from each cell of ``space`` to the nearest cell outside it, the map
-    edge counting as outside (exact Euclidean distance transform).
-
-    Examples
-    --------
-    >>> space = np.ones((3, 5), bool)
-    >>> clearance_of(space, 0.5)[1].tolist()
-    [0.5, 1.0, 1.0, 1.0, 0.5]
-    """
-    padded = np.pad(space, 1).astype(np.uint8)
-    distance = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-    return distance[1:-1, 1:-1] * np.float32(resolution)
 
 
 def _disc(radius_cells: float) -> NDArray[np.uint8]:
@@ -81,6 +66,9 @@ class ConditionedMap:
     free: NDArray[np.bool_]
     clutter: NDArray[np.bool_]
     dropped: dict[str, int]
+
+    def __repr__(self) -> str:
+        return f"ConditionedMap({self.summary()})"
 
     def summary(self) -> dict[str, int]:
         """Counts of cells kept, clutter and dropped, for reports."""

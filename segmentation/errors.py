@@ -16,3 +16,8 @@ class ParameterError(SegmentationError):
 
 class ExportFormatError(SegmentationError):
     """A region or graph file that cannot be read back: names the file and the field."""
+
+
+class RegionNotFoundError(SegmentationError, LookupError):
+    """A region id or name the region graph does not have: names the query, lists the
+    known names and suggests the closest."""

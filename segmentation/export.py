@@ -176,6 +176,35 @@ def write_label_image(labels: NDArray[np.integer], path: str | Path, *, overwrit
     return path
 
 
+def label_colours(labels: NDArray[np.integer]) -> NDArray[np.uint8]:
+    """An RGB picture of a label image: each region a colour of its own (hues a golden angle
+    apart, so neighbouring ids differ), no region light grey.
+
+    Examples
+    --------
+    >>> picture = label_colours(np.array([[0, 1, 2]]))
+    >>> picture.shape, picture[0, 0].tolist(), bool((picture[0, 1] != picture[0, 2]).any())
+    ((1, 3, 3), [235, 235, 235], True)
+    """
+    count = int(labels.max(initial=0)) + 1
+    hues = (np.arange(count) * 0.381966 * 180) % 180  # OpenCV hues are 0..179
+    hsv = np.stack([hues, np.full(count, 150), np.full(count, 230)], axis=1).astype(np.uint8)
+    palette = cv2.cvtColor(hsv[None], cv2.COLOR_HSV2RGB)[0]
+    palette[0] = 235
+    return palette[np.maximum(labels, 0)]
+
+
+def write_colour_image(labels: NDArray[np.integer], path: str | Path, *, overwrite: bool = False):
+    """Write :func:`label_colours` of ``labels`` as an 8-bit colour PNG, for people: the
+    16-bit label image (:func:`write_label_image`) looks black in an image viewer."""
+    path = Path(path)
+    with written(path, overwrite=overwrite) as partial:
+        bgr = cv2.cvtColor(label_colours(labels), cv2.COLOR_RGB2BGR)
+        if not cv2.imwrite(str(partial), bgr):
+            raise OSError(f"could not write {path}")
+    return path
+
+
 def read_label_image(path: str | Path) -> NDArray[np.int32]:
     """Read a 16-bit label PNG (0 = no region); its size is checked before it is decoded."""
     if not Path(path).is_file():

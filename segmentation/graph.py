@@ -6,7 +6,7 @@ import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 
-from segmentation.conditioning import clearance_of
+from maps.grid import clearance_of
 from segmentation.regions import Regions
 from segmentation.transitions import Transition, find_transitions
 from segmentation.virtual import most_open_cells

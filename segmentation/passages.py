@@ -14,8 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.grid import OccupancyGrid
-from segmentation.conditioning import clearance_of
+from maps.grid import OccupancyGrid, clearance_of
 from segmentation.regions import boundary_pairs
 
 

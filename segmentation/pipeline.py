@@ -41,6 +41,7 @@ from maps.limits import MAX_LENGTH, finite_in
 from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
 from segmentation.affinity import PassageAffinity
+from segmentation.base import Estimator, clone
 from segmentation.blocks import BlockMap, BlockSpectralSegmenter, keyframe_blocks
 from segmentation.conditioning import ConditionedMap, condition, drop_outside
 from segmentation.coverage import Coverage, cover
@@ -101,6 +102,12 @@ class Segmentation:
     seconds: dict[str, float]
     method: str = "spectral"
 
+    def __repr__(self) -> str:
+        return (
+            f"Segmentation({len(self.regions.ids)} regions by {self.method!r}, "
+            f"{len(self.keyframes)} keyframes, {self.working!r})"
+        )
+
     def keyframe_regions(self) -> NDArray[np.int64]:
         """Region of each keyframe's position (0 if it is not on a labelled cell)."""
         poses = poses_array(self.keyframes)
@@ -108,13 +115,15 @@ class Segmentation:
 
 
 @dataclass
-class MapSegmenter:
+class MapSegmenter(Estimator):
     """The map -> regions pipeline (see the module docstring), configured in metres.
 
     Parameters
     ----------
     spectral
         Settings of the spectral partition; its ``k``, when set, overrides the place count.
+        It is cloned for each run, never fitted itself: the fitted partition is the result's
+        :attr:`Segmentation.segmenter`.
     robot_radius, clutter_size, min_area
         Conditioning (:func:`~segmentation.conditioning.condition`).
     place_depth
@@ -163,7 +172,7 @@ class MapSegmenter:
     on_stage: Callable[[str], None] | None = field(default=None, repr=False)
     map_blocks: BlockMap | None = field(default=None, repr=False)
 
-    def __post_init__(self) -> None:
+    def _validate_params(self) -> None:
         for name in ("place_depth", "spacing", "cell_size"):
             value = getattr(self, name)
             if finite_in(value, name, 0.0, MAX_LENGTH, low_open=True) is not None:
@@ -172,6 +181,7 @@ class MapSegmenter:
             raise ParameterError(f"method must be one of {', '.join(METHODS)}, got {self.method!r}")
         if not (isinstance(self.block_places, int) and self.block_places >= 2):
             raise ParameterError(f"block_places must be an integer >= 2, got {self.block_places!r}")
+        self.spectral._validate_params()
 
     def segment(
         self,
@@ -183,7 +193,16 @@ class MapSegmenter:
         """Segment ``grid``, clustering ``keyframes`` if given (else virtual ones).
 
         ``random_state`` overrides the spectral settings' seed.
+
+        Raises
+        ------
+        ParameterError
+            A setting out of its range.
+        SegmentationError
+            A map with no free space the robot fits in, or fewer than two keyframes that saw
+            a wall.
         """
+        self._validate_params()
         seconds: dict[str, float] = {}
         clock = [time.perf_counter()]
 
@@ -197,9 +216,9 @@ class MapSegmenter:
             seconds[name] = now - clock[0]
             clock[0] = now
 
-        spectral = self.spectral
+        spectral = clone(self.spectral)
         if random_state is not None:
-            spectral = replace(spectral, random_state=random_state)
+            spectral.random_state = random_state
         stage("condition")
         conditioned = self.condition(grid)
         factor = pool_factor(grid.resolution, self.cell_size)
@@ -264,8 +283,9 @@ class MapSegmenter:
         Raises
         ------
         SegmentationError
-            No free space the robot fits in.
+            No free space the robot fits in (:class:`ParameterError`: a setting out of range).
         """
+        self._validate_params()
         conditioned = condition(grid, self.robot_radius, self.clutter_size, self.min_area)
         if not conditioned.free.any():
             raise SegmentationError(
@@ -301,7 +321,7 @@ class MapSegmenter:
         """Stage ``spectral``: the spectral partition of ``keyframes`` (each of which saw a
         wall) on ``spectral``'s similarity weighed by the passages between their places."""
         affinity = PassageAffinity(space, places, spectral.criterion, self.contrast)
-        return self._fit(space, places, keyframes, replace(spectral, criterion=affinity))
+        return self._fit(space, places, keyframes, clone(spectral, criterion=affinity))
 
     def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
         return cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
@@ -314,14 +334,14 @@ class MapSegmenter:
         spectral: SpectralSegmenter,
     ) -> SpectralSegmenter | BlockSpectralSegmenter:
         if spectral.k is not None:  # the user's k: the partition must be able to reach it
-            return replace(spectral, connected=True).fit(keyframes)
+            return clone(spectral, connected=True).fit(keyframes)
         count = count_basins(space, places, self.min_area)
         if count > self.block_places:
             blocks, per_block = keyframe_blocks(space, places, keyframes, self.block_places)
             return BlockSpectralSegmenter(spectral, blocks, per_block, self.map_blocks).fit(
                 keyframes
             )
-        return replace(spectral, k=min(len(keyframes), count)).fit(keyframes)
+        return clone(spectral, k=min(len(keyframes), count)).fit(keyframes)
 
 
 def by_place(

@@ -16,8 +16,7 @@ from scipy import ndimage, sparse
 from scipy.sparse.csgraph import connected_components
 from skimage.segmentation import watershed
 
-from maps.grid import OccupancyGrid
-from segmentation.conditioning import clearance_of
+from maps.grid import OccupancyGrid, clearance_of
 from segmentation.errors import ParameterError
 from segmentation.regions import boundary_pairs, consecutive
 

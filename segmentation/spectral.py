@@ -19,7 +19,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,6 +30,7 @@ from threadpoolctl import threadpool_limits
 
 from maps.scan import Keyframe
 from maps.seeding import RandomState, as_generator
+from segmentation.base import Estimator, clone
 from segmentation.errors import ParameterError
 from segmentation.similarity import Criterion, PointsSimilarity, as_criterion
 
@@ -206,7 +207,7 @@ def best_clustering(
 
 
 @dataclass
-class SpectralSegmenter:
+class SpectralSegmenter(Estimator):
     """Cluster keyframes into regions by the paper's spectral partition.
 
     Parameters
@@ -253,13 +254,8 @@ class SpectralSegmenter:
     n_init: int = 3
     connected: bool = False
     random_state: RandomState = None
-    labels_: NDArray[np.int64] = field(init=False, repr=False)
-    n_regions_: int = field(init=False, repr=False)
-    silhouette_by_k_: dict[int, float] = field(init=False, repr=False)
-    affinity_: sparse.csr_matrix = field(init=False, repr=False)
-    eigenvalues_: NDArray[np.float64] = field(init=False, repr=False)
 
-    def __post_init__(self) -> None:
+    def _validate_params(self) -> None:
         if self.k is not None and not (isinstance(self.k, int | np.integer) and self.k >= 1):
             raise ParameterError(f"k must be an integer >= 1, got {self.k!r}")
         if not (isinstance(self.p, int | float) and 0 <= self.p < 1):
@@ -271,6 +267,7 @@ class SpectralSegmenter:
         as_criterion(self.criterion)
 
     def _check(self, n: int) -> None:
+        self._validate_params()
         if self.k is not None and self.k > n:
             raise ParameterError(f"k must be an integer in 1..{n} (the keyframes), got {self.k!r}")
 
@@ -280,8 +277,8 @@ class SpectralSegmenter:
         Keyframes with the same pose and the same scan (a robot standing still) are clustered
         once and share their cluster; ``k`` is capped at the number of distinct keyframes.
         """
-        criterion = as_criterion(self.criterion)
         self._check(len(keyframes))
+        criterion = as_criterion(self.criterion)
         keys = [(tuple(k.pose), k.scan.ranges.tobytes()) for k in keyframes]
         first: dict[tuple, int] = {}
         index = np.array([first.setdefault(key, len(first)) for key in keys], np.int64)
@@ -290,13 +287,12 @@ class SpectralSegmenter:
         distinct = [keyframes[i] for i in np.unique(index, return_index=True)[1]]
         k = self.k if self.k is None else min(self.k, len(distinct))
         if len(distinct) == 1:
-            fitted = replace(self, k=1).fit_affinity(sparse.csr_matrix((1, 1)))
+            fitted = clone(self, k=1).fit_affinity(sparse.csr_matrix((1, 1)))
         else:
-            fitted = replace(self, k=k).fit_affinity(criterion.affinity(distinct))
-        self.affinity_, self.eigenvalues_ = fitted.affinity_, fitted.eigenvalues_
-        self.silhouette_by_k_ = fitted.silhouette_by_k_
-        self.labels_ = fitted.labels_[index]
-        self.n_regions_ = fitted.n_regions_
+            fitted = clone(self, k=k).fit_affinity(criterion.affinity(distinct))
+        self._set_fitted(
+            fitted.affinity_, fitted.eigenvalues_, fitted.silhouette_by_k_, fitted.labels_[index]
+        )
         return self
 
     def fit_affinity(self, affinity: sparse.spmatrix) -> SpectralSegmenter:
@@ -304,39 +300,57 @@ class SpectralSegmenter:
         n = affinity.shape[0]
         self._check(n)
         rng = as_generator(self.random_state)
-        self.affinity_ = sparsify(affinity, self.p, connected=self.connected)
-        count, component = connected_components(self.affinity_, directed=False)
+        sparse_affinity = sparsify(affinity, self.p, connected=self.connected)
+        count, component = connected_components(sparse_affinity, directed=False)
         sizes = np.bincount(component)
         main = np.flatnonzero(sizes[component] >= 3)
-        self.silhouette_by_k_ = {}
-        self.eigenvalues_ = np.zeros(0)
+        silhouettes: dict[int, float] = {}
+        values = np.zeros(0)
         labels = np.zeros(n, np.int64)
         if len(main) >= 3:
             # small dense problems: BLAS threads cost more than they save (and oversubscribe)
             with threadpool_limits(1):
-                labels[main] = self._cluster(self.affinity_[main][:, main], rng)
+                values, labels[main] = self._cluster(
+                    sparse_affinity[main][:, main], rng, silhouettes
+                )
         labels = labels * count + component  # never one cluster across two components
-        self.labels_ = np.unique(labels, return_inverse=True)[1].astype(np.int64)
-        self.n_regions_ = int(self.labels_.max()) + 1
+        labels = np.unique(labels, return_inverse=True)[1].astype(np.int64)
+        self._set_fitted(sparse_affinity, values, silhouettes, labels)
         return self
 
-    def _cluster(self, affinity: sparse.csr_matrix, rng: np.random.Generator) -> NDArray[np.int64]:
+    def _set_fitted(
+        self,
+        affinity: sparse.csr_matrix,
+        eigenvalues: NDArray[np.float64],
+        silhouettes: dict[int, float],
+        labels: NDArray[np.int64],
+    ) -> None:
+        self.affinity_ = affinity
+        self.eigenvalues_ = eigenvalues
+        self.silhouette_by_k_ = silhouettes
+        self.labels_ = labels
+        self.n_regions_ = int(labels.max()) + 1
+
+    def _cluster(
+        self, affinity: sparse.csr_matrix, rng: np.random.Generator, silhouettes: dict[int, float]
+    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """The eigenvalues and the labels of the best clustering of a connected ``affinity``;
+        fills ``silhouettes`` (best score per ``k`` tried)."""
         n = affinity.shape[0]
         if self.k == 1:
-            return np.zeros(n, np.int64)
+            return np.zeros(0), np.zeros(n, np.int64)
         components = connected_components(affinity, directed=False)[0]
         top = min(n - 1, self.max_regions) if self.k is None else min(n - 1, self.k + self.spread)
         top = max(top, 1)
         values, vectors = spectrum(affinity, min(n - 1, top + 1))
-        self.eigenvalues_ = values
         guess = self.k if self.k is not None else eigengap(values, max(2, components))
         ks = [k for k in range(guess - self.spread, guess + self.spread + 1) if 2 <= k < n]
         ks = [k for k in ks if k <= vectors.shape[1]] or [min(max(2, guess), vectors.shape[1])]
         best: tuple[float, NDArray[np.int64]] = (-math.inf, np.zeros(n, np.int64))
         for k in ks:
             score, labels = best_clustering(vectors, k, self.n_init, rng)
-            self.silhouette_by_k_[k] = score
+            silhouettes[k] = score
             if score > best[0]:
                 best = (score, labels)
-        log.debug("k' = %d, silhouette by k: %s", guess, self.silhouette_by_k_)
-        return best[1]
+        log.debug("k' = %d, silhouette by k: %s", guess, silhouettes)
+        return values, best[1]

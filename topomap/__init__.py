@@ -34,7 +34,8 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from planners.errors import PlanningError as PlanningError
     from planners.flat import FlatPlanner as FlatPlanner
     from planners.hierarchical import HierarchicalPlanner as HierarchicalPlanner
-    from planners.path import Path as Path
+    from planners.path import PlannedPath as PlannedPath
+    from segmentation.errors import RegionNotFoundError as RegionNotFoundError
     from segmentation.errors import SegmentationError as SegmentationError
     from segmentation.pipeline import MapSegmenter as MapSegmenter
     from segmentation.regions import Regions as Regions
@@ -44,42 +45,15 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
 
 __version__ = "0.1.0"
 
-_EXPORTS = {
-    "FlatPlanner": "planners.flat",
-    "HierarchicalPlanner": "planners.hierarchical",
-    "InvalidQueryError": "planners.errors",
-    "Keyframe": "maps.scan",
-    "LabelError": "topomap.errors",
-    "LaserScan": "maps.scan",
-    "MapError": "maps.errors",
-    "MapSegmenter": "segmentation.pipeline",
-    "NoPathError": "planners.errors",
-    "OccupancyGrid": "maps.grid",
-    "OutputExistsError": "maps.errors",
-    "Path": "planners.path",
-    "PlanningError": "planners.errors",
-    "Regions": "segmentation.regions",
-    "SegmentationError": "segmentation.errors",
-    "SpectralSegmenter": "segmentation.spectral",
-    "TopoMap": "topomap.topomap",
-    "TopomapError": "maps.errors",
-    "generate_floor_plan": "maps.floorplan",
-    "grid_from_keyframes": "maps.mapping",
-    "read_carmen": "maps.carmen",
-    "read_rosbag": "maps.rosbag",
-    "select_keyframes": "maps.scan",
-}
-__all__ = sorted([*_EXPORTS, "__version__"])
-
 
 def __getattr__(name: str) -> Any:
     # the helper is imported here, not above, so that ``import topomap`` imports nothing else
     from maps import _exports
 
-    return _exports.load(__name__, _EXPORTS, name)
+    return _exports.load(__name__, name)
 
 
 def __dir__() -> list[str]:
     from maps import _exports
 
-    return _exports.names(__name__, _EXPORTS)
+    return _exports.names(__name__)

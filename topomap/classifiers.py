@@ -16,13 +16,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from segmentation.base import Estimator
+from segmentation.names import SYNONYMS
 from topomap.errors import LabelError
 from topomap.features import FEATURES, feature_matrix
 
 #: The place types, in table order.
 PLACE_TYPES = ("room", "corridor", "hall", "doorway")
-#: Other words for a place type, accepted in names and queries ("aisle 2" is "corridor 2").
-SYNONYMS = {"aisle": "corridor", "hallway": "corridor", "door": "doorway"}
 
 Classifier = Callable[[Mapping[str, NDArray[np.float64]]], Sequence[str]] | Any
 
@@ -152,9 +152,10 @@ def classify(
 _FOREST_TYPES = ("sklearn.tree._tree.Tree",)
 
 
-class ForestClassifier:
+class ForestClassifier(Estimator):
     """A class-balanced random forest on the feature matrix, trained on labelled regions.
 
+    A scikit-learn estimator (``get_params``, ``set_params``, :func:`sklearn.base.clone`).
     Saved with skops (:meth:`save`, :meth:`load`), never pickled: loading builds only the
     types a forest is made of and refuses a file that holds any other.
 
@@ -162,6 +163,13 @@ class ForestClassifier:
     ----------
     n_estimators, min_samples_leaf, random_state
         Forest size, smallest leaf and seed.
+
+    Attributes
+    ----------
+    forest_ : sklearn.ensemble.RandomForestClassifier
+        The fitted forest.
+    classes_ : list of str
+        The place types seen in training.
     """
 
     def __init__(
@@ -170,11 +178,17 @@ class ForestClassifier:
         self.n_estimators = n_estimators
         self.min_samples_leaf = min_samples_leaf
         self.random_state = random_state
-        self._forest: Any = None
+
+    def _validate_params(self) -> None:
+        for name in ("n_estimators", "min_samples_leaf"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | np.integer) and value >= 1):
+                raise LabelError(f"{name} must be an integer >= 1, got {value!r}")
 
     def fit(self, features: NDArray[np.float64], labels: Sequence[str]) -> ForestClassifier:
         """Learn from a feature matrix (:func:`~topomap.features.feature_matrix`) and one place
         type per row."""
+        self._validate_params()
         features = np.asarray(features, float)
         if features.ndim != 2 or features.shape[1] != len(FEATURES):
             raise LabelError(f"expected a matrix of {len(FEATURES)} feature columns")
@@ -182,29 +196,34 @@ class ForestClassifier:
             raise LabelError(f"{len(labels)} labels for {len(features)} rows")
         from sklearn.ensemble import RandomForestClassifier  # only a learned model needs it
 
-        self._forest = RandomForestClassifier(
+        forest = RandomForestClassifier(
             self.n_estimators,
             min_samples_leaf=self.min_samples_leaf,
             class_weight="balanced",
             random_state=self.random_state,
         ).fit(features, [str(label) for label in labels])
+        self._set_fitted(forest)
         return self
+
+    def _set_fitted(self, forest: Any) -> None:
+        self.forest_ = forest
+        self.classes_ = [str(label) for label in forest.classes_]
 
     def predict(self, features: NDArray[np.float64]) -> list[str]:
         """Place type of each row."""
-        if self._forest is None:
+        if not hasattr(self, "forest_"):
             raise LabelError("ForestClassifier is not fitted")
-        return [str(label) for label in self._forest.predict(np.asarray(features, float))]
+        return [str(label) for label in self.forest_.predict(np.asarray(features, float))]
 
     def save(self, path: str | Path) -> Path:
         """Write the fitted forest and the feature names as a skops file."""
         import skops.io
 
-        if self._forest is None:
+        if not hasattr(self, "forest_"):
             raise LabelError("ForestClassifier is not fitted: nothing to save")
         path = Path(path)
         skops.io.dump(
-            {"format": "topomap-forest-2", "features": list(FEATURES), "forest": self._forest}, path
+            {"format": "topomap-forest-2", "features": list(FEATURES), "forest": self.forest_}, path
         )
         return path
 
@@ -237,5 +256,5 @@ class ForestClassifier:
             raise LabelError(f"{path}: features {data.get('features')} are not {list(FEATURES)}")
         forest = data["forest"]
         model = cls(forest.n_estimators, forest.min_samples_leaf, forest.random_state)
-        model._forest = forest
+        model._set_fitted(forest)
         return model

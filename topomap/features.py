@@ -19,7 +19,7 @@ from scipy import ndimage
 from skimage.measure import perimeter
 from skimage.morphology import disk, skeletonize
 
-from segmentation.conditioning import clearance_of
+from maps.grid import clearance_of
 from segmentation.regions import Regions
 
 #: Region features, in the column order given to estimators, with their units and meaning.

@@ -7,13 +7,13 @@
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping
 
 import networkx as nx
 
+from segmentation.names import find_region, normalise_name
 from segmentation.regions import Regions
-from topomap.classifiers import PLACE_TYPES, SYNONYMS, Classifier, classify
+from topomap.classifiers import PLACE_TYPES, Classifier, classify
 from topomap.errors import LabelError
 from topomap.features import region_features
 
@@ -67,34 +67,6 @@ def label_graph(
         graph.nodes[region]["label"] = labels[region]
         graph.nodes[region]["name"] = names[region]
     return labels
-
-
-def normalise_name(text: str) -> str:
-    """A name as stored: lower case, single spaces, a synonym's first word replaced."""
-    words = re.sub(r"\s+", " ", text.strip().lower()).split(" ")
-    words[0] = SYNONYMS.get(words[0], words[0])
-    return " ".join(words)
-
-
-def find_region(graph: nx.Graph, query: int | str) -> int:
-    """The region id of ``query``: an id, or a name ("hall 1", "Aisle 2"; case-insensitive).
-
-    Raises
-    ------
-    LabelError
-        No such region; the message lists the known names.
-    """
-    if not isinstance(query, str) or query.strip().isdigit():
-        region = int(query)
-        if region in graph:
-            return region
-        raise LabelError(f"no region {region}; ids: {sorted(graph.nodes)}")
-    wanted = normalise_name(query)
-    for region, name in graph.nodes(data="name"):
-        if name is not None and normalise_name(str(name)) == wanted:
-            return int(region)
-    known = sorted(str(n) for _, n in graph.nodes(data="name") if n is not None)
-    raise LabelError(f"no region named {query!r}; known names: {', '.join(known) or 'none'}")
 
 
 def rename(graph: nx.Graph, old: int | str, new: str) -> None:

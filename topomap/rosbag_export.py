@@ -47,7 +47,7 @@ from topomap.errors import ExportError
 from topomap.graph_layout import edge_segments, label_colour
 
 if TYPE_CHECKING:
-    from planners.path import Path as PlannedPath
+    from planners.path import PlannedPath
     from topomap.topomap import TopoMap
 
 #: Points all markers together may have (bounds the bag of a huge map; 16 bytes per point).

@@ -2,14 +2,9 @@
 
 from __future__ import annotations
 
-import csv
-import hashlib
-import io
-import json
-import math
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass, field, fields, replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -17,42 +12,32 @@ import networkx as nx
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from maps.errors import MapFileNotFoundError
-from maps.files import OutputFolder, write_text
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe
 from maps.seeding import RandomState
 from segmentation.blocks import BlockSpectralSegmenter
 from segmentation.conditioning import ConditionedMap
-from segmentation.errors import ExportFormatError, ParameterError, SegmentationError
-from segmentation.export import (
-    read_graphml,
-    read_label_image,
-    write_geojson,
-    write_graphml,
-    write_label_image,
-    write_node_link,
-)
+from segmentation.errors import ParameterError, SegmentationError
 from segmentation.graph import region_graph
 from segmentation.growing import MapMismatchError, align, carry_ids
 from segmentation.pipeline import MapSegmenter, Segmentation
 from segmentation.regions import Regions
 from segmentation.spectral import SpectralSegmenter
+from topomap import saving
 from topomap.features import region_features
 from topomap.labels import GIVEN, Classifier, find_region, label_graph, rename
+from topomap.saving import SavedPartition
 
 if TYPE_CHECKING:
     from planners.hierarchical import HierarchicalPlanner
     from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
-    from planners.path import Path as PlannedPath
+    from planners.path import PlannedPath
     from planners.region_route import RegionRoute
     from planners.robots import Footprint, Robot
 
-#: The files :meth:`TopoMap.save` writes besides the map's YAML and image.
-SAVED = ["regions.png", "graph.graphml", "graph.json", "regions.geojson", "topomap.json"]
-_PIPELINE = {f.name for f in fields(MapSegmenter) if f.init and f.name != "spectral"}
-_SPECTRAL = {f.name for f in fields(SpectralSegmenter) if f.init}
+_PIPELINE = set(MapSegmenter().get_params(deep=False)) - {"spectral"}
+_SPECTRAL = set(SpectralSegmenter().get_params(deep=False))
 
 
 def pipeline_from_options(options: dict[str, Any]) -> MapSegmenter:
@@ -81,16 +66,6 @@ def _pipeline(pipeline: MapSegmenter | None, options: dict[str, Any]) -> MapSegm
             f"give a pipeline or segmentation options, not both (got {sorted(options)})"
         )
     return pipeline or pipeline_from_options(options)
-
-
-@dataclass(frozen=True)
-class SavedPartition:
-    """The fitted spectral partition as :meth:`TopoMap.save` keeps it: the attributes of a
-    fitted :class:`~segmentation.spectral.SpectralSegmenter` a reader needs."""
-
-    labels_: NDArray[np.int64]
-    n_regions_: int
-    silhouette_by_k_: dict[int, float]
 
 
 @dataclass
@@ -137,7 +112,7 @@ class TopoMap:
     partition: SavedPartition | None = None
     next_id: int = 0
     changes: list[dict[str, Any]] = field(default_factory=list)
-    _planners: dict[tuple, HierarchicalPlanner] = field(
+    _planners: dict[float, HierarchicalPlanner] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
     _kinematic: dict[tuple, KinematicHierarchicalPlanner] = field(
@@ -158,7 +133,8 @@ class TopoMap:
         ``options`` are those of :func:`pipeline_from_options` (or give ``pipeline``).
         """
         pipeline = _pipeline(pipeline, options)
-        return cls._build(grid, pipeline.segment(grid, random_state=random_state))
+        found = pipeline.segment(grid, random_state=random_state)
+        return cls._build(grid, found, pipeline.on_stage)
 
     @classmethod
     def from_keyframes(
@@ -179,7 +155,7 @@ class TopoMap:
         grid = grid_from_keyframes(keyframes, resolution) if grid is None else grid
         mapped = time.perf_counter() - start
         found = pipeline.segment(grid, keyframes, random_state=random_state)
-        topo = cls._build(grid, found)
+        topo = cls._build(grid, found, pipeline.on_stage)
         if built:
             topo.seconds = {"map": mapped, **topo.seconds}
         return topo
@@ -219,23 +195,47 @@ class TopoMap:
         regions = Regions(grid, carried.labels)
         same = found.spectral is found.regions
         found = replace(found, regions=regions, spectral=regions if same else found.spectral)
-        topo = self._build(grid, found)
+        topo = self._build(grid, found, pipeline.on_stage)
         topo.next_id, topo.changes = carried.next_id, carried.events
         _carry_names(topo.graph, self.graph)
         return topo
 
     @classmethod
-    def _build(cls, grid: OccupancyGrid, found: Segmentation) -> TopoMap:
+    def _build(
+        cls,
+        grid: OccupancyGrid,
+        found: Segmentation,
+        on_stage: Callable[[str], None] | None = None,
+    ) -> TopoMap:
         seconds = dict(found.seconds)
+        stage = on_stage or (lambda name: None)
+        stage("graph")
         start = time.perf_counter()
         graph = region_graph(found.regions, found.keyframe_regions())
         seconds["graph"] = time.perf_counter() - start
         next_id = max(found.regions.ids, default=0) + 1
         topo = cls(grid, found.regions, graph, found, seconds, found.method, next_id=next_id)
+        stage("labels")
         start = time.perf_counter()
         topo.label()
         seconds["labels"] = time.perf_counter() - start
         return topo
+
+    def __repr__(self) -> str:
+        """One line: the regions, the doors and the map.
+
+        Examples
+        --------
+        >>> import maps
+        >>> TopoMap.from_grid(maps.generate_floor_plan("flat", random_state=0).grid)
+        ... # doctest: +ELLIPSIS
+        TopoMap(... regions, ... doors by 'spectral' on OccupancyGrid(420 x 320 cells of 0.05 m...))
+        """
+        doors = sum(len(d) for _, _, d in self.graph.edges(data="doors"))
+        return (
+            f"TopoMap({self.graph.number_of_nodes()} regions, {doors} doors by "
+            f"{self.method!r} on {self.grid!r})"
+        )
 
     @property
     def found(self) -> Segmentation:
@@ -303,27 +303,26 @@ class TopoMap:
         return region_features(self.regions, self.graph)
 
     def region(self, query: int | str) -> int:
-        """Region id of a region id or name ("hall 1", "aisle 2"); the error lists the names."""
+        """Region id of a region id or name ("hall 1", "aisle 2"), as every query takes them
+        (:func:`segmentation.names.find_region`); the error lists the names."""
         return find_region(self.graph, query)
 
     def rename(self, region: int | str, name: str) -> None:
         """Rename a region (by id or name); a name already taken is refused, nothing changes."""
         rename(self.graph, region, name)
 
-    def planner(self, robot_radius: float = 0.2, **options: Any) -> HierarchicalPlanner:
-        """The hierarchical planner on this map for a disc robot of ``robot_radius`` metres
-        (made once per radius and kept, with its leg cache). ``options`` go to
-        :class:`~planners.hierarchical.HierarchicalPlanner`."""
+    def planner(self, robot_radius: float = 0.2) -> HierarchicalPlanner:
+        """The hierarchical planner (:class:`~planners.hierarchical.HierarchicalPlanner`) on
+        this map for a disc robot of ``robot_radius`` metres, made once per radius and kept."""
         from planners.hierarchical import HierarchicalPlanner
         from planners.workspace import Workspace
 
-        key = (robot_radius, tuple(sorted(options.items())))
-        if key not in self._planners:
+        if robot_radius not in self._planners:
             space = Workspace(self.grid, robot_radius)
-            self._planners[key] = HierarchicalPlanner(
-                space, self.regions.labels, self.graph, **options
+            self._planners[robot_radius] = HierarchicalPlanner(
+                space, self.regions.labels, self.graph
             )
-        return self._planners[key]
+        return self._planners[robot_radius]
 
     def kinematic_planner(
         self, robot: str | Footprint, **options: Any
@@ -381,137 +380,54 @@ class TopoMap:
 
     def plan(
         self,
-        start: ArrayLike,
+        start: ArrayLike | int | str,
         goal: ArrayLike | int | str,
         *,
         robot_radius: float = 0.2,
         robot: str | Robot | None = None,
     ) -> PlannedPath:
-        """Plan from ``start`` to ``goal`` (a point, a pose ``(x, y, yaw)`` for a footprint
-        robot, a region id or a region name): with :meth:`planner` for a disc of
-        ``robot_radius`` (``robot`` None, a :class:`~planners.robots.Disc` or ``"disc:R"``),
-        with :meth:`kinematic_planner` for a footprint robot."""
+        """Plan from ``start`` to ``goal``, each a point, a pose ``(x, y, yaw)`` for a
+        footprint robot, or a region (an id or a name, as :meth:`region` and :meth:`route`
+        take them: its most open point): with :meth:`planner` for a disc of ``robot_radius``
+        (``robot`` None, a :class:`~planners.robots.Disc` or ``"disc:R"``), with
+        :meth:`kinematic_planner` for a footprint robot."""
         from planners.robots import Disc, parse_robot
 
-        target = self.region(goal) if isinstance(goal, int | str) else goal
         model = None if robot is None else parse_robot(robot)
         if model is None or isinstance(model, Disc):
             radius = robot_radius if model is None else model.radius
-            return self.planner(radius).plan(start, target)
-        return self.kinematic_planner(robot if isinstance(robot, str) else model).plan(
-            start, target
-        )
+            return self.planner(radius).plan(start, goal)
+        return self.kinematic_planner(robot if isinstance(robot, str) else model).plan(start, goal)
 
     def keyframe_regions(self) -> NDArray[np.int64]:
         """Region of each keyframe's position (0 if it is not on a labelled cell)."""
         return self.found.keyframe_regions()
 
     def save(self, out: str | Path, *, overwrite: bool = False) -> list[Path]:
-        """Write everything needed to go on with this map into folder ``out``: ``map.yaml`` +
-        ``map.pgm`` (map_server), ``regions.png`` (16-bit labels), ``graph.graphml`` and
-        ``graph.json`` (labels and names included), ``regions.geojson`` and ``topomap.json``
-        (format, seconds, what conditioning dropped). Read it back with :meth:`load`.
-
-        Raises
-        ------
-        OutputExistsError
-            A file exists and ``overwrite`` is false; nothing is written then.
-        """
-        out = Path(out)
-        names = [*SAVED, "map.yaml", "map.pgm"]
-        with OutputFolder(out, names, overwrite=overwrite, last="topomap.json") as work:
-            self.grid.save(work / "map.yaml")
-            write_label_image(self.regions.labels, work / "regions.png")
-            write_graphml(self.graph, work / "graph.graphml")
-            write_node_link(self.graph, work / "graph.json")
-            write_geojson(self.graph, work / "regions.geojson")
-            about: dict[str, Any] = {
-                "format": "topomap",
-                "version": 2,
-                "regions": len(self.regions.ids),
-                "seconds": {k: round(v, 4) for k, v in self.seconds.items()},
-                "files": {name: _digest(work / name) for name in names if name != "topomap.json"},
-                "method": self.method,
-                "next_id": self.next_id,
-            }
-            if self.segmentation is not None:
-                about["conditioning"] = self.conditioned.summary()
-            if self.segmentation is not None or self.partition is not None:
-                fitted = self.segmenter  # a map read back keeps its saved partition
-                about["partition"] = {
-                    "labels": [int(v) for v in fitted.labels_],
-                    "clusters": int(fitted.n_regions_),
-                    "silhouette_by_k": {str(k): v for k, v in fitted.silhouette_by_k_.items()},
-                }
-            write_text(work / "topomap.json", json.dumps(about, indent=2))
-        return [out / name for name in ("map.yaml", "map.pgm", *SAVED)]
+        """Write everything needed to go on with this map into folder ``out``
+        (:func:`topomap.saving.save`); read it back with :meth:`load`."""
+        return saving.save(self, out, overwrite=overwrite)
 
     @classmethod
     def load(cls, folder: str | Path) -> TopoMap:
-        """Read a map written by :meth:`save` (data only: nothing in the files is executed).
-
-        Raises
-        ------
-        MapFileNotFoundError
-            A file is missing.
-        ExportFormatError
-            The files do not belong together (label image and map of different sizes, regions
-            on cells the map does not have free, graph nodes that are not the regions).
-        """
-        folder = Path(folder)
-        info = folder / "topomap.json"
-        if not info.is_file():
-            raise MapFileNotFoundError(info, "topomap.json (written by TopoMap.save)")
-        try:
-            about = json.loads(info.read_text())
-            seconds = {str(k): float(v) for k, v in about.get("seconds", {}).items()}
-            files = dict(about.get("files", {}))
-            method = str(about.get("method", "doors"))  # folders from before kept no method
-            partition = _partition(about.get("partition"))
-            next_id = int(about.get("next_id", 0))
-        except (ValueError, AttributeError, TypeError, KeyError, RecursionError) as err:
-            raise ExportFormatError(f"{info}: not a topomap.json file: {err!r}") from None
-        if about.get("format") != "topomap":
-            raise ExportFormatError(
-                f"{info}: field 'format' is {about.get('format')!r}, not 'topomap'"
-            )
-        grid = OccupancyGrid.load(folder / "map.yaml")
-        labels = read_label_image(folder / "regions.png")
-        if labels.shape != grid.shape:
-            raise ExportFormatError(
-                f"{folder / 'regions.png'}: {labels.shape} labels for a {grid.shape} map"
-            )
-        # regions cover furniture and clutter too (not free cells): a changed label image is
-        # found by its digest and by the areas the graph holds
-        graph = read_graphml(folder / "graph.graphml")
-        regions = Regions(grid, labels)
-        _check_graph(graph, regions, grid, folder / "graph.graphml")
-        for name, digest in files.items():  # version 2: the folder is whole and unchanged
-            if name not in ("map.yaml", "map.pgm", *SAVED):
-                raise ExportFormatError(f"{info}: field 'files' lists {name!r}, not a saved file")
-            if not (folder / name).is_file():
-                raise MapFileNotFoundError(folder / name, f"{name} (listed in topomap.json)")
-            if _digest(folder / name) != digest:
-                raise ExportFormatError(
-                    f"{folder / name}: changed since topomap.json was written (another run's or "
-                    "an edited file): segment the map again"
-                )
-        next_id = max(next_id, max(regions.ids, default=0) + 1)
-        return cls(grid, regions, graph, None, seconds, method, partition, next_id)
+        """Read a folder written by :meth:`save` (:func:`topomap.saving.load`)."""
+        found = saving.load(folder)
+        return cls(
+            found.grid,
+            found.regions,
+            found.graph,
+            None,
+            found.seconds,
+            found.method,
+            found.partition,
+            found.next_id,
+        )
 
     def save_keyframes(self, path: str | Path, *, overwrite: bool = False) -> Path:
         """Write ``scan_index,x,y,theta,region``, one row per keyframe."""
-        stream = io.StringIO()
-        writer = csv.writer(stream, lineterminator="\r\n")
-        writer.writerow(["scan_index", "x", "y", "theta", "region"])
-        for frame, region in zip(self.keyframes, self.keyframe_regions(), strict=True):
-            writer.writerow([frame.scan_index, *(f"{v:.4f}" for v in frame.pose), region])
-        return write_text(path, stream.getvalue(), overwrite=overwrite)
-
-
-def _digest(path: Path) -> str:
-    """The SHA-256 of a file, hex."""
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+        return saving.save_keyframes(
+            self.keyframes, self.keyframe_regions(), path, overwrite=overwrite
+        )
 
 
 def _carry_names(graph: nx.Graph, previous: nx.Graph) -> None:
@@ -538,44 +454,3 @@ def _carry_names(graph: nx.Graph, previous: nx.Graph) -> None:
             number += 1
         data["name"] = f"{data['label']} {number}"
         used.add(data["name"])
-
-
-def _partition(saved: Any) -> SavedPartition | None:
-    """The ``partition`` field of ``topomap.json`` (None when absent)."""
-    if saved is None:
-        return None
-    return SavedPartition(
-        np.asarray(saved["labels"], np.int64),
-        int(saved["clusters"]),
-        {int(k): float(v) for k, v in dict(saved["silhouette_by_k"]).items()},
-    )
-
-
-def _check_graph(graph: nx.Graph, regions: Regions, grid: OccupancyGrid, source: Path) -> None:
-    """Refuse a region graph that is not the graph of ``regions`` on ``grid``: other node ids,
-    areas that are not the label image's pixel counts, another resolution or origin, or a
-    name that is only digits (it would read as a region id)."""
-    if sorted(graph.nodes) != regions.ids:
-        raise ExportFormatError(
-            f"{source}: nodes {sorted(graph.nodes)[:10]}... are not the "
-            f"regions of regions.png {regions.ids[:10]}..."
-        )
-    resolution, origin = graph.graph.get("resolution"), tuple(graph.graph.get("origin", ()))
-    if resolution != grid.resolution or origin != grid.origin:
-        raise ExportFormatError(
-            f"{source}: resolution {resolution} and origin {origin} are not the map's "
-            f"({grid.resolution}, {grid.origin})"
-        )
-    for region, data in graph.nodes(data=True):
-        area, expected = data.get("area_m2"), regions.area(region)
-        if not isinstance(area, float) or not math.isclose(area, expected, rel_tol=1e-6):
-            raise ExportFormatError(
-                f"{source}: region {region} field 'area_m2' is {area!r}, but regions.png gives "
-                f"it {expected:.6g} m^2"
-            )
-        name = data.get("name")
-        if name is not None and str(name).strip().isdigit():
-            raise ExportFormatError(
-                f"{source}: region {region} field 'name' is {name!r}, only digits: it would "
-                "read as a region id"
-            )

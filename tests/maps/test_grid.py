@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -188,3 +188,17 @@ def test_save_never_overwrites_without_asking(tmp_path):
 def test_invalid_grids_are_rejected(kwargs):
     with pytest.raises(InvalidMapError):
         OccupancyGrid(**kwargs)
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(1, 40), st.integers(1, 40))
+@settings(max_examples=50, deadline=None)
+def test_clearance_is_scipys_exact_distance_transform(seed, rows, cols):
+    from scipy import ndimage
+
+    from maps.grid import clearance_of
+
+    space = np.random.default_rng(seed).random((rows, cols)) < 0.8
+    expected = ndimage.distance_transform_edt(np.pad(space, 1))[1:-1, 1:-1] * 0.05
+    np.testing.assert_allclose(clearance_of(space, 0.05), expected, atol=1e-6)
+    grid = OccupancyGrid(np.where(space, 0, 100).astype(np.int8), 0.05)
+    np.testing.assert_allclose(grid.clearance(), expected, atol=1e-6)

@@ -5,10 +5,11 @@ import sqlite3
 import numpy as np
 import pytest
 
-from planners.benchmark import far_queries, run_queries, write_ompl_log
+from planners.benchmark import far_queries, run_queries
 from planners.grid_mcp import GridMCP
 from planners.visibility import VisibilityGraph
 from planners.workspace import Workspace
+from topomap.cli.plan_report import write_ompl_log
 
 
 @pytest.fixture

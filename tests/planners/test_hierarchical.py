@@ -13,6 +13,7 @@ from planners.errors import InvalidQueryError, NoPathError, PlannerParameterErro
 from planners.hierarchical import HierarchicalPlanner
 from planners.visibility import VisibilityGraph
 from planners.workspace import Workspace
+from segmentation.errors import RegionNotFoundError
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
 from topomap.topomap import TopoMap
@@ -55,7 +56,7 @@ def test_goal_by_region_id_and_region_at(two_rooms):
     # a region goal leads to the region's most open point: the middle of the right room
     assert np.allclose(path.waypoints[-1], (6.2, 2.1), atol=0.2)
     assert planner.region_at(1.0, 1.0) == 1 and planner.region_at(-5.0, 1.0) == 0
-    with pytest.raises(InvalidQueryError, match=r"no region 9; ids: \[1, 2\]"):
+    with pytest.raises(RegionNotFoundError, match=r"no region 9; ids: \[1, 2\]"):
         planner.plan((1.0, 1.0), 9)
     with pytest.raises(InvalidQueryError, match=r"start .* outside the map"):
         planner.plan((100.0, 1.0), 2)

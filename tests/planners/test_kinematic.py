@@ -20,6 +20,7 @@ from planners.kinematic import POSE_SPACING, FlatKinematicPlanner
 from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
 from planners.robots import Dubins, Footprint, ReedsShepp, RobotSpecError, parse_robot, rectangle
 from planners.sweep import footprint_collisions
+from segmentation.errors import RegionNotFoundError
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
 
@@ -159,7 +160,7 @@ def test_bad_queries_are_typed_errors():
         planner.plan((4.1, 0.5, 0.0), (7.0, 2.0))  # in the wall
     with pytest.raises(InvalidQueryError, match="goal must be finite"):
         planner.plan((1.0, 2.0), (7.0, math.inf))
-    with pytest.raises(InvalidQueryError, match="no region 9"):
+    with pytest.raises(RegionNotFoundError, match="no region 9"):
         planner.plan((1.0, 2.0), 9)
 
 

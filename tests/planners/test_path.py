@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from planners.path import Path, polyline_length, shortcut, tighten
+from planners.path import PlannedPath, polyline_length, shortcut, tighten
 from planners.workspace import Workspace
 
 
@@ -28,7 +28,7 @@ def test_shortcut_keeps_validity_and_drops_points(two_rooms):
 
 
 def test_path_reports_length_and_json():
-    path = Path(np.array([(0.0, 0.0), (3.0, 4.0)]), "test", (1,), {"search": 0.5})
+    path = PlannedPath(np.array([(0.0, 0.0), (3.0, 4.0)]), "test", (1,), {"search": 0.5})
     assert path.length == 5.0 and path.total_seconds == 0.5
     assert path.to_dict()["waypoints"] == [[0.0, 0.0], [3.0, 4.0]]
 

@@ -3,8 +3,9 @@
 import networkx as nx
 import pytest
 
-from planners.errors import InvalidQueryError, NoPathError
+from planners.errors import NoPathError
 from planners.region_route import region_route
+from segmentation.errors import RegionNotFoundError
 from segmentation.transitions import Transition
 
 
@@ -46,5 +47,5 @@ def test_closed_doors_reroute_or_fail():
 
 
 def test_unknown_region_lists_the_names():
-    with pytest.raises(InvalidQueryError, match="corridor 1, room 1, room 2, room 3"):
+    with pytest.raises(RegionNotFoundError, match="corridor 1, room 1, room 2, room 3"):
         region_route(_corridor_with_rooms(), "kitchen", 1)

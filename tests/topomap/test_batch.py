@@ -3,7 +3,6 @@
 import csv
 import json
 import os
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -11,7 +10,8 @@ import pytest
 from maps.errors import FormatError, MapFileNotFoundError
 from maps.floorplan import generate_floor_plan
 from tests.maps.bags import Robot, tf_bag
-from topomap.cli.batch import dask_client, dask_map, find_inputs, run_batch
+from topomap.cli.batch import dask_client, dask_map, run_batch
+from topomap.cli.inputs import find_inputs
 from topomap.cli.main import main
 from topomap.topomap import TopoMap
 
@@ -115,6 +115,7 @@ def test_find_inputs_names_and_errors(tmp_path, plans):
 
 @pytest.mark.slow
 def test_parallel_blocks_equal_the_sequential_run(client):
+    from segmentation.base import clone
     from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
     from segmentation.refine import basins
     from segmentation.spectral import SpectralSegmenter
@@ -124,8 +125,8 @@ def test_parallel_blocks_equal_the_sequential_run(client):
     keyframes = virtual_keyframes(plan.grid, 0.8, random_state=0)
     blocks, places = keyframe_blocks(plan.grid, basins(plan.grid), keyframes, places=3)
     model = BlockSpectralSegmenter(SpectralSegmenter(random_state=0), blocks, places)
-    sequential = replace(model).fit(keyframes)
-    parallel = replace(model, map_blocks=dask_map(client)).fit(keyframes)
+    sequential = clone(model).fit(keyframes)
+    parallel = clone(model, map_blocks=dask_map(client)).fit(keyframes)
     assert len(places) >= 2
     assert np.array_equal(parallel.labels_, sequential.labels_)
     assert parallel.n_regions_ == sequential.n_regions_

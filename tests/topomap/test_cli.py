@@ -10,7 +10,7 @@ import pytest
 import maps
 from maps.grid import OccupancyGrid
 from topomap.classifiers import PLACE_TYPES, ForestClassifier, RuleClassifier
-from topomap.cli import main
+from topomap.cli.main import main
 from topomap.features import FEATURES
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -15,8 +15,9 @@ import yaml
 from maps.errors import MapFileNotFoundError, MapFormatError, OutputExistsError
 from maps.floorplan import generate_floor_plan
 from segmentation.errors import ExportFormatError
-from topomap.cli import main
-from topomap.cli.batch import BatchOptions, Job, find_inputs, process, scheduler_address
+from topomap.cli.batch import BatchOptions, process, scheduler_address
+from topomap.cli.inputs import Job, find_inputs
+from topomap.cli.main import main
 from topomap.errors import LabelError, SchedulerError
 from topomap.topomap import TopoMap
 
@@ -264,7 +265,7 @@ def test_batch_job_errors_are_typed(tmp_path):
 
 # ---------------------------------------------------------------- messages
 def test_ctrl_c_is_one_line(monkeypatch, capsys, tmp_path):
-    module = importlib.import_module("topomap.cli.main")
+    module = importlib.import_module("topomap.cli.commands.generate")
     monkeypatch.setattr(module, "cmd_generate", _interrupt)
     assert main(["generate", "--out", str(tmp_path)]) == 130
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
@@ -290,3 +291,14 @@ def test_json_in_topomap_json_is_data_only(tmp_path, saved):
 
 def test_output_exists_error_is_a_file_exists_error():
     assert issubclass(OutputExistsError, FileExistsError)
+
+
+def test_a_folder_of_a_newer_or_unknown_version_is_refused(tmp_path, saved):
+    for version in (3, "2", 0, True):
+        folder = _copy(saved, tmp_path / f"v{version}")
+        about = json.loads((folder / "topomap.json").read_text())
+        assert about["version"] == 2
+        about["version"] = version
+        (folder / "topomap.json").write_text(json.dumps(about))
+        with pytest.raises(ExportFormatError, match=rf"field 'version' is {version!r}; .* 1 to 2"):
+            TopoMap.load(folder)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from topomap.cli import main
+from topomap.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -77,8 +77,9 @@ def test_a_bug_keeps_its_traceback(tmp_path, monkeypatch):
     def broken(args):
         raise RuntimeError("a bug, not bad input")
 
-    # the module, not the function ``topomap.cli.main`` that the package re-exports
-    monkeypatch.setattr(importlib.import_module("topomap.cli.main"), "cmd_generate", broken)
+    monkeypatch.setattr(
+        importlib.import_module("topomap.cli.commands.generate"), "cmd_generate", broken
+    )
     with pytest.raises(RuntimeError, match="a bug"):
         _generate(tmp_path)
 

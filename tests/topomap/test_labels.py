@@ -5,6 +5,7 @@ import pytest
 
 from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
+from segmentation.errors import RegionNotFoundError
 from segmentation.export import read_geojson, read_graphml
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
@@ -64,6 +65,23 @@ def test_hook_accepts_functions_and_estimators_and_checks_them():
         classify(lambda features: ["room", "kitchen"], f)
     forest = ForestClassifier(n_estimators=10).fit(feature_matrix(f), ["corridor", "room"])
     assert classify(forest, f) == ["corridor", "room"]
+
+
+def test_forest_is_a_scikit_learn_estimator():
+    from sklearn.base import clone
+
+    rng = np.random.default_rng(1)
+    x = rng.random((40, len(FEATURES)))
+    y = ["room" if v < 0.5 else "corridor" for v in x[:, 0]]
+    forest = ForestClassifier(n_estimators=7, min_samples_leaf=2, random_state=4)
+    copied = clone(forest)
+    given = {"min_samples_leaf": 2, "n_estimators": 7, "random_state": 4}
+    assert copied.get_params() == forest.get_params() == given
+    first = forest.fit(x, y).predict(x)
+    assert forest.fit(x, y).predict(x) == first and forest.classes_ == ["corridor", "room"]
+    assert not hasattr(copied, "forest_")  # the clone is unfitted
+    with pytest.raises(LabelError, match="n_estimators must be an integer >= 1, got 0"):
+        copied.set_params(n_estimators=0).fit(x, y)
 
 
 def test_forest_saves_with_skops_and_reloads_the_same(tmp_path):
@@ -170,7 +188,9 @@ def test_rename_refuses_taken_and_unknown_names():
     with pytest.raises(LabelError, match="'KITCHEN' is taken by region"):
         topo.rename(second, "KITCHEN")
     assert topo.graph.nodes[second]["name"] == old
-    with pytest.raises(LabelError, match=r"no region named 'lab 9'; known names: .*kitchen"):
+    with pytest.raises(
+        RegionNotFoundError, match=r"no region named 'lab 9'.*known names: .*kitchen"
+    ):
         topo.region("lab 9")
 
 
@@ -183,3 +203,34 @@ def test_plan_to_a_named_region():
     path = topo.plan(start, "corridor 1")
     assert topo.region_at(*path.waypoints[-1]) == topo.region("corridor 1")
     assert space.collisions(path.waypoints) == 0
+
+
+def test_plan_route_and_region_take_the_same_queries():
+    plan = generate_floor_plan("flat", random_state=4)
+    topo = TopoMap.from_grid(plan.grid, random_state=4)
+    corridor = topo.region("corridor 1")
+    room = next(r for r, label in topo.graph.nodes(data="label") if label == "room")
+    name = topo.graph.nodes[room]["name"]
+    for query in ("Aisle 1", "  CORRIDOR   1 ", corridor, str(corridor)):
+        assert topo.region(query) == corridor
+        assert topo.route(query, name).regions[0] == corridor
+        path = topo.plan(query, name)  # a region start too: its most open point
+        assert topo.region_at(*path.waypoints[0]) == corridor
+        assert topo.region_at(*path.waypoints[-1]) == room
+    for bad in ("corridr 1", 999):
+        for ask in (topo.region, lambda q: topo.route(q, name), lambda q: topo.plan(q, name)):
+            with pytest.raises(RegionNotFoundError):
+                ask(bad)
+    with pytest.raises(RegionNotFoundError, match=r"did you mean 'corridor 1'\?"):
+        topo.plan(corridor, "corridr 1")
+
+
+def test_unknown_names_are_listed_in_natural_order():
+    import networkx as nx
+
+    from segmentation.names import find_region
+
+    graph = nx.Graph()
+    graph.add_nodes_from((i, {"name": f"room {i}"}) for i in (10, 2, 1))
+    with pytest.raises(RegionNotFoundError, match=r"known names: room 1, room 2, room 10$"):
+        find_region(graph, "kitchen")

@@ -125,3 +125,15 @@ def test_a_pipeline_and_options_together_are_refused(flat):
 
     with pytest.raises(ParameterError, match="not both"):
         TopoMap.from_grid(flat.grid, pipeline=MapSegmenter(), robot_radius=5.0)
+
+
+def test_reprs_are_one_short_line(flat):
+    topo = TopoMap.from_grid(flat.grid, random_state=0)
+    found = topo.segmentation
+    shown = [topo, found, found.conditioned, topo.regions, topo.grid, topo.keyframes[0]]
+    shown.append(topo.keyframes[0].scan)
+    for value in shown:
+        text = repr(value)
+        assert "\n" not in text and len(text) < 240, text[:300]
+    regions = len(topo.regions.ids)
+    assert repr(topo).startswith(f"TopoMap({regions} regions, ")

@@ -19,14 +19,14 @@ from maps.grid import OccupancyGrid
 from maps.laser_sim import LaserModel, RayCaster, simulate_keyframes, simulate_scans
 from maps.scan import Keyframe
 from maps.wander import wander
-from planners.benchmark import Planner, far_queries, run_queries, summarise, write_report
+from planners.benchmark import Planner, far_queries, run_queries, summarise
 from planners.cspace import HeadingCSpace
 from planners.flat import FlatPlanner
 from planners.grid_astar import GridAStar
 from planners.grid_mcp import GridMCP
 from planners.kinematic import FlatKinematicPlanner
 from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
-from planners.path import Path as PlannedPath
+from planners.path import PlannedPath
 from planners.robots import Disc, Footprint, parse_robot
 from planners.sweep import footprint_collisions
 from planners.visibility import VisibilityGraph
@@ -34,6 +34,7 @@ from planners.workspace import Point, Workspace
 from segmentation.errors import ParameterError
 from segmentation.naive import naive_segment
 from segmentation.spectral import SpectralSegmenter
+from topomap.cli.plan_report import write_report
 from topomap.topomap import TopoMap
 
 
@@ -199,7 +200,7 @@ def bench_plan(
     seconds of queries per map; ``preprocessing.json`` lists what it skipped. The exact
     shortest paths (visibility graph) are cached per map and query set in ``cache`` (None:
     no cache), so a rerun does not rebuild them. Writes the files of
-    :func:`planners.benchmark.write_report` to ``out``; returns the records and the summary.
+    :func:`topomap.cli.plan_report.write_report` to ``out``; returns the records and the summary.
 
     A footprint ``robot`` (a :func:`planners.robots.parse_robot` spec other than a disc) runs
     :func:`bench_plan_robot` instead.
@@ -274,7 +275,7 @@ def bench_plan_robot(
     points where a disc as wide as the narrowest door the robot takes stands, each at the
     valid heading nearest 0. Collisions are counted by the independent footprint sweep
     (:func:`planners.sweep.footprint_collisions`); lengths are compared with the disc's
-    door-graph path. Writes :func:`planners.benchmark.write_report`'s files and
+    door-graph path. Writes :func:`topomap.cli.plan_report.write_report`'s files and
     ``paths.json`` (footprint, maps, every path's poses).
     """
     records: list[dict[str, Any]] = []

@@ -29,7 +29,7 @@ from maps.scan import Keyframe, poses_array
 from maps.wander import Route, wander
 from planners.benchmark import far_queries
 from planners.flat import FlatPlanner
-from planners.path import Path as PlannedPath
+from planners.path import PlannedPath
 from planners.visibility import VisibilityGraph
 from segmentation.metrics import score
 from segmentation.pipeline import MapSegmenter

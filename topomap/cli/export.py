@@ -20,7 +20,7 @@ def run_export(args: argparse.Namespace) -> int:
     """Write every output asked for; all are checked before any work."""
     from planners.nav2_route import planner_route_graph, write_nav2_route
     from planners.route_graph import building_route_graph
-    from topomap.cli.main import _map
+    from topomap.cli.commands.common import load_map
     from topomap.rosbag_export import bag_files, write_rosbag
 
     outputs = [args.nav2_route, args.planner_graph, args.rosbag]
@@ -32,8 +32,9 @@ def run_export(args: argparse.Namespace) -> int:
         if out is not None:
             check_output_file(out, overwrite=args.force, how="--force")
     if args.rosbag is not None:
-        check_outputs(args.rosbag, bag_files(args.rosbag, args.storage), overwrite=args.force)
-    topo = _map(args)
+        names = bag_files(args.rosbag, args.storage)
+        check_outputs(args.rosbag, names, overwrite=args.force, how="--force")
+    topo = load_map(args)
     planner = topo.planner(args.robot_radius)
     if args.nav2_route is not None:
         route = building_route_graph(planner)

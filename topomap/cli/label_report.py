@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +21,7 @@ from topomap.cli.evaluate_labels import (
     region_records,
     train_forest,
 )
+from topomap.cli.tables import markdown_table
 
 #: The method whose labels the pictures and the per-map table show.
 SHOWN = "rules (LOBO)"
@@ -53,9 +53,7 @@ def score_rows(result: dict[str, Any]) -> list[dict[str, Any]]:
     return rows
 
 
-def run(
-    args: argparse.Namespace, table: Callable[[list[dict[str, object]], list[str]], str]
-) -> dict[str, Any]:
+def run(args: argparse.Namespace) -> dict[str, Any]:
     """Run the evaluation the options ask for, print it and write its files into ``args.out``;
     returns what results.json holds."""
     out = Path(args.out)
@@ -66,7 +64,7 @@ def run(
     print(f"{sum(len(m.truth) for m in maps)} labelled regions on {len(maps)} maps")
     print("macro-F1, corridor and hall precision / recall (support); LOBO: whole buildings")
     print("left out of whatever the method learns; 'all': every source but", ", ".join(VIEWS))
-    print(table(rows, ["method", "source", "macro-F1", "corridor", "hall"]))
+    print(markdown_table(rows, ["method", "source", "macro-F1", "corridor", "hall"]))
     lobo = {m: r["scores"]["all"]["macro_f1"] for m, r in result.items() if m.endswith("(LOBO)")}
     best = max(lobo, key=lambda m: lobo[m])
     print(f"\nbest LOBO macro-F1 over all sources: {best} ({lobo[best]})")
@@ -75,7 +73,7 @@ def run(
     print("stays within 0.01 from 'lowest' to 'highest'; 'range' is what was searched):")
     why = {name: text for name, (_, _, text) in RuleClassifier.thresholds().items()}
     print(
-        table(
+        markdown_table(
             [{"threshold": k, **v, "why": why[k]} for k, v in found.items()],
             ["threshold", "value", "lowest", "highest", "range", "why"],
         )
@@ -83,7 +81,7 @@ def run(
     shown = result[SHOWN]["labels"]
     per_map = mistakes(maps, shown)
     print(f"\nper map, {SHOWN}:")
-    print(table(per_map, list(per_map[0])))
+    print(markdown_table(per_map, list(per_map[0])))
     out.mkdir(parents=True, exist_ok=True)
     for m, labels in zip(maps, shown, strict=True):
         draw_labels(out / f"{m.source}_{m.map}_labels.png", m, labels)

@@ -1,0 +1,188 @@
+"""What the commands share: option types, input readers, output checks, tables."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from maps.files import check_outputs
+from maps.limits import MAX_LENGTH, MAX_ROBOT_RADIUS, RESOLUTION_RANGE, finite_in
+from topomap.errors import UsageError
+
+
+def refuse_existing(out: Path, names: Iterable[str], force: bool) -> None:
+    """Stop before any work when a file the command would write exists and ``--force`` is
+    not given, or when ``out`` or a file in it cannot be written (a file in the place of the
+    folder, a folder in the place of a file)."""
+    check_outputs(out, names, overwrite=force, how="--force")
+
+
+def read_keyframes(source: Path, args: argparse.Namespace) -> list:
+    """The scans of a CARMEN log or a ROS bag (by :func:`read_as_bag`)."""
+    from maps.carmen import read_carmen
+    from maps.rosbag import read_bag_scans
+
+    if read_as_bag(source):
+        found = read_bag_scans(
+            source,
+            scan_topic=args.scan_topic,
+            pose_topic=args.pose_topic,
+            fixed_frame=args.fixed_frame,
+        )
+        print(f"{source}: {found.describe()}", file=sys.stderr)
+        return found.keyframes
+    return read_carmen(source)
+
+
+def read_as_bag(source: Path) -> bool:
+    """A bag (:func:`topomap.cli.inputs.is_bag`), or a folder named as one: the bag reader
+    then says what it lacks."""
+    from topomap.cli.inputs import is_bag
+
+    return source.is_dir() or is_bag(source)
+
+
+def add_bag_options(parser: argparse.ArgumentParser, *, map_topic: bool) -> None:
+    """``--fixed-frame`` for scans in bags (and ``--map-topic``, ``--stamp`` for their maps)."""
+    parser.add_argument(
+        "--fixed-frame", help="place bag scans in this tf frame (default: map, else odom)"
+    )
+    if map_topic:
+        parser.add_argument(
+            "--map-topic", help="segment the bag's nav_msgs/OccupancyGrid on this topic"
+        )
+        parser.add_argument(
+            "--stamp", type=float, help="with --map-topic: the last map at or before this time, s"
+        )
+
+
+def add_picture_option(parser: argparse.ArgumentParser, picture: str) -> None:
+    """``--no-picture``: skip drawing ``picture`` (matplotlib), for scripts and batches."""
+    parser.add_argument("--no-picture", action="store_true", help=f"do not draw {picture} (faster)")
+
+
+def segmenter_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The segmentation options of ``topomap segment``, ``eval segment`` and ``batch``."""
+    return {
+        "criterion": args.criterion,
+        "k": args.k,
+        "p": args.p,
+        "spacing": args.spacing,
+        "robot_radius": args.robot_radius,
+        "clutter_size": args.clutter_size,
+        "method": args.method,
+        "contrast": args.contrast,
+    }
+
+
+def add_segmenter_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--method",
+        default="spectral",
+        choices=["spectral", "doors"],
+        help="regions from the spectral partition (default) or the door-rule baseline",
+    )
+    parser.add_argument(
+        "--criterion", default="nn", choices=["nn", "hausdorff", "features", "view"]
+    )
+    parser.add_argument(
+        "--contrast",
+        type=float,
+        default=2.0,
+        help="how much a narrow passage weakens the affinity across it (0: similarity alone)",
+    )
+    parser.add_argument(
+        "--k", type=int, help="guess of the number of regions (default: clearance basins)"
+    )
+    parser.add_argument("--p", type=float, default=0.3, help="sparsification parameter in [0, 1)")
+    parser.add_argument(
+        "--spacing", type=LENGTH, default=2.0, help="virtual keyframe lattice on a map, metres"
+    )
+    parser.add_argument(
+        "--robot-radius",
+        type=RADIUS,
+        default=0.2,
+        help="free space thinner than the robot is dropped, metres",
+    )
+    parser.add_argument(
+        "--clutter-size",
+        type=LENGTH,
+        default=2.0,
+        help="free-standing obstacles smaller than this are clutter, not walls, metres",
+    )
+
+
+def number_type(lo: float, hi: float, *, low_open: bool = False, unit: str = "m") -> Any:
+    """An argparse type: a finite number in ``[lo, hi]`` (``(lo, hi]`` with ``low_open``),
+    so a bad value is a usage error before any work."""
+
+    def number(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        problem = finite_in(value, "the value", lo, hi, unit=unit, low_open=low_open)
+        if problem is not None:
+            raise argparse.ArgumentTypeError(problem.replace("the value ", "", 1))
+        return value
+
+    return number
+
+
+#: ``--robot-radius``, ``--resolution``, lengths and ranges in metres.
+RADIUS = number_type(0.0, MAX_ROBOT_RADIUS, low_open=True)
+
+
+RESOLUTION = number_type(*RESOLUTION_RANGE, unit="m per cell")
+
+
+LENGTH = number_type(0.0, MAX_LENGTH, low_open=True)
+
+
+DISTANCE = number_type(0.0, MAX_LENGTH)
+
+
+def pose(text: str) -> tuple[float, ...]:
+    """``"X,Y"`` or ``"X,Y,YAW"`` (metres, radians) as floats (an argparse type)."""
+    try:
+        values = tuple(float(p) for p in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) not in (2, 3):
+        raise argparse.ArgumentTypeError(
+            f"expected X,Y in metres, got {text!r} (or X,Y,YAW, radians)"
+        )
+    return values
+
+
+def goal(text: str) -> tuple[float, ...] | int | str:
+    """``--goal``: ``X,Y`` (or ``X,Y,YAW``) is a point, a whole number a region id, anything
+    else a name."""
+    if "," in text:
+        return pose(text)
+    return int(text) if text.strip().isdigit() else text
+
+
+ROBOT_HELP = (
+    "robot model: disc:R, rect:LxW (turns in place), dubins:radius=R,footprint=LxW, "
+    "reeds-shepp:radius=R,footprint=LxW (metres; a disc of --robot-radius by default)"
+)
+
+
+def load_map(args: argparse.Namespace) -> Any:
+    """The :class:`TopoMap` of ``args.map``: the regions in ``args.regions`` (a folder
+    written by ``topomap segment``) or a segmentation made now."""
+    from maps.grid import OccupancyGrid
+    from topomap.topomap import TopoMap
+
+    grid = OccupancyGrid.load(args.map)
+    if args.regions is not None:
+        topo = TopoMap.load(args.regions)
+        if topo.grid != grid:
+            raise UsageError(f"{args.regions} holds the regions of another map than {args.map}")
+        return topo
+    args.progress.stage(f"segmenting {args.map}")
+    return TopoMap.from_grid(grid)

@@ -1,0 +1,87 @@
+"""``topomap eval``: segmentation and labels against ground truth."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from maps.files import write_text
+from topomap.cli.commands.common import (
+    add_segmenter_options,
+    refuse_existing,
+    segmenter_options,
+)
+from topomap.cli.tables import markdown_table
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the command to the subcommands ``sub``."""
+    evaluation = sub.add_parser("eval", help="evaluations against ground truth")
+    eval_sub = evaluation.add_subparsers(dest="evaluation", required=True)
+    eval_seg = eval_sub.add_parser(
+        "segment", help="room segmentation against people's rooms (ipa plans, ROSE² maps)"
+    )
+    eval_seg.add_argument(
+        "data", help="folder of map YAMLs with *_gt_labels.png, or of maps/ and gt/ (ROSE²)"
+    )
+    eval_seg.add_argument("--out", default="out/eval-segment")
+    eval_seg.add_argument("--force", action="store_true", help="overwrite existing results")
+    add_segmenter_options(eval_seg)
+    eval_seg.set_defaults(func=cmd_eval_segment)
+
+    eval_labels = eval_sub.add_parser(
+        "labels", help="region labels on labelled buildings, whole buildings left out"
+    )
+    eval_labels.add_argument("data", help="folder of NAME.png with NAME_places.png (ipa_places)")
+    eval_labels.add_argument("--rose2", metavar="DIR", help="ROSE²'s maps (rose2_partial)")
+    eval_labels.add_argument("--carmen", metavar="DIR", help="folder of the four CARMEN logs")
+    eval_labels.add_argument(
+        "--generated", action="store_true", help="also generated buildings (plans and scanned)"
+    )
+    eval_labels.add_argument(
+        "--hand-labels",
+        default="tests/data/labels",
+        metavar="DIR",
+        help="rose2_partial.csv and carmen.json: the room types drawn by hand",
+    )
+    eval_labels.add_argument("--out", default="out/eval-labels")
+    eval_labels.add_argument("--force", action="store_true", help="overwrite existing results")
+    eval_labels.add_argument(
+        "--save-model", metavar="SKOPS", help="write a forest trained on all labelled regions"
+    )
+    eval_labels.set_defaults(func=cmd_eval_labels)
+
+
+def cmd_eval_segment(args: argparse.Namespace) -> int:
+    from topomap.cli.evaluate import evaluate_all, means, read_anchors
+
+    out = Path(args.out)
+    refuse_existing(out, ["results.json"], args.force)
+    records = evaluate_all(args.data, progress=args.progress, **segmenter_options(args))
+    columns = ["map", "furnished", "variant", "segments", "rooms", "recall", "precision", "mcc"]
+    columns += ["ari", "rose2_precision", "rose2_recall", "rose2_iou", "seconds"]
+    print(markdown_table(records, columns))
+    print()
+    summary = means(records, read_anchors(args.data))
+    print(
+        markdown_table(
+            summary,
+            [
+                *["method", "furnished", "maps", "recall", "precision", "mcc", "min_mcc", "ari"],
+                *["rose2_precision", "rose2_recall", "rose2_iou", "mean_s", "max_s"],
+            ],
+        )
+    )
+    text = json.dumps({"maps": records, "means": summary}, indent=2)
+    write_text(out / "results.json", text, overwrite=args.force)
+    print(f"wrote {out / 'results.json'}")
+    return 0
+
+
+def cmd_eval_labels(args: argparse.Namespace) -> int:
+    from topomap.cli.label_report import run
+
+    refuse_existing(Path(args.out), ["results.json"], args.force)
+    run(args)
+    return 0

@@ -1,0 +1,67 @@
+"""``topomap plan``: a path on a map, printed as JSON."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from maps.files import check_output_file
+from topomap.cli.commands.common import RADIUS, ROBOT_HELP, goal, load_map, pose
+from topomap.errors import UsageError
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the command to the subcommands ``sub``."""
+    plan = sub.add_parser("plan", help="plan a path on a map, print it as JSON")
+    plan.add_argument("map", help="map_server YAML")
+    plan.add_argument(
+        "--start", required=True, type=pose, help="X,Y in metres (X,Y,YAW with --robot)"
+    )
+    plan.add_argument("--goal", required=True, type=goal, help="X,Y[,YAW], a region id or a name")
+    plan.add_argument("--regions", help="folder written by `topomap segment` (else segment now)")
+    plan.add_argument("--robot-radius", type=RADIUS, default=0.2, help="disc robot, metres")
+    plan.add_argument("--robot", help=ROBOT_HELP)
+    plan.add_argument("--draw", help="write a PNG of the path")
+    plan.add_argument("--force", action="store_true", help="overwrite an existing --draw file")
+    plan.add_argument(
+        "--compare", action="store_true", help="also draw a flat RRTConnect path (with --draw)"
+    )
+    plan.set_defaults(func=cmd_plan)
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    from planners.flat import FlatPlanner
+    from planners.robots import Disc, parse_robot
+    from topomap.cli.drawing import draw_paths
+    from topomap.labels import find_region
+
+    if args.draw is not None:
+        check_output_file(args.draw, overwrite=args.force, how="--force")
+    robot = Disc(args.robot_radius) if args.robot is None else parse_robot(args.robot)
+    topo = load_map(args)
+    start, goal = args.start, args.goal
+    if not isinstance(goal, tuple):
+        goal = find_region(topo.graph, goal)
+    if isinstance(robot, Disc):
+        if len(start) == 3 or (isinstance(goal, tuple) and len(goal) == 3):
+            raise UsageError("a disc robot has no heading: give --start and --goal as X,Y")
+        planner: Any = topo.planner(robot.radius)
+        flat: Any = FlatPlanner(planner.space) if args.compare else None
+    else:
+        from planners.kinematic import FlatKinematicPlanner
+
+        planner = topo.kinematic_planner(args.robot)
+        flat = FlatKinematicPlanner(planner.cspace) if args.compare else None
+    path = planner.plan(start, goal)
+    result = path.to_dict()
+    result["region_names"] = [topo.graph.nodes[r].get("name", str(r)) for r in path.regions]
+    if args.draw is not None:
+        paths = {"hierarchical": path}
+        if flat is not None:
+            ends = path.poses if path.headings is not None else path.waypoints
+            paths["flat RRTConnect"] = flat.plan(ends[0], ends[-1])
+        draw_paths(args.draw, topo.grid, planner.labels, paths, title=Path(args.map).name)
+    print(json.dumps(result))
+    return 0

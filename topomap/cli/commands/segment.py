@@ -1,0 +1,185 @@
+"""``topomap segment``: a map or a laser log into regions."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from maps.files import OutputFolder, write_text
+from topomap.cli.commands.common import (
+    DISTANCE,
+    add_bag_options,
+    add_picture_option,
+    add_segmenter_options,
+    read_as_bag,
+    read_keyframes,
+    refuse_existing,
+    segmenter_options,
+)
+from topomap.errors import UsageError
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the command to the subcommands ``sub``."""
+    seg = sub.add_parser("segment", help="segment a map or a laser log into regions")
+    source = seg.add_mutually_exclusive_group(required=True)
+    source.add_argument("map", nargs="?", help="map_server YAML")
+    source.add_argument("--scans", help="CARMEN log or ROS bag instead of a map")
+    seg.add_argument("--out", required=True)
+    seg.add_argument("--distance", type=DISTANCE, default=0.5, help="keyframe spacing in a log, m")
+    seg.add_argument("--scan-topic")
+    seg.add_argument("--pose-topic")
+    add_bag_options(seg, map_topic=True)
+    seg.add_argument("--force", action="store_true", help="overwrite existing files")
+    add_segmenter_options(seg)
+    seg.add_argument(
+        "--online", action="store_true", help="with --scans: assign keyframes as they come"
+    )
+    seg.add_argument(
+        "--online-method",
+        default="windows",
+        choices=["windows", "centres"],
+        help="--online: the offline engine on the robot's neighbourhood, or the paper's centres",
+    )
+    seg.add_argument(
+        "--seed-keyframes",
+        type=int,
+        help="--online: keyframes segmented offline first (default 10%% of the log, at least 40)",
+    )
+    seg.add_argument(
+        "--theta", type=float, default=0.5, help="--online-method centres: acceptance, in [0, 1]"
+    )
+    seg.add_argument("--frames", type=int, help="a picture every N keyframes and regions.gif")
+    seg.add_argument(
+        "--previous",
+        metavar="DIR",
+        help="the output of an earlier map of this building: continued regions keep their ids",
+    )
+    add_picture_option(seg, "segmentation.png")
+    seg.set_defaults(func=cmd_segment)
+
+
+def cmd_segment(args: argparse.Namespace) -> int:
+    from maps.grid import OccupancyGrid
+    from maps.scan import select_keyframes
+    from topomap.cli.drawing import draw_regions
+    from topomap.saving import SAVED
+    from topomap.topomap import TopoMap
+
+    out = Path(args.out)
+    if args.online:
+        return _segment_online(args, out)
+    pictures = [] if args.no_picture else ["segmentation.png"]
+    written_names = [*SAVED, "map.yaml", "map.pgm", *pictures, "summary.json"]
+    if args.scans is not None:
+        written_names.append("keyframes.csv")
+    if args.previous is not None:
+        written_names.append("changes.json")
+    refuse_existing(out, written_names, args.force)
+    previous = None if args.previous is None else TopoMap.load(args.previous)
+    if args.scans is not None:
+        frames = read_keyframes(Path(args.scans), args)
+        keyframes = select_keyframes(frames, distance=args.distance)
+        options = {"on_stage": args.progress.stage, **segmenter_options(args)}
+        if previous is not None:
+            from maps.mapping import grid_from_keyframes
+
+            topo = previous.update(grid_from_keyframes(keyframes, 0.05), keyframes, **options)
+        else:
+            topo = TopoMap.from_keyframes(keyframes, **options)
+        source = args.scans
+    else:
+        if args.map_topic is not None or read_as_bag(Path(args.map)):
+            from maps.rosbag import read_rosbag_map
+
+            grid = read_rosbag_map(args.map, topic=args.map_topic, stamp=args.stamp)
+        else:
+            grid = OccupancyGrid.load(args.map)
+        options = {"on_stage": args.progress.stage, **segmenter_options(args)}
+        topo = (
+            TopoMap.from_grid(grid, **options)
+            if previous is None
+            else previous.update(grid, **options)
+        )
+        source = args.map
+    folder = OutputFolder(out, written_names, overwrite=args.force, how="--force", last=SAVED[-1])
+    with folder as work:  # every file appears at once; an interrupted run leaves none
+        written = topo.save(work)
+        if args.scans is not None:
+            written.append(topo.save_keyframes(work / "keyframes.csv"))
+        count = topo.graph.number_of_nodes()
+        if not args.no_picture:
+            args.progress.stage("drawing segmentation.png")
+            written.append(
+                draw_regions(
+                    work / "segmentation.png",
+                    topo.grid,
+                    topo.regions.labels,
+                    topo.graph,
+                    title=f"{Path(source).name}: {count} regions",
+                )
+            )
+        summary = _write_summary(work / "summary.json", topo, source, count)
+        if previous is not None:
+            write_text(work / "changes.json", json.dumps(topo.changes, indent=1))
+            written.append(work / "changes.json")
+    print(summary)
+    print(f"wrote {', '.join(p.name for p in written)}, summary.json to {out}")
+    return 0
+
+
+def _segment_online(args: argparse.Namespace, out: Path) -> int:
+    """``topomap segment --scans LOG --online``."""
+    from maps.scan import select_keyframes
+    from topomap.cli.online import segment_online
+
+    if args.scans is None:
+        raise UsageError("--online needs --scans LOG: keyframes arrive one by one from a log")
+    if args.previous is not None:
+        raise UsageError("--previous is for maps segmented whole, not with --online")
+    args.progress.stage(f"reading {args.scans}")
+    keyframes = select_keyframes(read_keyframes(Path(args.scans), args), distance=args.distance)
+    args.progress.stage(f"online segmentation of {len(keyframes)} keyframes")
+    summary = segment_online(
+        keyframes,
+        out,
+        source=args.scans,
+        seed_keyframes=args.seed_keyframes,
+        method=args.online_method,
+        theta=args.theta,
+        frames_every=args.frames,
+        overwrite=args.force,
+        progress=lambda items: args.progress(items, "keyframes"),
+        criterion=args.criterion,
+        k=args.k,
+        p=args.p,
+    )
+    print(json.dumps(summary, indent=2))
+    print(f"wrote {', '.join(summary['written'])}, summary.json to {out}")
+    return 0
+
+
+def _write_summary(path: Path, topo: Any, source: str, count: int) -> str:
+    """Write ``summary.json`` of ``topomap segment``; returns its text."""
+    summary = {
+        "source": str(source),
+        "regions": count,
+        "spectral_clusters": topo.segmenter.n_regions_,
+        "keyframes": len(topo.keyframes),
+        "conditioning": topo.conditioned.summary(),
+        "coverage": {
+            "filled_cells": topo.found.coverage.filled_cells,
+            "rooms_seen_through_doors": topo.found.coverage.seen_rooms,
+        },
+        "doors": sum(len(d) for _, _, d in topo.graph.edges(data="doors")),
+        "names": {int(r): name for r, name in sorted(topo.graph.nodes(data="name"))},
+        "silhouette_by_k": {
+            str(k): round(v, 4) for k, v in topo.segmenter.silhouette_by_k_.items()
+        },
+        "seconds": {k: round(v, 3) for k, v in topo.seconds.items()},
+    }
+    text = json.dumps(summary, indent=2)
+    write_text(path, text)
+    return text

@@ -1,0 +1,240 @@
+"""A :class:`~topomap.topomap.TopoMap` as a folder of files, and back.
+
+:func:`save` writes ``map.yaml`` + ``map.pgm`` (map_server), ``regions.png`` (16-bit labels)
+and beside it ``regions_colour.png`` (the same regions in colour, for people),
+``graph.graphml`` and ``graph.json`` (labels and names included), ``regions.geojson`` and last
+``topomap.json``: the format and its :data:`VERSION`, seconds, what conditioning dropped, the
+fitted partition and the SHA-256 of every other file. :func:`load` reads data only (nothing in
+the files is executed) and refuses a folder that is not whole, was changed since, or was
+written by a newer topomap.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import networkx as nx
+import numpy as np
+from numpy.typing import NDArray
+
+from maps.errors import MapFileNotFoundError
+from maps.files import OutputFolder, write_text
+from maps.grid import OccupancyGrid
+from maps.scan import Keyframe
+from segmentation.errors import ExportFormatError
+from segmentation.export import (
+    read_graphml,
+    read_label_image,
+    write_colour_image,
+    write_geojson,
+    write_graphml,
+    write_label_image,
+    write_node_link,
+)
+from segmentation.regions import Regions
+
+if TYPE_CHECKING:
+    from topomap.topomap import TopoMap
+
+#: The files :func:`save` writes besides the map's YAML and image; ``topomap.json`` last.
+SAVED = [
+    "regions.png",
+    "regions_colour.png",
+    "graph.graphml",
+    "graph.json",
+    "regions.geojson",
+    "topomap.json",
+]
+#: The version of the folder :func:`save` writes; :func:`load` reads it and every older one
+#: (1: no file digests).
+VERSION = 2
+
+
+@dataclass(frozen=True)
+class SavedPartition:
+    """The fitted spectral partition as :func:`save` keeps it: the attributes of a
+    fitted :class:`~segmentation.spectral.SpectralSegmenter` a reader needs."""
+
+    labels_: NDArray[np.int64]
+    n_regions_: int
+    silhouette_by_k_: dict[int, float]
+
+
+@dataclass(frozen=True)
+class Saved:
+    """What :func:`load` read: the fields of a :class:`~topomap.topomap.TopoMap` kept in
+    files."""
+
+    grid: OccupancyGrid
+    regions: Regions
+    graph: nx.Graph
+    seconds: dict[str, float]
+    method: str
+    partition: SavedPartition | None
+    next_id: int
+
+
+def save(topo: TopoMap, out: str | Path, *, overwrite: bool = False) -> list[Path]:
+    """Write ``topo`` into folder ``out`` (see the module docstring); returns the paths.
+
+    Raises
+    ------
+    OutputExistsError
+        A file exists and ``overwrite`` is false; nothing is written then.
+    """
+    out = Path(out)
+    names = [*SAVED, "map.yaml", "map.pgm"]
+    with OutputFolder(out, names, overwrite=overwrite, last="topomap.json") as work:
+        topo.grid.save(work / "map.yaml")
+        write_label_image(topo.regions.labels, work / "regions.png")
+        write_colour_image(topo.regions.labels, work / "regions_colour.png")
+        write_graphml(topo.graph, work / "graph.graphml")
+        write_node_link(topo.graph, work / "graph.json")
+        write_geojson(topo.graph, work / "regions.geojson")
+        about: dict[str, Any] = {
+            "format": "topomap",
+            "version": VERSION,
+            "regions": len(topo.regions.ids),
+            "seconds": {k: round(v, 4) for k, v in topo.seconds.items()},
+            "files": {name: _digest(work / name) for name in names if name != "topomap.json"},
+            "method": topo.method,
+            "next_id": topo.next_id,
+        }
+        if topo.segmentation is not None:
+            about["conditioning"] = topo.conditioned.summary()
+        if topo.segmentation is not None or topo.partition is not None:
+            fitted = topo.segmenter  # a map read back keeps its saved partition
+            about["partition"] = {
+                "labels": [int(v) for v in fitted.labels_],
+                "clusters": int(fitted.n_regions_),
+                "silhouette_by_k": {str(k): v for k, v in fitted.silhouette_by_k_.items()},
+            }
+        write_text(work / "topomap.json", json.dumps(about, indent=2))
+    return [out / name for name in ("map.yaml", "map.pgm", *SAVED)]
+
+
+def load(folder: str | Path) -> Saved:
+    """Read a folder written by :func:`save`.
+
+    Raises
+    ------
+    MapFileNotFoundError
+        A file is missing.
+    ExportFormatError
+        Not a topomap folder, one of a newer version, or files that do not belong together
+        (label image and map of different sizes, graph nodes that are not the regions, a file
+        changed since it was saved).
+    """
+    folder = Path(folder)
+    info = folder / "topomap.json"
+    if not info.is_file():
+        raise MapFileNotFoundError(info, "topomap.json (written by TopoMap.save)")
+    try:
+        about = json.loads(info.read_text())
+        seconds = {str(k): float(v) for k, v in about.get("seconds", {}).items()}
+        files = dict(about.get("files", {}))
+        method = str(about.get("method", "doors"))  # folders from before kept no method
+        partition = _partition(about.get("partition"))
+        next_id = int(about.get("next_id", 0))
+        version = about.get("version", 1)
+    except (ValueError, AttributeError, TypeError, KeyError, RecursionError) as err:
+        raise ExportFormatError(f"{info}: not a topomap.json file: {err!r}") from None
+    if about.get("format") != "topomap":
+        raise ExportFormatError(f"{info}: field 'format' is {about.get('format')!r}, not 'topomap'")
+    if not isinstance(version, int) or isinstance(version, bool) or not 1 <= version <= VERSION:
+        raise ExportFormatError(
+            f"{info}: field 'version' is {version!r}; this topomap reads versions 1 to {VERSION}"
+        )
+    grid = OccupancyGrid.load(folder / "map.yaml")
+    labels = read_label_image(folder / "regions.png")
+    if labels.shape != grid.shape:
+        raise ExportFormatError(
+            f"{folder / 'regions.png'}: {labels.shape} labels for a {grid.shape} map"
+        )
+    # regions cover furniture and clutter too (not free cells): a changed label image is
+    # found by its digest and by the areas the graph holds
+    graph = read_graphml(folder / "graph.graphml")
+    regions = Regions(grid, labels)
+    _check_graph(graph, regions, grid, folder / "graph.graphml")
+    for name, digest in files.items():  # version 2: the folder is whole and unchanged
+        if name not in ("map.yaml", "map.pgm", *SAVED):
+            raise ExportFormatError(f"{info}: field 'files' lists {name!r}, not a saved file")
+        if not (folder / name).is_file():
+            raise MapFileNotFoundError(folder / name, f"{name} (listed in topomap.json)")
+        if _digest(folder / name) != digest:
+            raise ExportFormatError(
+                f"{folder / name}: changed since topomap.json was written (another run's or "
+                "an edited file): segment the map again"
+            )
+    next_id = max(next_id, max(regions.ids, default=0) + 1)
+    return Saved(grid, regions, graph, seconds, method, partition, next_id)
+
+
+def save_keyframes(
+    keyframes: Sequence[Keyframe],
+    regions: Sequence[int] | NDArray[np.integer],
+    path: str | Path,
+    *,
+    overwrite: bool = False,
+) -> Path:
+    """Write ``scan_index,x,y,theta,region``, one row per keyframe."""
+    stream = io.StringIO()
+    writer = csv.writer(stream, lineterminator="\r\n")
+    writer.writerow(["scan_index", "x", "y", "theta", "region"])
+    for frame, region in zip(keyframes, regions, strict=True):
+        writer.writerow([frame.scan_index, *(f"{v:.4f}" for v in frame.pose), region])
+    return write_text(path, stream.getvalue(), overwrite=overwrite)
+
+
+def _digest(path: Path) -> str:
+    """The SHA-256 of a file, hex."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _partition(saved: Any) -> SavedPartition | None:
+    """The ``partition`` field of ``topomap.json`` (None when absent)."""
+    if saved is None:
+        return None
+    return SavedPartition(
+        np.asarray(saved["labels"], np.int64),
+        int(saved["clusters"]),
+        {int(k): float(v) for k, v in dict(saved["silhouette_by_k"]).items()},
+    )
+
+
+def _check_graph(graph: nx.Graph, regions: Regions, grid: OccupancyGrid, source: Path) -> None:
+    """Refuse a region graph that is not the graph of ``regions`` on ``grid``: other node ids,
+    areas that are not the label image's pixel counts, another resolution or origin, or a
+    name that is only digits (it would read as a region id)."""
+    if sorted(graph.nodes) != regions.ids:
+        raise ExportFormatError(
+            f"{source}: nodes {sorted(graph.nodes)[:10]}... are not the "
+            f"regions of regions.png {regions.ids[:10]}..."
+        )
+    resolution, origin = graph.graph.get("resolution"), tuple(graph.graph.get("origin", ()))
+    if resolution != grid.resolution or origin != grid.origin:
+        raise ExportFormatError(
+            f"{source}: resolution {resolution} and origin {origin} are not the map's "
+            f"({grid.resolution}, {grid.origin})"
+        )
+    for region, data in graph.nodes(data=True):
+        area, expected = data.get("area_m2"), regions.area(region)
+        if not isinstance(area, float) or not math.isclose(area, expected, rel_tol=1e-6):
+            raise ExportFormatError(
+                f"{source}: region {region} field 'area_m2' is {area!r}, but regions.png gives "
+                f"it {expected:.6g} m^2"
+            )
+        name = data.get("name")
+        if name is not None and str(name).strip().isdigit():
+            raise ExportFormatError(
+                f"{source}: region {region} field 'name' is {name!r}, only digits: it would "
+                "read as a region id"
+            )
