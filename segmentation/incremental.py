@@ -39,6 +39,7 @@ from scipy import sparse
 
 from maps.mapping import MapBuilder
 from maps.scan import Keyframe
+from segmentation.base import Estimator, clone
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.growing import carry_ids
 from segmentation.online import Event, OnlineStateError
@@ -134,7 +135,7 @@ class OneToMany:
 
 
 @dataclass
-class IncrementalSegmenter:
+class IncrementalSegmenter(Estimator):
     """Segment keyframes as they arrive with the offline pipeline (see the module docstring).
 
     Parameters
@@ -168,6 +169,8 @@ class IncrementalSegmenter:
 
     Attributes
     ----------
+    pipeline_ : MapSegmenter
+        The copy of ``pipeline`` the run uses (fit clones it; the one given is never changed).
     labels_, arrival_labels_ : ndarray of int
         Region of every keyframe now, and when it arrived.
     events_ : list of Event
@@ -200,11 +203,12 @@ class IncrementalSegmenter:
     max_gap: float = 10.0
     random_state: int = 0
     churn_age: int = 50
+    pipeline_: MapSegmenter = field(init=False, repr=False)
     events_: list[Event] = field(init=False, repr=False)
     n_seed_: int = field(init=False, repr=False)
     regions_: OnlineRegions = field(init=False, repr=False)
 
-    def __post_init__(self) -> None:
+    def _validate_params(self) -> None:
         for name, low in (("neighbours", 1), ("window", 2), ("churn_age", 0)):
             value = getattr(self, name)
             if not isinstance(value, int | np.integer) or value < low:
@@ -217,15 +221,26 @@ class IncrementalSegmenter:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise ParameterError(f"{name} must be a finite number > 0 metres, got {value!r}")
-        self._fitted = False
+        self.pipeline._validate_params()
 
     # ----------------------------------------------------------------------------- fitting
     def fit(self, keyframes: Sequence[Keyframe]) -> IncrementalSegmenter:
-        """Seed: the offline partition of ``keyframes`` (all of them, one window)."""
+        """Seed: the offline partition of ``keyframes`` (all of them, one window).
+
+        Raises
+        ------
+        ParameterError
+            A parameter out of range (checked here, not when the segmenter is made).
+        SegmentationError
+            Fewer than two keyframes, or one with no valid beam or a pose that is not finite.
+        """
+        self._validate_params()
         keyframes = list(keyframes)
         if len(keyframes) < 2:
             raise SegmentationError(f"{len(keyframes)} keyframe(s) cannot seed: give two or more")
-        self._criterion = as_criterion(self.pipeline.spectral.criterion)
+        self._fitted = False
+        self.pipeline_ = clone(self.pipeline)
+        self._criterion = as_criterion(self.pipeline_.spectral.criterion)
         nearest = self._criterion
         self._one = OneToMany(nearest) if isinstance(nearest, NearestNeighbour) else None
         self._keyframes: list[Keyframe] = []
@@ -260,7 +275,7 @@ class IncrementalSegmenter:
             A keyframe with no valid beam, a pose that is not finite, or one more than
             ``max_gap`` metres from every earlier keyframe; the segmenter is then unchanged.
         """
-        if not self._fitted:
+        if not getattr(self, "_fitted", False):
             raise OnlineStateError("partial_fit before fit: fit the seed keyframes first")
         if isinstance(keyframes, Keyframe):
             return self._arrive(keyframes)
@@ -303,7 +318,7 @@ class IncrementalSegmenter:
         return self.regions_.graph
 
     def _check_fitted(self) -> None:
-        if not self._fitted:
+        if not getattr(self, "_fitted", False):
             raise OnlineStateError("the online segmenter is not fitted: call fit first")
 
     # ----------------------------------------------------------------------------- internals
@@ -385,7 +400,7 @@ class IncrementalSegmenter:
         keyframes = [self._keyframes[i] for i in window.tolist()]
         poses = self._poses[window]
         grid = self._map.grid(poses.min(axis=0) - self.margin, poses.max(axis=0) + self.margin)
-        pipeline = self.pipeline
+        pipeline = self.pipeline_
         try:
             _, space, places = pipeline.places(pipeline.condition(grid))
             spectral = replace(

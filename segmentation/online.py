@@ -72,6 +72,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.scan import Keyframe, LaserScan
+from segmentation.base import Estimator, clone
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.online_regions import OnlineRegions
 from segmentation.similarity import NearestNeighbour, as_criterion, cell_keys
@@ -182,7 +183,7 @@ _NO_SCAN = LaserScan(np.ones(1), 0.0, 1.0)
 
 
 @dataclass
-class OnlineSegmenter:
+class OnlineSegmenter(Estimator):
     """Segment keyframes as they arrive: a spectral seed, then the paper's online rules.
 
     See the module docstring for the centres, ``T``, the rules and the merging.
@@ -212,6 +213,8 @@ class OnlineSegmenter:
 
     Attributes
     ----------
+    segmenter_ : SpectralSegmenter
+        The seed's partition: a fitted copy of ``segmenter`` (the one given is never fitted).
     labels_ : ndarray of int
         Region id of every keyframe so far (ids start at 1; a merged id is replaced).
     arrival_labels_ : ndarray of int
@@ -250,6 +253,7 @@ class OnlineSegmenter:
     dense: bool = True
     region_resolution: float = 0.2
     reach: float = 4.0
+    segmenter_: SpectralSegmenter = field(init=False, repr=False)
     centres_: dict[int, Centre] = field(init=False, repr=False)
     threshold_: float = field(init=False, repr=False)
     similarity_scale_: float = field(init=False, repr=False)
@@ -257,7 +261,7 @@ class OnlineSegmenter:
     events_: list[Event] = field(init=False, repr=False)
     regions_: OnlineRegions | None = field(init=False, repr=False)
 
-    def __post_init__(self) -> None:
+    def _validate_params(self) -> None:
         if not (isinstance(self.theta, int | float) and 0 <= self.theta <= 1):
             raise ParameterError(f"theta must lie in [0, 1], got {self.theta!r}")
         if not isinstance(self.patience, int | np.integer) or self.patience < 0:
@@ -270,8 +274,13 @@ class OnlineSegmenter:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
                 raise ParameterError(f"{name} must be a finite number > 0 metres, got {value!r}")
-        self._fitted = False
-        criterion = as_criterion((self.segmenter or SpectralSegmenter()).criterion)
+        if self.segmenter is not None:
+            self.segmenter._validate_params()
+
+    def _prepare(self, segmenter: SpectralSegmenter) -> None:
+        """What the criterion of the seed's segmenter decides: the histograms' cell size, the
+        tiles, and for ``nn`` the offsets and closeness of eq. 12's truncated field."""
+        criterion = as_criterion(segmenter.criterion)
         self._criterion = criterion
         self._nn = criterion if isinstance(criterion, NearestNeighbour) else None
         self._resolution = self._nn.resolution if self._nn else HISTOGRAM_RESOLUTION
@@ -294,7 +303,10 @@ class OnlineSegmenter:
             No keyframes, a keyframe with no valid beam or a pose that is not finite, or a
             seed of a single cluster (``T`` needs two).
         """
-        segmenter = self.segmenter or SpectralSegmenter()
+        self._validate_params()
+        self._fitted = False
+        self.segmenter_ = segmenter = clone(self.segmenter or SpectralSegmenter())
+        self._prepare(segmenter)
         scans = [self._scan(k, i) for i, k in enumerate(keyframes)]
         if not scans:
             raise SegmentationError("no keyframes to seed the online segmentation")
@@ -411,7 +423,7 @@ class OnlineSegmenter:
             A keyframe with no valid beam, a pose that is not finite, or a pose more than
             ``max_gap`` metres outside everything hit so far.
         """
-        if not self._fitted:
+        if not getattr(self, "_fitted", False):
             raise OnlineStateError("partial_fit before fit: fit the seed keyframes first")
         if isinstance(keyframes, Keyframe):
             return self._assign(keyframes)
@@ -452,7 +464,7 @@ class OnlineSegmenter:
         return self.regions_
 
     def _check_fitted(self) -> None:
-        if not self._fitted:
+        if not getattr(self, "_fitted", False):
             raise OnlineStateError("the online segmenter is not fitted: call fit first")
 
     # ----------------------------------------------------------------------------- internals

@@ -12,9 +12,10 @@ import maps
 from maps.mapping import MapBuilder, grid_from_keyframes
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.incremental import IncrementalSegmenter, OneToMany
-from segmentation.online import OnlineStateError
+from segmentation.online import OnlineSegmenter, OnlineStateError
 from segmentation.pipeline import MapSegmenter
 from segmentation.similarity import NearestNeighbour
+from segmentation.spectral import SpectralSegmenter
 from tests.segmentation.test_online import _empty_scan_keyframe, _recount
 
 
@@ -103,9 +104,9 @@ def test_refused_keyframes_leave_the_state_unchanged(office_run):
     with pytest.raises(SegmentationError, match="cannot seed"):
         IncrementalSegmenter().fit(keyframes[:1])
     with pytest.raises(ParameterError, match="window"):
-        IncrementalSegmenter(window=1)
+        IncrementalSegmenter(window=1).fit(keyframes[:40])  # stored as given, checked by fit
     with pytest.raises(ParameterError, match="inner"):
-        IncrementalSegmenter(inner=0.0)
+        IncrementalSegmenter(inner=0.0).fit(keyframes[:40])
 
 
 def test_a_map_built_keyframe_by_keyframe_equals_one_built_at_once(office_run):
@@ -139,3 +140,39 @@ def test_one_scan_against_earlier_ones_is_eq_12_as_the_offline_matrix_has_it(off
     others = list(range(len(shifted) - 1))
     assert np.allclose(one.similarities(shifted[-1], others), matrix[-1, :-1])
     assert matrix[-1, :-1].max() > 0.3  # the comparison saw real overlap
+
+
+def test_the_online_engines_are_estimators(office_run):
+    """scikit-learn's contract: parameters as given, clone keeps them, fit never fits or
+    changes the estimator given, fitting twice gives the same result."""
+    from sklearn.base import clone as sklearn_clone
+
+    keyframes = office_run[1][:160]
+    spectral = SpectralSegmenter(criterion="hausdorff", random_state=0)
+    engines = [
+        IncrementalSegmenter(MapSegmenter(spectral, robot_radius=0.25), window=80),
+        OnlineSegmenter(spectral, theta=0.4),
+    ]
+    for engine in engines:
+        copied = sklearn_clone(engine)
+        assert copied.get_params(deep=False).keys() == engine.get_params(deep=False).keys()
+        assert copied.get_params()[
+            "theta" if isinstance(engine, OnlineSegmenter) else "window"
+        ] in (
+            0.4,
+            80,
+        )
+        before = spectral.get_params()
+        engine.fit(keyframes[:60])
+        engine.partial_fit(keyframes[60:])
+        first = engine.labels_.copy()
+        assert spectral.get_params() == before and not hasattr(spectral, "labels_")
+        engine.fit(keyframes[:60])
+        engine.partial_fit(keyframes[60:])
+        assert np.array_equal(engine.labels_, first)
+    # the criterion set after making the engine is the one the seed and the assignment use
+    online = OnlineSegmenter(SpectralSegmenter(random_state=0))
+    online.segmenter = SpectralSegmenter(criterion="hausdorff", random_state=0)
+    online.fit(keyframes[:60])
+    assert online.segmenter_.criterion == "hausdorff"
+    assert type(online._criterion).__name__ == "Hausdorff"

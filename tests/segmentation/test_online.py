@@ -38,6 +38,7 @@ def flat_online(flat_run):
 
 def blank(segmenter: OnlineSegmenter, similarity_scale: float = 1.0) -> OnlineSegmenter:
     """An unfitted segmenter's empty centre store, to place centres by hand."""
+    segmenter._prepare(segmenter.segmenter or SpectralSegmenter())
     segmenter._empty_store()
     segmenter.similarity_scale_ = similarity_scale
     return segmenter
@@ -215,8 +216,10 @@ def test_refused_keyframes_leave_the_state_unchanged(flat_run):
 
 def test_bad_parameters_and_order_are_typed_errors(flat_run):
     for theta in (-0.1, 1.5, math.nan):
+        model = OnlineSegmenter(theta=theta)  # stored as given, checked by fit
+        assert model.theta is theta
         with pytest.raises(ParameterError, match="theta must lie in"):
-            OnlineSegmenter(theta=theta)
+            model.fit(flat_run[1][:40])
     with pytest.raises(OnlineStateError, match="partial_fit before fit"):
         OnlineSegmenter().partial_fit(flat_run[1][0])
     with pytest.raises(OnlineStateError, match="not fitted"):
