@@ -156,12 +156,8 @@ def test_the_online_engines_are_estimators(office_run):
     for engine in engines:
         copied = sklearn_clone(engine)
         assert copied.get_params(deep=False).keys() == engine.get_params(deep=False).keys()
-        assert copied.get_params()[
-            "theta" if isinstance(engine, OnlineSegmenter) else "window"
-        ] in (
-            0.4,
-            80,
-        )
+        name, value = ("theta", 0.4) if isinstance(engine, OnlineSegmenter) else ("window", 80)
+        assert copied.get_params()[name] == value
         before = spectral.get_params()
         engine.fit(keyframes[:60])
         engine.partial_fit(keyframes[60:])
