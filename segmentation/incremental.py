@@ -20,7 +20,7 @@ pipeline runs on what the robot has seen so far, around where it is:
    region kept, merged into the oldest id, split with the id on its larger piece, or new).
 
 Each step costs what the window holds, not what the robot has seen. Every change is an
-:class:`~segmentation.online.Event`: ``created``, ``grown``, ``split``, ``merged``, and
+:class:`~segmentation.events.Event`: ``created``, ``grown``, ``split``, ``merged``, and
 ``moved`` for the keyframes a re-partition gave to another region (replaying the events from
 the arrivals gives the regions now).
 """
@@ -32,110 +32,25 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
-from scipy import sparse
 
 from maps.mapping import MapBuilder
 from maps.scan import Keyframe
-from segmentation.base import Estimator, clone
+from segmentation.arrivals import KeptSimilarities, OneToMany
+from segmentation.base import clone
 from segmentation.errors import ParameterError, SegmentationError
+from segmentation.events import Event, OnlineEstimator, OnlineStateError
 from segmentation.growing import carry_ids
-from segmentation.online import Event, OnlineStateError
 from segmentation.online_regions import OnlineRegions
 from segmentation.pipeline import MapSegmenter, by_place
-from segmentation.similarity import NearestNeighbour, as_criterion, cell_keys, symmetric
+from segmentation.similarity import NearestNeighbour, as_criterion
 
 log = logging.getLogger(__name__)
 
 
-class KeptSimilarities:
-    """A :class:`~segmentation.similarity.Criterion` that looks up the similarities computed
-    as the keyframes arrived (pairs never computed are 0)."""
-
-    def __init__(self, rows: list[dict[int, float]], index: dict[int, int]) -> None:
-        self.rows = rows
-        self.index = index  # id(keyframe) -> arrival number
-
-    def affinity(self, keyframes: Sequence[Keyframe]) -> sparse.csr_matrix:
-        """The kept similarities among ``keyframes``."""
-        local = {self.index[id(k)]: n for n, k in enumerate(keyframes)}
-        i, j, values = [], [], []
-        for number, n in local.items():
-            for other, value in self.rows[number].items():
-                m = local.get(other)
-                if m is not None:
-                    i.append(n)
-                    j.append(m)
-                    values.append(value)
-        return symmetric(np.asarray(values), np.asarray(i, np.int64), np.asarray(j), len(local))
-
-
-class OneToMany:
-    """Eq. 12 (:class:`~segmentation.similarity.NearestNeighbour`) of one scan against a few
-    earlier ones, each scan kept as the cells it hit: the same values as the criterion's
-    matrix, without its pairs among the earlier scans.
-
-    Examples
-    --------
-    >>> from maps.scan import LaserScan
-    >>> from segmentation.similarity import NearestNeighbour
-    >>> scans = [Keyframe((x, 0.0, 0.0), LaserScan(np.full(90, 2.0), -np.pi, np.pi / 45))
-    ...          for x in (0.0, 0.3, 1.0)]
-    >>> one = OneToMany(NearestNeighbour())
-    >>> for k in scans:
-    ...     one.keep(k)
-    >>> full = NearestNeighbour().affinity(scans).toarray()[2, :2]
-    >>> bool(np.allclose(one.similarities(scans[2], [0, 1]), full))
-    True
-    """
-
-    def __init__(self, criterion: NearestNeighbour) -> None:
-        self.tolerance = criterion.tolerance
-        self.resolution = criterion.resolution
-        reach = math.ceil(self.tolerance / self.resolution)
-        di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1].reshape(2, -1)
-        distance = self.resolution * np.hypot(di, dj)
-        near = distance < self.tolerance
-        self._offsets = np.column_stack([di[near], dj[near]]).astype(np.int64)
-        self._closeness = self.tolerance - distance[near]
-        self._cells: list[NDArray[np.int64]] = []
-
-    def cells(self, keyframe: Keyframe) -> NDArray[np.int64]:
-        """Keys of the cells the keyframe's beams ended in."""
-        cells = np.floor(keyframe.points() / self.resolution).astype(np.int64)
-        return np.unique(cell_keys(cells))
-
-    def keep(self, keyframe: Keyframe) -> None:
-        """Remember a keyframe's cells (the next index)."""
-        self._cells.append(self.cells(keyframe))
-
-    def similarities(self, keyframe: Keyframe, others: Sequence[int]) -> NDArray[np.float64]:
-        """Eq. 12 of ``keyframe`` against the kept keyframes ``others``."""
-        mine = self.cells(keyframe)
-        theirs = [self._cells[i] for i in others]
-        sizes = np.array([len(c) for c in theirs])
-        owner = np.repeat(np.arange(len(theirs)), sizes)
-        decoded = np.column_stack([mine >> 32, (mine & 0xFFFFFFFF).astype(np.int32)])
-        around = cell_keys((decoded[:, None, :] + self._offsets[None]).reshape(-1, 2))
-        every, index = np.unique(np.concatenate([around, *theirs]), return_inverse=True)
-        spread, placed = index[: len(around)], index[len(around) :]
-        hit = np.zeros((len(every), len(theirs)), bool)
-        hit[placed, owner] = True
-        closeness = np.tile(self._closeness, len(mine))
-        # over my cells: the closeness of each earlier scan's nearest hit
-        near_them = (hit[spread] * closeness[:, None]).reshape(len(mine), -1, len(theirs))
-        first = near_them.max(axis=1).mean(axis=0)
-        # over their cells: the closeness of my nearest hit
-        field = np.zeros(len(every))
-        np.maximum.at(field, spread, closeness)
-        second = np.bincount(owner, weights=field[placed], minlength=len(theirs)) / sizes
-        return (first + second) / (2 * self.tolerance)
-
-
 @dataclass
-class IncrementalSegmenter(Estimator):
+class IncrementalSegmenter(OnlineEstimator):
     """Segment keyframes as they arrive with the offline pipeline (see the module docstring).
 
     Parameters
@@ -244,6 +159,7 @@ class IncrementalSegmenter(Estimator):
         nearest = self._criterion
         self._one = OneToMany(nearest) if isinstance(nearest, NearestNeighbour) else None
         self._keyframes: list[Keyframe] = []
+        self._n = 0
         self._index: dict[int, int] = {}
         self._rows: list[dict[int, float]] = []
         self._poses = np.zeros((max(64, 2 * len(keyframes)), 2))
@@ -283,43 +199,16 @@ class IncrementalSegmenter(Estimator):
 
     # ----------------------------------------------------------------------------- queries
     @property
-    def labels_(self) -> NDArray[np.int64]:
-        """Region of every keyframe so far."""
-        self._check_fitted()
-        return self._labels[: len(self._keyframes)].copy()
-
-    @property
-    def arrival_labels_(self) -> NDArray[np.int64]:
-        """Region each keyframe was given when it arrived."""
-        self._check_fitted()
-        return self._arrival[: len(self._keyframes)].copy()
-
-    @property
     def late_changes_(self) -> NDArray[np.int64]:
         """Per keyframe, how often its region changed after it was ``churn_age`` keyframes
         old."""
         self._check_fitted()
-        return self._late[: len(self._keyframes)].copy()
+        return self._late[: self._n].copy()
 
     @property
     def n_regions_(self) -> int:
         """Number of live regions."""
         return len(np.unique(self.labels_))
-
-    def region_at(self, x: float, y: float) -> int:
-        """Region id at map point ``(x, y)``, 0 if no keyframe saw it free."""
-        self._check_fitted()
-        return self.regions_.region_at(x, y)
-
-    @property
-    def graph_(self) -> nx.Graph:
-        """The region adjacency graph of the online map."""
-        self._check_fitted()
-        return self.regions_.graph
-
-    def _check_fitted(self) -> None:
-        if not getattr(self, "_fitted", False):
-            raise OnlineStateError("the online segmenter is not fitted: call fit first")
 
     # ----------------------------------------------------------------------------- internals
     def _check(self, keyframe: Keyframe, index: int, seeding: bool = False) -> None:
@@ -363,6 +252,7 @@ class IncrementalSegmenter(Estimator):
                 setattr(self, name, np.concatenate([array, np.zeros_like(array)]))
         self._poses[index] = keyframe.pose[:2]
         self._keyframes.append(keyframe)
+        self._n = len(self._keyframes)
         if self._one is not None:
             self._one.keep(keyframe)
         self._index[id(keyframe)] = index

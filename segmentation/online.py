@@ -1,61 +1,22 @@
-"""Online segmentation while the robot explores (the paper's Section IV).
+"""Online segmentation by the paper's Section IV rules (the ``centres`` engine, a baseline; the
+default engine is :mod:`segmentation.incremental`).
 
 The offline spectral partition of the first keyframes is the *seed*; every later keyframe is
-assigned as it arrives, at a cost that does not grow with the number of keyframes seen.
+assigned as it arrives, at a cost that does not grow with the number of keyframes seen:
 
-Centres
--------
-A cluster centre ``Z`` is the running mean of its members' *hit histograms*: a scan ``X`` is the
-set of map cells (``resolution`` metres, in the map frame) its valid beams end in, i.e. an
-indicator vector over the cells, and ``Z(t) = (X_1 + ... + X_t) / t`` is, for each cell, the
-fraction of the ``t`` members that hit it. Eq. 15, ``Z(t+1) = (t Z(t) + X) / (t + 1)``, is then
-exact (centres are stored as integer hit counts and their member count). A mean of raw end
-points or of poses would not do: scans of one room taken from different places hit different
-walls, so their points cannot be paired and averaged, whereas their cells can.
+- a centre ``Z`` is the running mean of its members' *hit histograms* (the cells their beams
+  end in), so eq. 15 is exact on integer hit counts (:class:`~segmentation.centres.Centre`);
+- with ``nn``, ``S(A, B) = (sum_c A(c) F_B(c) / |A| + sum_c B(c) F_A(c) / |B|) / (2 tol)``,
+  ``F_H`` the truncated closeness field of the cells ``H`` hit (eq. 12 for two scans); other
+  criteria compare the scan with the centre's most hit cells; ``D = 1 - min(S / S_ref, 1)``;
+- ``T`` is the smallest mean ``D`` between two seed clusters near each other; a scan with
+  ``D <= theta T`` joins the nearest accepting centre and moves it, one with ``D >= T`` for
+  every centre starts a cluster, any other joins the nearest centre without moving it;
+- too many clusters: the smallest one old enough merges into its nearest adjacent one (the
+  larger keeps its id; ids are never reused);
+- the centres near a scan come from a cell index (:class:`~segmentation.centres.CellIndex`).
 
-Similarity of a scan (or a centre) ``A`` to a centre ``B``
-    With the nearest-neighbour criterion (eq. 12, truncated at ``tol``; ``F_H`` the truncated
-    closeness field ``tol - min(d(c, cells of H), tol)`` of the cells ``H`` ever hit)::
-
-        S(A, B) = (sum_c A(c) F_B(c) / |A|  +  sum_c B(c) F_A(c) / |B|) / (2 tol)
-
-    with ``|H| = sum_c H(c)``: the mean closeness of ``A``'s hits to what ``B`` saw, and the
-    closeness of ``B``'s hits to what ``A`` saw, weighted by how often ``B``'s members hit them.
-    For two single scans this is eq. 12 exactly (tested against the offline matrix). Any other
-    criterion (``hausdorff``, ``features``, a callable) compares a scan with a centre through
-    its own ``affinity`` on the scan and a *centre keyframe*: the centre's most frequently hit
-    cells, as many as its members hit on average (for one member: that member's cells).
-
-S as a distance
-    ``D = 1 - min(S / S_ref, 1)`` with ``S_ref`` the largest similarity of the seed's keyframe
-    pairs, so ``D`` is 0 for the most similar pair the seed had and 1 for nothing in common.
-
-Threshold ``T``
-    "The maximum similarity between clusters": the largest ``S`` between two different seed
-    centres, as a distance: ``T = min over seed cluster pairs (a, b) of D(Z_a, Z_b)``. A scan
-    farther than ``T`` from every centre is less like any cluster than the two most alike
-    clusters are like each other.
-
-Rules for a new scan ``X`` (the paper's, with its open cases decided):
-    - ``D(X, Z_j) <= theta T`` for some ``j``: ``X`` joins the nearest such centre (several
-      centres accept: the nearest one, ties to the lowest id) and moves it (eq. 15);
-    - ``D(X, Z_j) >= T`` for every ``j``: ``X`` starts a new cluster and is its centre;
-    - otherwise (undecided for every centre that does not reject it): ``X`` joins the nearest
-      centre *without moving it*, so an uncertain scan never drags a centre across a door.
-
-Merging
-    A cluster created online that still has fewer than ``min_members`` keyframes ``patience``
-    keyframes after its creation (a door or a glimpse, not a place) merges into the adjacent
-    cluster whose centre is nearest (adjacent: its centre's cells share a tile with the small
-    one's). With ``max_clusters``, when there are more clusters, the smallest of the clusters
-    the new scan was compared with merges into its nearest adjacent one. The larger of the two
-    keeps its id; ids are never reused.
-
-Cost
-    Centres are indexed by the ``tile`` x ``tile`` metre tiles their cells fall in; a scan is
-    compared only with the centres in its tiles, each comparison touching only the cells near
-    the scan's hits, so a keyframe's cost depends on the map around it, not on the keyframes
-    seen.
+The derivation and the choices: ``docs/online.md``.
 """
 
 from __future__ import annotations
@@ -64,16 +25,25 @@ import heapq
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
-from typing import Any, Literal
+from dataclasses import dataclass, field
+from typing import Any
 
-import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.scan import Keyframe, LaserScan
-from segmentation.base import Estimator, clone
+from maps.scan import Keyframe
+from segmentation.base import clone
+from segmentation.centres import (
+    CellIndex,
+    Centre,
+    CentreKeyframe,
+    cells_of,
+    centre_similarities,
+    decode,
+)
+from segmentation.closeness import Closeness
 from segmentation.errors import ParameterError, SegmentationError
+from segmentation.events import Event, OnlineEstimator, OnlineStateError
 from segmentation.online_regions import OnlineRegions
 from segmentation.similarity import NearestNeighbour, as_criterion, cell_keys
 from segmentation.spectral import SpectralSegmenter
@@ -84,106 +54,8 @@ log = logging.getLogger(__name__)
 HISTOGRAM_RESOLUTION = 0.1
 
 
-class OnlineStateError(SegmentationError):
-    """``partial_fit`` (or a query) before ``fit``."""
-
-
-@dataclass(frozen=True)
-class Event:
-    """Something that happened to a region when a keyframe arrived.
-
-    Attributes
-    ----------
-    kind
-        ``"created"`` (a new region, with this keyframe as its centre; seed regions are created
-        at the last seed keyframe), ``"grown"`` (the keyframe joined ``region``) or
-        ``"merged"`` (``absorbed`` merged into ``region``, which keeps its id), ``"split"``
-        (``region`` is a new piece of ``source``) or ``"moved"`` (the keyframes ``members``
-        went from ``source`` to ``region``).
-    keyframe
-        Index of the keyframe (0-based, over the seed and everything after it).
-    region
-        The region created, grown or surviving the merge.
-    absorbed
-        For ``"merged"``: the id that disappears.
-    source
-        For ``"split"``: the region the new one was a piece of; for ``"moved"``: the region
-        the keyframes left.
-    members
-        For ``"moved"``: the keyframes that moved.
-    distance
-        For ``"grown"`` / ``"created"`` after the seed: the scan's distance ``D`` to the
-        nearest centre (1.0 when no centre was near).
-    decided
-        For ``"grown"``: ``True`` when the centre accepted the scan (``D <= theta T``) and
-        moved, ``False`` for an undecided scan that joined without moving it.
-    """
-
-    kind: Literal["created", "grown", "merged", "split", "moved"]
-    keyframe: int
-    region: int
-    absorbed: int | None = None
-    source: int | None = None
-    members: tuple[int, ...] | None = None
-    distance: float | None = None
-    decided: bool | None = None
-
-    def as_dict(self) -> dict[str, Any]:
-        """The event as a plain dict, without the fields that do not apply."""
-        return {k: v for k, v in asdict(self).items() if v is not None}
-
-
 @dataclass
-class Centre:
-    """A cluster centre: hit counts per cell (eq. 15 as integer sums) and its keyframes.
-
-    ``Z(c) = counts[c] / members`` where ``members`` counts the keyframes that moved the centre
-    (undecided keyframes join ``keyframes`` without moving it); ``mass = sum(counts)``.
-    """
-
-    counts: dict[int, int]
-    members: int
-    mass: int
-    tiles: set[int]
-    keyframes: list[int]
-    born: int
-
-    def arrays(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-        """Cell keys and hit counts."""
-        size = len(self.counts)
-        keys = np.fromiter(self.counts.keys(), np.int64, size)
-        return keys, np.fromiter(self.counts.values(), np.int64, size)
-
-
-def _decode(keys: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Cells ``(m, 2)`` of :func:`segmentation.similarity.cell_keys`."""
-    low = (keys & 0xFFFFFFFF).astype(np.int64)
-    low = np.where(low >= 2**31, low - 2**32, low)
-    return np.column_stack([(keys - low) >> 32, low])
-
-
-def _cells(points: NDArray[np.float64], resolution: float) -> NDArray[np.int64]:
-    """Keys of the unique cells hit by ``points``."""
-    return np.unique(cell_keys(np.floor(points / resolution).astype(np.int64)))
-
-
-@dataclass(frozen=True, eq=False)
-class CentreKeyframe(Keyframe):
-    """A centre seen as a keyframe by criteria that take keyframes: its ``points()`` are the
-    centres of its most frequently hit cells, in angular order around their mean."""
-
-    cloud: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, 2)))
-
-    def points(self) -> NDArray[np.float64]:
-        """The centre's cells in metres, map frame."""
-        return self.cloud
-
-
-_NO_SCAN = LaserScan(np.ones(1), 0.0, 1.0)
-
-
-@dataclass
-class OnlineSegmenter(Estimator):
+class OnlineSegmenter(OnlineEstimator):
     """Segment keyframes as they arrive: a spectral seed, then the paper's online rules.
 
     See the module docstring for the centres, ``T``, the rules and the merging.
@@ -285,13 +157,7 @@ class OnlineSegmenter(Estimator):
         self._nn = criterion if isinstance(criterion, NearestNeighbour) else None
         self._resolution = self._nn.resolution if self._nn else HISTOGRAM_RESOLUTION
         self._tile_bits = max(0, int(math.floor(math.log2(self.tile / self._resolution))))
-        if self._nn is not None:
-            reach = math.ceil(self._nn.tolerance / self._resolution)
-            di, dj = np.mgrid[-reach : reach + 1, -reach : reach + 1].reshape(2, -1)
-            distance = self._resolution * np.hypot(di, dj)
-            near = distance < self._nn.tolerance
-            self._offsets = np.column_stack([di[near], dj[near]]).astype(np.int64)
-            self._closeness = self._nn.tolerance - distance[near]
+        self._field = None if self._nn is None else Closeness.of(self._nn)
 
     # ----------------------------------------------------------------------------- fitting
     def fit(self, keyframes: Sequence[Keyframe]) -> OnlineSegmenter:
@@ -348,45 +214,11 @@ class OnlineSegmenter(Estimator):
     def _empty_store(self) -> None:
         """No centre yet: the centres, the cell index and the tile index."""
         self.centres_ = {}
-        # the cell index: cell key -> row; per row up to `width` (region, hits) of the centres
-        # that hit the cell (region 0 = free entry), so lookups are vectorised
-        self._rows: dict[int, int] = {}
-        self._row_region = np.zeros((1024, 4), np.int32)
-        self._row_hits = np.zeros((1024, 4), np.int32)
+        self._index = CellIndex()
         self._tile_index: dict[int, set[int]] = {}
         self._seen_tiles: set[int] = set()
         self._cached: dict[int, CentreKeyframe] = {}
         self._heap: list[tuple[int, int]] = []
-
-    def _index_rows(self, keys: NDArray[np.int64], create: bool) -> NDArray[np.int64]:
-        """Rows of the cell index for ``keys`` (-1 for a cell no centre hit unless ``create``)."""
-        if not create:
-            get = self._rows.get
-            return np.fromiter((get(k, -1) for k in keys.tolist()), np.int64, len(keys))
-        rows = self._rows
-        found = np.fromiter((rows.setdefault(k, len(rows)) for k in keys.tolist()), np.int64)
-        if len(rows) > len(self._row_region):
-            extra = ((0, max(len(rows), 2 * len(self._row_region)) - len(self._row_region)), (0, 0))
-            self._row_region = np.pad(self._row_region, extra)
-            self._row_hits = np.pad(self._row_hits, extra)
-        return found
-
-    def _index_add(self, region: int, keys: NDArray[np.int64], hits: NDArray[np.int64]) -> None:
-        """``region``'s centre hit the cells ``keys`` (unique) ``hits`` more times."""
-        rows = self._index_rows(keys, create=True)
-        while True:
-            table = self._row_region[rows]
-            match = table == region
-            has = match.any(axis=1)
-            free = table == 0
-            if np.all(has | free.any(axis=1)):
-                break
-            # a cell hit by more centres than a row holds: widen the rows
-            self._row_region = np.hstack([self._row_region, np.zeros_like(self._row_region)])
-            self._row_hits = np.hstack([self._row_hits, np.zeros_like(self._row_hits)])
-        column = np.where(has, match.argmax(axis=1), free.argmax(axis=1))
-        self._row_region[rows, column] = region
-        self._row_hits[rows, column] += hits
 
     def _seed_threshold(self, keyframes: Sequence[Keyframe], scans: list[Any]) -> float:
         """``T``: over pairs of seed clusters ``(a, b)`` that are near each other, the smallest
@@ -431,41 +263,10 @@ class OnlineSegmenter(Estimator):
 
     # ----------------------------------------------------------------------------- queries
     @property
-    def labels_(self) -> NDArray[np.int64]:
-        """Region id of every keyframe so far (ids start at 1; a merged id is replaced)."""
-        self._check_fitted()
-        return self._labels[: self._n].copy()
-
-    @property
-    def arrival_labels_(self) -> NDArray[np.int64]:
-        """Region id each keyframe was given when it arrived."""
-        self._check_fitted()
-        return self._arrival[: self._n].copy()
-
-    @property
     def n_regions_(self) -> int:
         """Number of live regions."""
         self._check_fitted()
         return len(self.centres_)
-
-    def region_at(self, x: float, y: float) -> int:
-        """Region id at map point ``(x, y)`` in the dense regions, 0 if none."""
-        return self._dense().region_at(x, y)
-
-    @property
-    def graph_(self) -> nx.Graph:
-        """The region adjacency graph, kept up to date (see :class:`OnlineRegions`)."""
-        return self._dense().graph
-
-    def _dense(self) -> OnlineRegions:
-        self._check_fitted()
-        if self.regions_ is None:
-            raise OnlineStateError("dense regions are off: build the segmenter with dense=True")
-        return self.regions_
-
-    def _check_fitted(self) -> None:
-        if not getattr(self, "_fitted", False):
-            raise OnlineStateError("the online segmenter is not fitted: call fit first")
 
     # ----------------------------------------------------------------------------- internals
     def _scan(
@@ -484,8 +285,8 @@ class OnlineSegmenter(Estimator):
             raise SegmentationError(
                 f"keyframe {index} (scan_index {keyframe.scan_index}) has no valid beam"
             )
-        keys = _cells(points, self._resolution)
-        return keys, np.unique(cell_keys(_decode(keys) >> self._tile_bits)), points
+        keys = cells_of(points, self._resolution)
+        return keys, np.unique(cell_keys(decode(keys) >> self._tile_bits)), points
 
     def _assign(self, keyframe: Keyframe) -> int:
         index = self._n
@@ -541,7 +342,7 @@ class OnlineSegmenter(Estimator):
         counts = centre.counts
         for key in keys.tolist():
             counts[key] = counts.get(key, 0) + 1
-        self._index_add(region, keys, np.ones(len(keys), np.int64))
+        self._index.add(region, keys, np.ones(len(keys), np.int64))
         centre.members += 1
         centre.mass += len(keys)
         for tile in tiles.tolist():
@@ -582,11 +383,8 @@ class OnlineSegmenter(Estimator):
         for key, count in gone.counts.items():
             kept.counts[key] = kept.counts.get(key, 0) + count
         keys, hits = gone.arrays()
-        rows = self._index_rows(keys, create=False)
-        column = (self._row_region[rows] == b).argmax(axis=1)
-        self._row_region[rows, column] = 0
-        self._row_hits[rows, column] = 0
-        self._index_add(a, keys, hits)
+        self._index.remove(b, keys)
+        self._index.add(a, keys, hits)
         kept.members += gone.members
         kept.mass += gone.mass
         kept.keyframes.extend(gone.keyframes)
@@ -619,10 +417,10 @@ class OnlineSegmenter(Estimator):
         are those with a hit within the tolerance of one of ``A``'s (the others have ``S = 0``);
         with other criteria those sharing one of ``A``'s ``tiles``.
         """
-        if self._nn is not None:
-            ones = np.ones(len(keys), np.int64)
-            found, similarity = self._nn_similarities(
-                keys, ones if weights is None else weights, own
+        if self._field is not None:
+            counts = np.ones(len(keys), np.int64) if weights is None else weights
+            found, similarity = centre_similarities(
+                self._field, self._index, self.centres_, keys, counts, own
             )
             return found, self._as_distance(similarity)
         near = set().union(*(self._tile_index.get(t, set()) for t in tiles.tolist()))
@@ -636,48 +434,9 @@ class OnlineSegmenter(Estimator):
     def _as_distance(self, similarity: NDArray[np.float64]) -> NDArray[np.float64]:
         return 1.0 - np.minimum(similarity / self.similarity_scale_, 1.0)
 
-    def _nn_similarities(
-        self, keys: NDArray[np.int64], weights: NDArray[np.int64], own: int | None
-    ) -> tuple[list[int], NDArray[np.float64]]:
-        """The centres with a hit within the tolerance of ``A``'s hits (other than ``own``)
-        and ``S(A, B)`` of the module docstring for each; ``A`` is given by the cell keys of
-        its hits and their counts."""
-        assert self._nn is not None
-        cells = _decode(keys)
-        around = cell_keys((cells[:, None, :] + self._offsets[None, :, :]).reshape(-1, 2))
-        unique, inverse = np.unique(around, return_inverse=True)
-        rows = self._index_rows(unique, create=False)
-        near = np.flatnonzero(rows >= 0)
-        table, hits = self._row_region[rows[near]], self._row_hits[rows[near]]
-        entry = (table > 0) & (table != (own or 0))
-        at, slot = np.nonzero(entry)
-        if len(at) == 0:
-            return [], np.zeros(0)
-        regions, column = np.unique(table[at, slot], return_inverse=True)
-        found = np.zeros((len(unique), len(regions)))
-        found[near[at], column] = hits[at, slot]
-        closeness = np.tile(self._closeness, len(keys))
-        # F_A around A's cells: the best closeness of A's hits
-        field_a = np.zeros(len(unique))
-        np.maximum.at(field_a, inverse, closeness)
-        # F_B at A's cells: the best closeness of B's hits around each of them
-        close = np.where(found[inverse] > 0, closeness[:, None], 0.0)
-        near_b = close.reshape(len(keys), len(self._offsets), -1).max(axis=1)
-        mass = np.array([self.centres_[r].mass for r in regions.tolist()], np.float64)
-        first = weights @ near_b / float(weights.sum())
-        second = field_a @ found / mass
-        return regions.tolist(), (first + second) / (2 * self._nn.tolerance)
-
     def _centre_keyframe(self, region: int) -> CentreKeyframe:
-        """The centre's most hit cells (as many as a member hits on average) as a keyframe."""
+        """The centre as a keyframe (:meth:`~segmentation.centres.Centre.keyframe`), kept until
+        the centre moves."""
         if region not in self._cached:
-            centre = self.centres_[region]
-            keys, counts = centre.arrays()
-            size = max(1, round(centre.mass / centre.members))
-            top = np.lexsort((keys, -counts))[:size]
-            points = ((_decode(keys[top]) + 0.5) * self._resolution).astype(np.float64)
-            mean = points.mean(axis=0)
-            angle = np.arctan2(points[:, 1] - mean[1], points[:, 0] - mean[0])
-            cloud = points[np.argsort(angle, kind="stable")]
-            self._cached[region] = CentreKeyframe((*mean, 0.0), _NO_SCAN, 0, None, cloud)
+            self._cached[region] = self.centres_[region].keyframe(self._resolution)
         return self._cached[region]

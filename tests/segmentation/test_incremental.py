@@ -10,8 +10,9 @@ from sklearn.metrics import adjusted_rand_score
 
 import maps
 from maps.mapping import MapBuilder, grid_from_keyframes
+from segmentation.arrivals import OneToMany
 from segmentation.errors import ParameterError, SegmentationError
-from segmentation.incremental import IncrementalSegmenter, OneToMany
+from segmentation.incremental import IncrementalSegmenter
 from segmentation.online import OnlineSegmenter, OnlineStateError
 from segmentation.pipeline import MapSegmenter
 from segmentation.similarity import NearestNeighbour

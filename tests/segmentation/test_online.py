@@ -10,8 +10,9 @@ import maps
 from maps.errors import InvalidScanError
 from maps.grid import OCCUPIED, OccupancyGrid
 from maps.scan import Keyframe, LaserScan
+from segmentation.centres import Centre, centre_similarities
 from segmentation.errors import ParameterError, SegmentationError
-from segmentation.online import Centre, OnlineSegmenter, OnlineStateError
+from segmentation.online import OnlineSegmenter, OnlineStateError
 from segmentation.online_regions import OnlineRegions
 from segmentation.similarity import NearestNeighbour
 from segmentation.spectral import SpectralSegmenter
@@ -59,7 +60,9 @@ def test_a_centre_of_one_scan_is_compared_by_eq_12_exactly(flat_run):
         online._join(i + 1, i, *hits(online, keyframe), move=True)
     for i in (0, 7, 21, 39):
         keys, _ = hits(online, keyframes[i])
-        regions, similarity = online._nn_similarities(keys, np.ones(len(keys), np.int64), i + 1)
+        regions, similarity = centre_similarities(
+            online._field, online._index, online.centres_, keys, np.ones(len(keys), np.int64), i + 1
+        )
         expected = {j + 1: offline[i, j] for j in range(40) if offline[i, j] > 0}
         assert dict(zip(regions, similarity.tolist(), strict=True)) == pytest.approx(expected)
 

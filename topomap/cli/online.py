@@ -29,9 +29,10 @@ from maps.errors import OutputExistsError
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array
+from segmentation.events import Event
 from segmentation.graph import region_graph
 from segmentation.incremental import IncrementalSegmenter
-from segmentation.online import Event, OnlineSegmenter
+from segmentation.online import OnlineSegmenter
 from segmentation.refine import basins, count_basins
 from segmentation.regions import Regions, dense_labels
 from segmentation.spectral import SpectralSegmenter

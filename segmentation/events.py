@@ -1,0 +1,106 @@
+"""What both online engines share: the events they record (``events_``, ``events.jsonl``) and
+the queries they answer once fitted (:class:`OnlineEstimator`)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any, Literal
+
+import networkx as nx
+import numpy as np
+from numpy.typing import NDArray
+
+from segmentation.base import Estimator
+from segmentation.errors import SegmentationError
+from segmentation.online_regions import OnlineRegions
+
+
+class OnlineStateError(SegmentationError):
+    """``partial_fit`` (or a query) before ``fit``."""
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something that happened to a region when a keyframe arrived.
+
+    Attributes
+    ----------
+    kind
+        ``"created"`` (a new region, with this keyframe as its centre; seed regions are created
+        at the last seed keyframe), ``"grown"`` (the keyframe joined ``region``) or
+        ``"merged"`` (``absorbed`` merged into ``region``, which keeps its id), ``"split"``
+        (``region`` is a new piece of ``source``) or ``"moved"`` (the keyframes ``members``
+        went from ``source`` to ``region``).
+    keyframe
+        Index of the keyframe (0-based, over the seed and everything after it).
+    region
+        The region created, grown or surviving the merge.
+    absorbed
+        For ``"merged"``: the id that disappears.
+    source
+        For ``"split"``: the region the new one was a piece of; for ``"moved"``: the region
+        the keyframes left.
+    members
+        For ``"moved"``: the keyframes that moved.
+    distance
+        For ``"grown"`` / ``"created"`` after the seed: the scan's distance ``D`` to the
+        nearest centre (1.0 when no centre was near).
+    decided
+        For ``"grown"``: ``True`` when the centre accepted the scan (``D <= theta T``) and
+        moved, ``False`` for an undecided scan that joined without moving it.
+    """
+
+    kind: Literal["created", "grown", "merged", "split", "moved"]
+    keyframe: int
+    region: int
+    absorbed: int | None = None
+    source: int | None = None
+    members: tuple[int, ...] | None = None
+    distance: float | None = None
+    decided: bool | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """The event as a plain dict, without the fields that do not apply."""
+        return {k: v for k, v in asdict(self).items() if v is not None}
+
+
+class OnlineEstimator(Estimator):
+    """The queries of a fitted online engine: the region of every keyframe now and on arrival,
+    the dense regions at a point and their graph. Engines keep ``_labels`` and ``_arrival``
+    (grown as keyframes arrive), ``_n`` (keyframes so far), ``regions_`` and ``_fitted``."""
+
+    _labels: NDArray[np.int64]
+    _arrival: NDArray[np.int64]
+    _n: int
+    regions_: OnlineRegions | None
+
+    @property
+    def labels_(self) -> NDArray[np.int64]:
+        """Region of every keyframe so far (a merged id is replaced)."""
+        self._check_fitted()
+        return self._labels[: self._n].copy()
+
+    @property
+    def arrival_labels_(self) -> NDArray[np.int64]:
+        """Region each keyframe was given when it arrived."""
+        self._check_fitted()
+        return self._arrival[: self._n].copy()
+
+    def region_at(self, x: float, y: float) -> int:
+        """Region id at map point ``(x, y)`` in the dense regions, 0 if none."""
+        return self._dense().region_at(x, y)
+
+    @property
+    def graph_(self) -> nx.Graph:
+        """The region adjacency graph, kept up to date (see :class:`OnlineRegions`)."""
+        return self._dense().graph
+
+    def _dense(self) -> OnlineRegions:
+        self._check_fitted()
+        if self.regions_ is None:
+            raise OnlineStateError("dense regions are off: build the segmenter with dense=True")
+        return self.regions_
+
+    def _check_fitted(self) -> None:
+        if not getattr(self, "_fitted", False):
+            raise OnlineStateError("the online segmenter is not fitted: call fit first")
