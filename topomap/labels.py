@@ -84,3 +84,29 @@ def rename(graph: nx.Graph, old: int | str, new: str) -> None:
             raise LabelError(f"the name {new!r} is taken by region {other}")
     graph.nodes[region]["name"] = new.strip()
     graph.nodes[region][GIVEN] = True
+
+
+def carry_names(graph: nx.Graph, previous: nx.Graph) -> None:
+    """Regions of ``graph`` that continue a region of ``previous`` (same id) take its name back
+    when their label is the same or a user gave the name; a region whose name one of them took
+    gets the first free number of its label."""
+    carried = {
+        r: previous.nodes[r]["name"]
+        for r, label in graph.nodes(data="label")
+        if r in previous
+        and (previous.nodes[r].get("label") == label or previous.nodes[r].get(GIVEN))
+    }
+    for region, name in carried.items():
+        graph.nodes[region]["name"] = name
+        if previous.nodes[region].get(GIVEN):
+            graph.nodes[region][GIVEN] = True
+    used = {str(name) for _, name in graph.nodes(data="name")}
+    for region in sorted(graph.nodes):
+        data = graph.nodes[region]
+        if region in carried or data["name"] not in carried.values():
+            continue
+        number = 1  # a name a continued region took back: the first free number of its label
+        while f"{data['label']} {number}" in used:
+            number += 1
+        data["name"] = f"{data['label']} {number}"
+        used.add(data["name"])

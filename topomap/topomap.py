@@ -26,7 +26,7 @@ from segmentation.regions import Regions
 from segmentation.spectral import SpectralSegmenter
 from topomap import saving
 from topomap.features import region_features
-from topomap.labels import GIVEN, Classifier, find_region, label_graph, rename
+from topomap.labels import Classifier, carry_names, find_region, label_graph, rename
 from topomap.saving import SavedPartition
 
 if TYPE_CHECKING:
@@ -197,7 +197,7 @@ class TopoMap:
         found = replace(found, regions=regions, spectral=regions if same else found.spectral)
         topo = self._build(grid, found, pipeline.on_stage)
         topo.next_id, topo.changes = carried.next_id, carried.events
-        _carry_names(topo.graph, self.graph)
+        carry_names(topo.graph, self.graph)
         return topo
 
     @classmethod
@@ -428,29 +428,3 @@ class TopoMap:
         return saving.save_keyframes(
             self.keyframes, self.keyframe_regions(), path, overwrite=overwrite
         )
-
-
-def _carry_names(graph: nx.Graph, previous: nx.Graph) -> None:
-    """Regions of ``graph`` that continue a region of ``previous`` (same id) take its name back
-    when their label is the same or a user gave the name; a region whose name one of them took
-    gets the first free number of its label."""
-    carried = {
-        r: previous.nodes[r]["name"]
-        for r, label in graph.nodes(data="label")
-        if r in previous
-        and (previous.nodes[r].get("label") == label or previous.nodes[r].get(GIVEN))
-    }
-    for region, name in carried.items():
-        graph.nodes[region]["name"] = name
-        if previous.nodes[region].get(GIVEN):
-            graph.nodes[region][GIVEN] = True
-    used = {str(name) for _, name in graph.nodes(data="name")}
-    for region in sorted(graph.nodes):
-        data = graph.nodes[region]
-        if region in carried or data["name"] not in carried.values():
-            continue
-        number = 1  # a name a continued region took back: the first free number of its label
-        while f"{data['label']} {number}" in used:
-            number += 1
-        data["name"] = f"{data['label']} {number}"
-        used.add(data["name"])
