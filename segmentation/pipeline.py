@@ -47,7 +47,7 @@ from segmentation.conditioning import ConditionedMap, condition, drop_outside
 from segmentation.coverage import Coverage, cover
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.refine import basins, count_basins, merge_open_boundaries
-from segmentation.regions import Regions, consecutive, pieces
+from segmentation.regions import Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter
 from segmentation.virtual import VIRTUAL_LASER, most_open_cells, virtual_keyframes
 from segmentation.working import pool, pool_factor, unpool
@@ -252,7 +252,10 @@ class MapSegmenter(Estimator):
         stage("regions")
         poses = poses_array(seeing)
         rows, cols = space.world_to_cell(poses[:, 0], poses[:, 1])
-        dense = pieces(space, by_place(places, rows, cols, fitted.labels_), self.min_area)
+        if self.spectral.k is None:  # the places vote: regions are whole places
+            dense = pieces(space, by_place(places, rows, cols, fitted.labels_), self.min_area)
+        else:  # the user's k: the clusters decide, a place split between them if need be
+            dense = dense_labels(space, rows, cols, fitted.labels_, min_area=self.min_area)
         if self.method == "doors":
             doors = pieces(space, merge_open_boundaries(space, places, places), self.min_area)
         lap("regions")

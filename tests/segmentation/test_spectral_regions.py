@@ -182,8 +182,9 @@ def test_method_is_checked_and_k_gives_about_k_regions():
     with pytest.raises(ParameterError, match="method"):
         MapSegmenter(method="watershed").segment(plan.grid)
     rooms = len(np.unique(plan.labels[plan.labels > 0]))
-    for k in (2, rooms):
-        # the silhouette chooses within k +- spread; covering may add rooms seen through doors
+    for k in (2, rooms, 3 * rooms):
+        # the silhouette chooses within k +- spread; covering may add rooms seen through doors;
+        # more regions than places: the clusters split places, the places never cap k
         spectral = SpectralSegmenter(k=k, spread=1, random_state=0)
         found = MapSegmenter(spectral=spectral).segment(plan.grid)
         assert abs(len(found.regions.ids) - found.coverage.seen_rooms - k) <= 1
