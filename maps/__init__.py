@@ -1,6 +1,6 @@
 """Occupancy grids, laser scans and keyframes, file readers and writers, and simulation.
 
-Names are imported lazily, the first time they are used (but :func:`wander`).
+Names are imported lazily, the first time they are used.
 
 Examples
 --------
@@ -17,11 +17,6 @@ from typing import TYPE_CHECKING, Any
 
 from maps import _exports
 
-# ``wander`` is also the name of its module: bound now, or importing ``maps.wander`` anywhere
-# first would leave the module, not the function, as ``maps.wander``
-from maps.wander import Route as Route
-from maps.wander import wander as wander
-
 if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from maps.carmen import read_carmen as read_carmen
     from maps.errors import FormatError as FormatError
@@ -35,6 +30,8 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from maps.errors import OutputExistsError as OutputExistsError
     from maps.errors import TopomapError as TopomapError
     from maps.errors import TransformError as TransformError
+    from maps.exploration import Route as Route
+    from maps.exploration import wander as wander
     from maps.floorplan import FloorPlan as FloorPlan
     from maps.floorplan import generate_floor_plan as generate_floor_plan
     from maps.grid import OccupancyGrid as OccupancyGrid

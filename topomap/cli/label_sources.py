@@ -256,9 +256,9 @@ def generated(
     """Generated buildings with furniture (0.3 blocks per 10 m^2), typed by the generator:
     the true plans (source ``generated``) and, for the flats of the ``scanned`` seeds, the map
     a simulated robot builds (``generated-scanned``); each plan is a building."""
+    from maps.exploration import wander
     from maps.laser_sim import LaserModel, simulate_keyframes
     from maps.mapping import grid_from_keyframes
-    from maps.wander import wander
 
     jobs = [(size, seed, False) for size in sizes for seed in seeds]
     jobs += [("flat", seed, True) for seed in scanned]
