@@ -27,7 +27,13 @@ from segmentation.pipeline import MapSegmenter
 from segmentation.spectral import SpectralSegmenter
 from topomap.cli.bench import robot_keyframes
 from topomap.cli.demo import _truth_on
-from topomap.cli.online import ONLINE_METHODS, agreement, dense_regions, run_online
+from topomap.cli.online import (
+    ONLINE_METHODS,
+    agreement,
+    dense_regions,
+    latency_ms,
+    run_online,
+)
 
 Progress = Callable[[Iterable[Any]], Iterable[Any]]
 
@@ -35,15 +41,6 @@ Progress = Callable[[Iterable[Any]], Iterable[Any]]
 LOGS = ("intel", "aces", "csail", "freiburg-079")
 #: The snapshots of one exploration (ROSE²'s incremental partial maps).
 SNAPSHOTS = "../shared/data/rose2_partial"
-
-
-def _ms(seconds: list[float], prefix: str = "") -> dict[str, float]:
-    ms = 1000 * np.asarray(seconds)
-    return {
-        f"{prefix}median_ms": round(float(np.median(ms)), 3),
-        f"{prefix}p95_ms": round(float(np.percentile(ms, 95)), 3),
-        f"{prefix}max_ms": round(float(ms.max()), 3),
-    }
 
 
 def bench_latency(
@@ -96,8 +93,8 @@ def bench_latency(
             {
                 "first": first,
                 "keyframes_seen": last,
-                **_ms(seconds),
-                **_ms(cpu, "cpu_"),
+                **latency_ms(seconds),
+                **latency_ms(cpu, "cpu_"),
                 "online_s": round(sum(seconds), 4),
                 "offline_rerun_s": offline,
                 "regions": online.n_regions_,
@@ -111,8 +108,8 @@ def bench_latency(
         "seed_keyframes": seed_keyframes,
         "seed_seconds": round(seed_seconds, 3),
         "regions": online.n_regions_,
-        **_ms(every),
-        **_ms(every_cpu, "cpu_"),
+        **latency_ms(every),
+        **latency_ms(every_cpu, "cpu_"),
         "online_total_s": round(sum(every), 3),
         "offline_reruns_up_to": rerun[-1]["keyframes_seen"] if rerun else 0,
         "offline_reruns_total_s": round(sum(r["offline_rerun_s"] for r in rerun), 3),

@@ -85,6 +85,22 @@ def offline_segmenter(
     return SpectralSegmenter(random_state=random_state, **options)
 
 
+def latency_ms(seconds: Sequence[float], prefix: str = "") -> dict[str, float]:
+    """``{prefix}median_ms``, ``{prefix}p95_ms`` and ``{prefix}max_ms`` of times in seconds.
+
+    Examples
+    --------
+    >>> latency_ms([0.001, 0.002, 0.010], "cpu_")
+    {'cpu_median_ms': 2.0, 'cpu_p95_ms': 9.2, 'cpu_max_ms': 10.0}
+    """
+    ms = 1000 * np.asarray(seconds)
+    return {
+        f"{prefix}median_ms": round(float(np.median(ms)), 3),
+        f"{prefix}p95_ms": round(float(np.percentile(ms, 95)), 3),
+        f"{prefix}max_ms": round(float(ms.max()), 3),
+    }
+
+
 @dataclass
 class OnlineRun:
     """An online pass over a run: the segmenter, the time of every ``partial_fit`` after the
@@ -97,12 +113,7 @@ class OnlineRun:
 
     def latency_ms(self) -> dict[str, float]:
         """Median, 95th percentile and maximum time per keyframe, milliseconds."""
-        ms = 1000 * np.asarray(self.seconds or [0.0])
-        return {
-            "median_ms": round(float(np.median(ms)), 3),
-            "p95_ms": round(float(np.percentile(ms, 95)), 3),
-            "max_ms": round(float(ms.max()), 3),
-        }
+        return latency_ms(self.seconds or [0.0])
 
 
 def run_online(
