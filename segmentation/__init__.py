@@ -29,6 +29,7 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from segmentation.errors import ParameterError as ParameterError
     from segmentation.errors import RegionNotFoundError as RegionNotFoundError
     from segmentation.errors import SegmentationError as SegmentationError
+    from segmentation.events import OnlineStateError as OnlineStateError
     from segmentation.export import read_geojson as read_geojson
     from segmentation.export import read_graphml as read_graphml
     from segmentation.export import read_label_image as read_label_image
@@ -45,7 +46,6 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from segmentation.metrics import score as score
     from segmentation.names import find_region as find_region
     from segmentation.online import OnlineSegmenter as OnlineSegmenter
-    from segmentation.online import OnlineStateError as OnlineStateError
     from segmentation.online_regions import OnlineRegions as OnlineRegions
     from segmentation.pipeline import MapSegmenter as MapSegmenter
     from segmentation.pipeline import Segmentation as Segmentation

@@ -15,6 +15,7 @@ before it is fitted, never fitted in place.
 from __future__ import annotations
 
 import inspect
+import math
 from typing import Any, TypeVar
 
 from segmentation.errors import ParameterError
@@ -99,3 +100,21 @@ def clone(estimator: E, **changes: Any) -> E:
         for name, value in estimator.get_params(deep=False).items()
     }
     return type(estimator)(**{**params, **changes})
+
+
+def check_lengths(estimator: object, *names: str) -> None:
+    """Raise :class:`~segmentation.errors.ParameterError` unless each parameter ``names`` of
+    ``estimator`` is a finite number of metres above 0.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> check_lengths(SimpleNamespace(reach=-1.0), "reach")
+    Traceback (most recent call last):
+    ...
+    segmentation.errors.ParameterError: reach must be a finite number > 0 metres, got -1.0
+    """
+    for name in names:
+        value = getattr(estimator, name)
+        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            raise ParameterError(f"{name} must be a finite number > 0 metres, got {value!r}")

@@ -3,6 +3,7 @@ the queries they answer once fitted (:class:`OnlineEstimator`)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
@@ -10,6 +11,7 @@ import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 
+from maps.scan import Keyframe
 from segmentation.base import Estimator
 from segmentation.errors import SegmentationError
 from segmentation.online_regions import OnlineRegions
@@ -73,6 +75,27 @@ class OnlineEstimator(Estimator):
     _arrival: NDArray[np.int64]
     _n: int
     regions_: OnlineRegions | None
+
+    def partial_fit(self, keyframes: Keyframe | Sequence[Keyframe]) -> int | list[int]:
+        """Assign one keyframe (returns its region) or a batch (returns a list), in order.
+
+        Raises
+        ------
+        OnlineStateError
+            Before ``fit``.
+        SegmentationError
+            A keyframe with no valid beam, a pose that is not finite, or one too far from
+            everything seen so far (``max_gap``); the segmenter is as it was before that
+            keyframe.
+        """
+        if not getattr(self, "_fitted", False):
+            raise OnlineStateError("partial_fit before fit: fit the seed keyframes first")
+        if isinstance(keyframes, Keyframe):
+            return self._arrive(keyframes)
+        return [self._arrive(k) for k in keyframes]
+
+    def _arrive(self, keyframe: Keyframe) -> int:
+        raise NotImplementedError
 
     @property
     def labels_(self) -> NDArray[np.int64]:

@@ -28,7 +28,6 @@ the arrivals gives the regions now).
 from __future__ import annotations
 
 import logging
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
@@ -38,9 +37,9 @@ from numpy.typing import NDArray
 from maps.mapping import MapBuilder
 from maps.scan import Keyframe
 from segmentation.arrivals import KeptSimilarities, OneToMany
-from segmentation.base import clone
+from segmentation.base import check_lengths, clone
 from segmentation.errors import ParameterError, SegmentationError
-from segmentation.events import Event, OnlineEstimator, OnlineStateError
+from segmentation.events import Event, OnlineEstimator
 from segmentation.growing import carry_ids
 from segmentation.online_regions import OnlineRegions
 from segmentation.pipeline import MapSegmenter, by_place
@@ -132,10 +131,7 @@ class IncrementalSegmenter(OnlineEstimator):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and 0 < value <= 1):
                 raise ParameterError(f"{name} must lie in (0, 1], got {value!r}")
-        for name in ("reach", "region_resolution", "resolution", "margin", "max_gap"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ParameterError(f"{name} must be a finite number > 0 metres, got {value!r}")
+        check_lengths(self, "reach", "region_resolution", "resolution", "margin", "max_gap")
         self.pipeline._validate_params()
 
     # ----------------------------------------------------------------------------- fitting
@@ -179,23 +175,6 @@ class IncrementalSegmenter(OnlineEstimator):
         self._since = 0
         self._fitted = True
         return self
-
-    def partial_fit(self, keyframes: Keyframe | Sequence[Keyframe]) -> int | list[int]:
-        """Assign one keyframe (returns its region) or a batch (returns a list).
-
-        Raises
-        ------
-        OnlineStateError
-            Before :meth:`fit`.
-        SegmentationError
-            A keyframe with no valid beam, a pose that is not finite, or one more than
-            ``max_gap`` metres from every earlier keyframe; the segmenter is then unchanged.
-        """
-        if not getattr(self, "_fitted", False):
-            raise OnlineStateError("partial_fit before fit: fit the seed keyframes first")
-        if isinstance(keyframes, Keyframe):
-            return self._arrive(keyframes)
-        return [self._arrive(k) for k in keyframes]
 
     # ----------------------------------------------------------------------------- queries
     @property

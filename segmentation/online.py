@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.scan import Keyframe
-from segmentation.base import clone
+from segmentation.base import check_lengths, clone
 from segmentation.centres import (
     CellIndex,
     Centre,
@@ -43,7 +43,7 @@ from segmentation.centres import (
 )
 from segmentation.closeness import Closeness
 from segmentation.errors import ParameterError, SegmentationError
-from segmentation.events import Event, OnlineEstimator, OnlineStateError
+from segmentation.events import Event, OnlineEstimator
 from segmentation.online_regions import OnlineRegions
 from segmentation.similarity import NearestNeighbour, as_criterion, cell_keys
 from segmentation.spectral import SpectralSegmenter
@@ -142,10 +142,7 @@ class OnlineSegmenter(OnlineEstimator):
             isinstance(self.max_clusters, int | np.integer) and self.max_clusters >= 1
         ):
             raise ParameterError(f"max_clusters must be an integer >= 1, got {self.max_clusters!r}")
-        for name in ("tile", "max_gap", "region_resolution", "reach"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ParameterError(f"{name} must be a finite number > 0 metres, got {value!r}")
+        check_lengths(self, "tile", "max_gap", "region_resolution", "reach")
         if self.segmenter is not None:
             self.segmenter._validate_params()
 
@@ -241,26 +238,6 @@ class OnlineSegmenter(OnlineEstimator):
             means.append((total + members - computed) / members)
         return float(min(means, default=1.0))
 
-    def partial_fit(self, keyframes: Keyframe | Sequence[Keyframe]) -> int | list[int]:
-        """Assign one keyframe (returns its region id) or a batch (returns a list).
-
-        Keyframes of a batch are assigned in order; a refused keyframe raises and leaves the
-        segmenter as it was before that keyframe.
-
-        Raises
-        ------
-        OnlineStateError
-            Before :meth:`fit`.
-        SegmentationError
-            A keyframe with no valid beam, a pose that is not finite, or a pose more than
-            ``max_gap`` metres outside everything hit so far.
-        """
-        if not getattr(self, "_fitted", False):
-            raise OnlineStateError("partial_fit before fit: fit the seed keyframes first")
-        if isinstance(keyframes, Keyframe):
-            return self._assign(keyframes)
-        return [self._assign(k) for k in keyframes]
-
     # ----------------------------------------------------------------------------- queries
     @property
     def n_regions_(self) -> int:
@@ -288,7 +265,7 @@ class OnlineSegmenter(OnlineEstimator):
         keys = cells_of(points, self._resolution)
         return keys, np.unique(cell_keys(decode(keys) >> self._tile_bits)), points
 
-    def _assign(self, keyframe: Keyframe) -> int:
+    def _arrive(self, keyframe: Keyframe) -> int:
         index = self._n
         keys, tiles, points = self._scan(keyframe, index)
         x, y = keyframe.pose[:2]

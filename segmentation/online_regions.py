@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.scan import Keyframe
-from segmentation.errors import ParameterError
+from segmentation.base import check_lengths
 
 #: Sub-pixel bits of the scan polygons given to OpenCV.
 _SHIFT = 4
@@ -54,9 +54,8 @@ class OnlineRegions:
     """
 
     def __init__(self, resolution: float = 0.1, reach: float = 4.0) -> None:
-        for name, value in (("resolution", resolution), ("reach", reach)):
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ParameterError(f"{name} must be a finite number > 0 metres, got {value!r}")
+        self.resolution, self.reach = resolution, reach
+        check_lengths(self, "resolution", "reach")
         self.resolution = float(resolution)
         self.reach = float(reach)
         self._low = np.zeros(2, np.int64)  # cell (i, j) of array index [0, 0]

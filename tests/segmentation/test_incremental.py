@@ -12,8 +12,9 @@ import maps
 from maps.mapping import MapBuilder, grid_from_keyframes
 from segmentation.arrivals import OneToMany
 from segmentation.errors import ParameterError, SegmentationError
+from segmentation.events import OnlineStateError
 from segmentation.incremental import IncrementalSegmenter
-from segmentation.online import OnlineSegmenter, OnlineStateError
+from segmentation.online import OnlineSegmenter
 from segmentation.pipeline import MapSegmenter
 from segmentation.similarity import NearestNeighbour
 from segmentation.spectral import SpectralSegmenter

@@ -12,7 +12,8 @@ from maps.grid import OCCUPIED, OccupancyGrid
 from maps.scan import Keyframe, LaserScan
 from segmentation.centres import Centre, centre_similarities
 from segmentation.errors import ParameterError, SegmentationError
-from segmentation.online import OnlineSegmenter, OnlineStateError
+from segmentation.events import OnlineStateError
+from segmentation.online import OnlineSegmenter
 from segmentation.online_regions import OnlineRegions
 from segmentation.similarity import NearestNeighbour
 from segmentation.spectral import SpectralSegmenter
