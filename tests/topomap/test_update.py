@@ -88,6 +88,13 @@ def test_segment_previous_writes_changes_and_refuses_an_incomplete_folder(
     kept = [e["region"] for e in changes if e["event"] == "kept"]
     after = json.loads((tmp_path / "b" / "summary.json").read_text())["names"]
     assert len(kept) >= 10 and sum(after[str(r)] == before[str(r)] for r in kept) >= 10
+    other = maps.generate_floor_plan("flat", random_state=5).grid
+    other.save(tmp_path / "other.yaml")
+    capsys.readouterr()
+    other_argv = ["segment", str(tmp_path / "other.yaml"), "--out", str(tmp_path / "c")]
+    assert main([*other_argv, "--previous", str(tmp_path / "a")]) == 2
+    assert f"--previous {tmp_path / 'a'}: only" in capsys.readouterr().err
+    assert not (tmp_path / "c").exists()
     (tmp_path / "a" / "graph.graphml").unlink()
     capsys.readouterr()
     assert main([*argv, "--previous", str(tmp_path / "a"), "--force"]) == 2

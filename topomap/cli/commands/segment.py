@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from maps.files import OutputFolder, write_text
 from topomap.cli.commands.common import (
@@ -19,6 +19,11 @@ from topomap.cli.commands.common import (
     segmenter_options,
 )
 from topomap.errors import UsageError
+
+if TYPE_CHECKING:
+    from maps.grid import OccupancyGrid
+    from maps.scan import Keyframe
+    from topomap.topomap import TopoMap
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -86,7 +91,8 @@ def cmd_segment(args: argparse.Namespace) -> int:
         if previous is not None:
             from maps.mapping import grid_from_keyframes
 
-            topo = previous.update(grid_from_keyframes(keyframes, 0.05), keyframes, **options)
+            grid = grid_from_keyframes(keyframes, 0.05)
+            topo = _update(previous, args.previous, grid, keyframes, **options)
         else:
             topo = TopoMap.from_keyframes(keyframes, **options)
         source = args.scans
@@ -101,7 +107,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
         topo = (
             TopoMap.from_grid(grid, **options)
             if previous is None
-            else previous.update(grid, **options)
+            else _update(previous, args.previous, grid, None, **options)
         )
         source = args.map
     folder = OutputFolder(out, written_names, overwrite=args.force, how="--force", last=SAVED[-1])
@@ -183,3 +189,19 @@ def _write_summary(path: Path, topo: Any, source: str, count: int) -> str:
     text = json.dumps(summary, indent=2)
     write_text(path, text)
     return text
+
+
+def _update(
+    previous: TopoMap,
+    folder: str,
+    grid: OccupancyGrid,
+    keyframes: list[Keyframe] | None,
+    **options: Any,
+) -> TopoMap:
+    """``previous.update``, its refusal naming the ``--previous`` folder."""
+    from segmentation.growing import MapMismatchError
+
+    try:
+        return previous.update(grid, keyframes, **options)
+    except MapMismatchError as err:
+        raise MapMismatchError(f"--previous {folder}: {err}") from None
