@@ -6,13 +6,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
 from topomap.classifiers import rule_classifier
-from topomap.features import region_features, skeleton_shape
+from topomap.features import _fill_small_holes, region_features, skeleton_shape
 
 CELL = 0.05  # m
 
@@ -148,3 +149,20 @@ def test_a_ring_of_corridors_is_no_hall_and_an_open_floor_with_shelves_is():
     f = region_features(*_building(floor))
     assert f["extent_m"][0] == pytest.approx(20.0, abs=0.2)
     assert rule_classifier(f) == ["hall"]
+
+
+@given(arrays(bool, st.tuples(st.integers(1, 40), st.integers(1, 40))), st.integers(0, 30))
+def test_small_holes_are_filled_as_scipy_fills_them(mask, most):
+    holes, _ = ndimage.label(ndimage.binary_fill_holes(mask) & ~mask)
+    sizes = np.bincount(holes.ravel())
+    small = (sizes <= most) & (np.arange(len(sizes)) > 0)
+    assert np.array_equal(_fill_small_holes(mask, most), mask | small[holes])
+
+
+@given(arrays(bool, st.tuples(st.integers(1, 30), st.integers(1, 30))))
+def test_axis_neighbours_are_the_3x3_sums_scipy_gives(axis):
+    from topomap.features import _axis_neighbours
+
+    ones = np.ones((3, 3), np.int64)
+    expected = ndimage.convolve(axis.astype(np.int64), ones, mode="constant") - 1
+    assert np.array_equal(_axis_neighbours(axis), expected)
