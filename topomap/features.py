@@ -199,9 +199,7 @@ def _fill_small_holes(mask: NDArray[np.bool_], most: int) -> NDArray[np.bool_]:
     """``mask`` with its enclosed holes of at most ``most`` cells filled: the pieces of the
     rest (4-connected, as :func:`scipy.ndimage.binary_fill_holes` sees them) that do not
     touch the border (OpenCV's labelling: 10x faster than SciPy's fill on these masks)."""
-    _, holes, stats, _ = cv2.connectedComponentsWithStats(
-        (~mask).astype(np.uint8), connectivity=4
-    )
+    _, holes, stats, _ = cv2.connectedComponentsWithStats((~mask).astype(np.uint8), connectivity=4)
     border = np.unique(np.concatenate([holes[0], holes[-1], holes[:, 0], holes[:, -1]]))
     small = stats[:, cv2.CC_STAT_AREA] <= most
     small[border] = False
