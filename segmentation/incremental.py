@@ -167,8 +167,8 @@ class IncrementalSegmenter(OnlineEstimator):
         self.events_ = []
         self._next_id = 1
         for keyframe in keyframes:
-            self._check(keyframe, len(self._keyframes), seeding=True)
-            self._add(keyframe, self._similar(keyframe), 1)
+            distance = self._check(keyframe, len(self._keyframes))
+            self._add(keyframe, self._similar(keyframe, distance), 1)
         self._repartition(np.arange(len(keyframes)), seeding=True)
         self._arrival[: len(keyframes)] = self._labels[: len(keyframes)]
         self.n_seed_ = len(keyframes)
@@ -190,30 +190,22 @@ class IncrementalSegmenter(OnlineEstimator):
         return len(np.unique(self.labels_))
 
     # ----------------------------------------------------------------------------- internals
-    def _check(self, keyframe: Keyframe, index: int, seeding: bool = False) -> None:
+    def _check(self, keyframe: Keyframe, index: int) -> NDArray[np.float64]:
+        """The keyframe's distance to every earlier one, or a SegmentationError."""
         if not isinstance(keyframe, Keyframe):
             raise SegmentationError(f"keyframe {index} is not a Keyframe: {keyframe!r}")
         if not np.all(np.isfinite(keyframe.pose)):
             raise SegmentationError(f"keyframe {index} has a pose that is not finite")
         if not keyframe.scan.valid.any():
             raise SegmentationError(f"keyframe {index} has no valid beam")
-        if seeding or not self._keyframes:
-            return
-        gap = float(np.hypot(*(self._poses[:index] - keyframe.pose[:2]).T).min())
-        if gap > self.max_gap:
-            raise SegmentationError(
-                f"keyframe {index} (scan_index {keyframe.scan_index}) is {gap:.1f} m from every "
-                f"earlier keyframe (max_gap {self.max_gap} m)"
-            )
+        return np.hypot(*(self._poses[:index] - keyframe.pose[:2]).T)
 
-    def _similar(self, keyframe: Keyframe) -> dict[int, float]:
+    def _similar(self, keyframe: Keyframe, distance: NDArray[np.float64]) -> dict[int, float]:
         """The keyframe's similarity to the ``neighbours`` earlier keyframes nearest to it
-        (those with none left out)."""
-        index = len(self._keyframes)
-        count = min(self.neighbours, index)
+        (at ``distance``; those with none left out)."""
+        count = min(self.neighbours, len(distance))
         if count == 0:
             return {}
-        distance = np.hypot(*(self._poses[:index] - keyframe.pose[:2]).T)
         near = np.argpartition(distance, count - 1)[:count]
         if self._one is not None:
             values = self._one.similarities(keyframe, near.tolist())
@@ -242,8 +234,13 @@ class IncrementalSegmenter(OnlineEstimator):
 
     def _arrive(self, keyframe: Keyframe) -> int:
         index = len(self._keyframes)
-        self._check(keyframe, index)
-        row = self._similar(keyframe)
+        distance = self._check(keyframe, index)
+        if len(distance) and distance.min() > self.max_gap:
+            raise SegmentationError(
+                f"keyframe {index} (scan_index {keyframe.scan_index}) is "
+                f"{distance.min():.1f} m from every earlier keyframe (max_gap {self.max_gap} m)"
+            )
+        row = self._similar(keyframe, distance)
         if row:
             region = int(self._labels[max(row, key=row.__getitem__)])
             self.events_.append(Event("grown", index, region))
@@ -254,9 +251,9 @@ class IncrementalSegmenter(OnlineEstimator):
         self._since += 1
         if self._since >= self.renew * min(self.window, index + 1):
             self._since = 0
-            distance = np.hypot(*(self._poses[: index + 1] - keyframe.pose[:2]).T)
             size = min(self.window, index + 1)
-            self._repartition(np.argsort(distance, kind="stable")[:size])
+            nearest = np.argsort(np.append(distance, 0.0), kind="stable")[:size]
+            self._repartition(nearest)
         return int(self._labels[index])
 
     def _new_id(self) -> int:

@@ -323,19 +323,9 @@ class MapSegmenter(Estimator):
     ) -> SpectralSegmenter | BlockSpectralSegmenter:
         """Stage ``spectral``: the spectral partition of ``keyframes`` (each of which saw a
         wall) on ``spectral``'s similarity weighed by the passages between their places."""
-        affinity = PassageAffinity(space, places, spectral.criterion, self.contrast)
-        return self._fit(space, places, keyframes, clone(spectral, criterion=affinity))
-
-    def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
-        return cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
-
-    def _fit(
-        self,
-        space: OccupancyGrid,
-        places: NDArray[np.int32],
-        keyframes: list[Keyframe],
-        spectral: SpectralSegmenter,
-    ) -> SpectralSegmenter | BlockSpectralSegmenter:
+        spectral = clone(
+            spectral, criterion=PassageAffinity(space, places, spectral.criterion, self.contrast)
+        )
         if spectral.k is not None:  # the user's k: the partition must be able to reach it
             return clone(spectral, connected=True).fit(keyframes)
         count = count_basins(space, places, self.min_area)
@@ -345,6 +335,9 @@ class MapSegmenter(Estimator):
                 keyframes
             )
         return clone(spectral, k=min(len(keyframes), count)).fit(keyframes)
+
+    def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
+        return cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
 
 
 def by_place(

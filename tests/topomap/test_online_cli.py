@@ -1,7 +1,10 @@
 import csv
 import json
 
+import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from PIL import Image
 
 from topomap.cli.main import main
@@ -60,3 +63,17 @@ def test_segment_online_refuses_to_overwrite_and_bad_options(intel_online, data_
     assert "theta must lie in [0, 1], got 1.5" in capsys.readouterr().err
     assert main(["-q", "segment", "--scans", log, "--online", "--out", fresh, "--frames", "0"]) == 2
     assert "--frames must be" in capsys.readouterr().err
+
+
+@given(
+    st.lists(st.tuples(st.integers(0, 5), st.integers(0, 3)), min_size=2, max_size=60),
+)
+def test_agreement_is_scikit_learns_adjusted_rand_index(pairs):
+    from sklearn.metrics import adjusted_rand_score
+
+    from topomap.cli.online import agreement
+
+    online, offline = (np.array(side) for side in zip(*pairs, strict=True))
+    assert agreement(online, offline) == pytest.approx(
+        adjusted_rand_score(offline, online), abs=1e-4
+    )

@@ -23,7 +23,6 @@ from typing import Any
 import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
-from sklearn.metrics import adjusted_rand_score
 
 from maps.errors import OutputExistsError
 from maps.grid import OccupancyGrid
@@ -32,18 +31,18 @@ from maps.scan import Keyframe, poses_array
 from segmentation.events import Event
 from segmentation.graph import region_graph
 from segmentation.incremental import IncrementalSegmenter
+from segmentation.metrics import adjusted_rand
 from segmentation.online import OnlineSegmenter
 from segmentation.refine import basins, count_basins
 from segmentation.regions import Regions, dense_labels
 from segmentation.spectral import SpectralSegmenter
+from topomap.cli.commands.common import ONLINE_METHODS
 from topomap.cli.drawing import region_colours, write_png
 from topomap.errors import UsageError
 from topomap.labels import label_graph
 
 log = logging.getLogger(__name__)
 
-#: The online segmenters: the offline engine on windows (default), the paper's centres.
-ONLINE_METHODS = ("windows", "centres")
 #: A seed is this share of the keyframes ...
 SEED_SHARE = 0.1
 #: ... and at least this many (fewer cannot hold two rooms' worth of keyframes).
@@ -195,8 +194,20 @@ def dense_regions(
 
 
 def agreement(online: NDArray[np.integer], offline: NDArray[np.integer]) -> float:
-    """Adjusted Rand index of two keyframe partitions."""
-    return round(float(adjusted_rand_score(offline, online)), 4)
+    """Adjusted Rand index of two keyframe partitions (from their contingency table, without
+    importing scikit-learn).
+
+    Examples
+    --------
+    >>> agreement(np.array([1, 1, 2, 2]), np.array([5, 5, 7, 7]))
+    1.0
+    """
+    pairs, counts = np.unique(np.column_stack([online, offline]), axis=0, return_counts=True)
+    rows = np.unique(pairs[:, 0], return_inverse=True)[1]
+    cols = np.unique(pairs[:, 1], return_inverse=True)[1]
+    table = np.zeros((rows.max() + 1, cols.max() + 1))
+    table[rows, cols] = counts
+    return round(adjusted_rand(table), 4)
 
 
 def draw_online(

@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from topomap.cli.commands.common import ROBOT_HELP, refuse_existing
+from topomap.cli.commands.common import ONLINE_METHODS, ROBOT_HELP, refuse_existing
 from topomap.cli.tables import markdown_table
 
 
@@ -57,7 +57,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--offline-up-to", type=int, default=2_000, help="re-run offline every 100 up to this"
     )
     online_bench.add_argument(
-        "--online-method", default="windows", choices=["windows", "centres"], help="long run's"
+        "--online-method", default="windows", choices=ONLINE_METHODS, help="long run's"
     )
     online_bench.add_argument("--logs", default="../shared/data/carmen", help="CARMEN logs")
     online_bench.add_argument(

@@ -12,6 +12,9 @@ from maps.files import check_outputs
 from maps.limits import MAX_LENGTH, MAX_ROBOT_RADIUS, RESOLUTION_RANGE, finite_in
 from topomap.errors import UsageError
 
+#: The online segmenters: the offline engine on windows (default), the paper's centres.
+ONLINE_METHODS = ("windows", "centres")
+
 
 def refuse_existing(out: Path, names: Iterable[str], force: bool) -> None:
     """Stop before any work when a file the command would write exists and ``--force`` is

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 from maps.files import OutputFolder, write_text
 from topomap.cli.commands.common import (
     DISTANCE,
+    ONLINE_METHODS,
     add_bag_options,
     add_picture_option,
     add_segmenter_options,
@@ -45,7 +46,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     seg.add_argument(
         "--online-method",
         default="windows",
-        choices=["windows", "centres"],
+        choices=ONLINE_METHODS,
         help="--online: the offline engine on the robot's neighbourhood, or the paper's centres",
     )
     seg.add_argument(
