@@ -22,9 +22,9 @@ from scipy.spatial import cKDTree
 
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
-from segmentation.base import Estimator, clone
+from segmentation.base import Estimator
 from segmentation.errors import ParameterError
-from segmentation.spectral import SpectralSegmenter, kmeans
+from segmentation.spectral import SpectralSegmenter, at_most, kmeans
 
 #: ``map_blocks(function, items) -> results in item order``.
 BlockMap = Callable[[Callable[[Any], Any], Sequence[Any]], list[Any]]
@@ -91,12 +91,12 @@ class BlockSpectralSegmenter(Estimator):
     Parameters
     ----------
     segmenter
-        The settings of each block's partition, cloned per block with ``k`` = the block's
-        count (never fitted itself).
+        The settings of each block's partition, cloned per block to choose among at most
+        the block's places (:func:`~segmentation.spectral.at_most`; never fitted itself).
     blocks
         Block of each keyframe (from :func:`keyframe_blocks`).
     places
-        Places per block (its ``k``).
+        Places per block (the most regions it can have).
     map_blocks
         ``map_blocks(function, items)`` runs ``function`` on every item and returns the
         results in order: the blocks one after the other by default, or on a pool or a Dask
@@ -135,7 +135,7 @@ class BlockSpectralSegmenter(Estimator):
         members = [np.flatnonzero(self.blocks == block) for block in np.unique(self.blocks)]
         work = [
             (
-                clone(self.segmenter, k=int(min(max(1, self.places[block]), len(m)))),
+                at_most(self.segmenter, int(min(self.places[block], len(m)))),
                 [keyframes[int(i)] for i in m],
             )
             for block, m in zip(np.unique(self.blocks), members, strict=True)

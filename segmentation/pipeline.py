@@ -48,7 +48,7 @@ from segmentation.coverage import Coverage, cover
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.refine import basins, count_basins, merge_open_boundaries
 from segmentation.regions import Regions, consecutive, dense_labels, pieces
-from segmentation.spectral import SpectralSegmenter
+from segmentation.spectral import SpectralSegmenter, at_most
 from segmentation.virtual import VIRTUAL_LASER, most_open_cells, virtual_keyframes
 from segmentation.working import pool, pool_factor, unpool
 
@@ -56,6 +56,11 @@ log = logging.getLogger(__name__)
 
 #: The ways regions are made: the spectral partition (default) and the door-rule baseline.
 METHODS = ("spectral", "doors")
+#: The keyframe similarity of the building pipeline: the overlap of what two scans saw
+#: (:class:`~segmentation.views.SharedView`). Keyframes of one open space see it whole, from
+#: anywhere in it; across a door a keyframe sees a wedge. On the ROSE² maps it gave IoU 67.9 %
+#: against 64.8 % for the paper's ``nn`` (ipa MCC 0.840 against 0.843).
+MAP_CRITERION = "view"
 
 
 @dataclass(frozen=True, eq=False)
@@ -158,7 +163,9 @@ class MapSegmenter(Estimator):
     True
     """
 
-    spectral: SpectralSegmenter = field(default_factory=SpectralSegmenter)
+    spectral: SpectralSegmenter = field(
+        default_factory=lambda: SpectralSegmenter(criterion=MAP_CRITERION)
+    )
     robot_radius: float = 0.2
     clutter_size: float = 2.0
     min_area: float = 1.0
@@ -334,7 +341,7 @@ class MapSegmenter(Estimator):
             return BlockSpectralSegmenter(spectral, blocks, per_block, self.map_blocks).fit(
                 keyframes
             )
-        return clone(spectral, k=min(len(keyframes), count)).fit(keyframes)
+        return at_most(spectral, min(len(keyframes), count)).fit(keyframes)
 
     def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
         return cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)

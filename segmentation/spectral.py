@@ -97,6 +97,27 @@ def eigengap(values: NDArray[np.float64], low: int = 2) -> int:
     return int(np.argmax(gaps[low - 1 :])) + low
 
 
+def at_most(segmenter: SpectralSegmenter, places: int) -> SpectralSegmenter:
+    """``segmenter`` (cloned) choosing its ``k`` from the spectrum among at most ``places``
+    regions, or one region when there is one place; a given ``k`` is kept.
+
+    Regions are unions of places, so the place count bounds the eigengap's search; the
+    partition, not the count, decides how many there are.
+
+    Examples
+    --------
+    >>> at_most(SpectralSegmenter(), 12).max_regions, at_most(SpectralSegmenter(), 1).k
+    (12, 1)
+    >>> at_most(SpectralSegmenter(k=5), 12).k
+    5
+    """
+    if segmenter.k is not None:
+        return clone(segmenter)
+    if places <= 1:
+        return clone(segmenter, k=1)
+    return clone(segmenter, max_regions=min(segmenter.max_regions, places))
+
+
 def silhouette(distances: NDArray[np.float64], labels: NDArray[np.integer]) -> float:
     """The mean silhouette coefficient (eqs. 8-10) of ``labels`` from a square matrix of
     ``distances``; a point alone in its cluster scores 0 (as scikit-learn's

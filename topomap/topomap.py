@@ -21,7 +21,7 @@ from segmentation.conditioning import ConditionedMap
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.graph import region_graph
 from segmentation.growing import MapMismatchError, align, carry_ids
-from segmentation.pipeline import MapSegmenter, Segmentation
+from segmentation.pipeline import MAP_CRITERION, MapSegmenter, Segmentation
 from segmentation.regions import Regions
 from segmentation.spectral import SpectralSegmenter
 from topomap import saving
@@ -56,7 +56,10 @@ def pipeline_from_options(options: dict[str, Any]) -> MapSegmenter:
             f"unknown segmentation option(s) {sorted(unknown)}; known: "
             f"{sorted(_PIPELINE | _SPECTRAL)}"
         )
-    spectral = SpectralSegmenter(**{k: v for k, v in options.items() if k in _SPECTRAL})
+    spectral_options = {k: v for k, v in options.items() if k in _SPECTRAL}
+    if spectral_options.get("criterion") is None:
+        spectral_options["criterion"] = MAP_CRITERION
+    spectral = SpectralSegmenter(**spectral_options)
     return MapSegmenter(spectral, **{k: v for k, v in options.items() if k in _PIPELINE})
 
 

@@ -89,7 +89,10 @@ def add_segmenter_options(parser: argparse.ArgumentParser) -> None:
         help="regions from the spectral partition (default) or the door-rule baseline",
     )
     parser.add_argument(
-        "--criterion", default="nn", choices=["nn", "hausdorff", "features", "view"]
+        "--criterion",
+        choices=["nn", "hausdorff", "features", "view"],
+        help="keyframe similarity: view (default: the overlap of what two scans saw) or the "
+        "paper's nn (eq. 12), hausdorff, features",
     )
     parser.add_argument(
         "--contrast",
