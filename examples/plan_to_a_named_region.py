@@ -14,5 +14,7 @@ names = [topo.graph.nodes[r]["name"] for r in path.regions]
 print(f"hierarchical: {path.length:.1f} m through {' -> '.join(names)}")
 print("  times:", {k: f"{1000 * v:.1f} ms" for k, v in path.seconds.items()})
 
-flat = FlatPlanner(topo.planner().space, "RRTConnect").plan(start, path.waypoints[-1])
+flat = FlatPlanner(topo.planner().space, "RRTConnect", time_limit=60).plan(
+    start, path.waypoints[-1]
+)
 print(f"flat RRTConnect: {flat.length:.1f} m in {1000 * flat.total_seconds:.1f} ms")

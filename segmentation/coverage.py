@@ -6,9 +6,13 @@ reach into it. :func:`cover` gives each such cell the region it belongs to:
 
 - the *building* is every free cell of the map and every clutter cell (free-standing
   obstacles that fit in ``clutter_size``, :func:`~segmentation.conditioning.find_clutter`);
-- a piece of building left without a region (8-connected) that is at least ``min_area`` and
-  meets the regions over at most a door's width is a room seen through its door (a fan of
-  rays into an office nobody entered): a region of its own;
+- a piece of building left without a region (8-connected) that is at least ``min_area``,
+  meets the regions over at most a door's width and shows walls (its cells beside occupied
+  cells, where its rays ended) at least :data:`WALLS_SHOWN` times as long as that opening is a
+  room seen through its door (a fan of rays into an office nobody entered): a region of its
+  own. Rays out through a window into unmapped space end on no wall, and a pocket of a room
+  behind its furniture meets the room over more than the walls it shows: both join the room
+  they leave from;
 - every other cell joins the region it reaches first through the building (a geodesic
   watershed): the furniture of a room joins the room, a ray joins the room it leaves from.
 """
@@ -29,6 +33,12 @@ from segmentation.regions import consecutive
 #: The widest door (double doors), metres: a leftover piece meeting the regions over more
 #: than this is not a room seen through a door.
 DOOR_WIDTH = 2.0
+#: A room seen through its door shows at least this many times the door's width of wall (the
+#: far and side walls its rays reached, which the view widens past the door). On the ROSE²
+#: maps every such room showed 3.4 times or more (tenth percentile) and the pieces that were
+#: not rooms (ray fans out of windows, pockets behind furniture) 2.0 times or less (third
+#: quartile): 2 keeps every room.
+WALLS_SHOWN = 2.0
 
 
 @dataclass(frozen=True)
@@ -75,7 +85,9 @@ def cover(
         area = np.bincount(pieces.ravel(), minlength=count + 1) * grid.resolution**2
         touching = cv2.dilate((labels > 0).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
         contact = np.bincount(pieces[touching & left], minlength=count + 1) * grid.resolution
-        rooms = (area >= min_area) & (contact <= door_width)
+        walls = cv2.dilate(grid.occupied.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        shown = np.bincount(pieces[walls & left], minlength=count + 1) * grid.resolution
+        rooms = (area >= min_area) & (contact <= door_width) & (shown >= WALLS_SHOWN * contact)
         rooms[0] = False
         seen = int(rooms.sum())
         if seen:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import networkx as nx
 import numpy as np
 import pytest
@@ -125,6 +126,37 @@ def test_cover_gives_furniture_and_rays_the_room_they_are_in():
     assert found.labels.max() == 1 and found.seen_rooms == 0
     assert found.filled_cells == 16 + 30
     assert (found.labels[cells == 100] == 0).sum() == (cells == 100).sum() - 16
+
+
+def _fan_beyond_a_door(far_wall: bool) -> tuple[OccupancyGrid, np.ndarray]:
+    """A 4 x 4 m room the robot labelled, a 0.8 m door in its east wall, and beyond it a 3 m
+    deep fan of rays 0.1 m apart (unknown between them) that ends on a wall or on nothing."""
+    cells = np.full((60, 100), -1, np.int8)
+    cells[10:50, 5:45] = 0
+    cells[9, 4:46] = cells[50, 4:46] = cells[9:51, 4] = cells[9:51, 45] = 100
+    cells[26:34, 45] = 0  # the door
+    for row in range(11, 50, 2):  # rays fanning out from the door
+        cv2.line(cells, (46, 30), (75, row), 0, 1, cv2.LINE_8)
+    cells[26:34, 46:48] = 0
+    if far_wall:
+        cells[11:49, 76] = 100
+    labels = np.zeros(cells.shape, np.int32)
+    labels[10:50, 5:45] = 1
+    return OccupancyGrid(cells, 0.1), labels
+
+
+def test_a_fan_that_shows_walls_is_a_room_seen_through_its_door():
+    grid, labels = _fan_beyond_a_door(far_wall=True)
+    found = cover(grid, labels, np.zeros(grid.shape, bool))
+    assert found.seen_rooms == 1
+    assert found.labels[30, 60] == 2 and found.labels[30, 20] == 1
+
+
+def test_a_fan_ending_on_nothing_joins_the_room_it_leaves_from():
+    grid, labels = _fan_beyond_a_door(far_wall=False)  # rays out of a window: no wall
+    found = cover(grid, labels, np.zeros(grid.shape, bool))
+    assert found.seen_rooms == 0
+    assert found.labels.max() == 1 and found.labels[30, 60] == 1
 
 
 @given(
