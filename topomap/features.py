@@ -90,14 +90,13 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
     boxes = ndimage.find_objects(regions.labels)
     columns: dict[str, list[float]] = {name: [] for name in ("id", *FEATURES)}
     for region in ids:
+        shape = _shape(regions.labels[boxes[region - 1]] == region, regions.grid.resolution)
         values = {
             "id": float(region),
-            **_shape(regions.labels[boxes[region - 1]] == region, regions.grid.resolution),
-            **_connections(graph, region, degree),
+            **shape,
+            **_connections(graph, region, degree, shape["perimeter_m"]),
             "betweenness": float(between.get(region, 0.0)),
         }
-        opening, edge = values.pop("opening_m"), values["perimeter_m"]
-        values["opening_share"] = opening / edge if edge else 0.0
         for name, value in values.items():
             columns[name].append(value)
     table = {name: np.asarray(values, float) for name, values in columns.items()}
@@ -150,15 +149,18 @@ def _shape(mask: NDArray[np.bool_], res: float) -> dict[str, float]:
     }
 
 
-def _connections(graph: nx.Graph, region: int, degree: Mapping[int, int]) -> dict[str, float]:
-    """The door columns of one region of ``graph`` (``degree``: every region's neighbours),
-    with ``opening_m``, the summed width of its openings."""
+def _connections(
+    graph: nx.Graph, region: int, degree: Mapping[int, int], perimeter_m: float
+) -> dict[str, float]:
+    """The door columns of one region of ``graph`` (``degree``: every region's number of
+    neighbours; ``perimeter_m``: the region's outline)."""
     widths = [float(d) for _, _, d in graph.edges(region, data="width")]
     doors = [door for _, _, ds in graph.edges(region, data="doors") for door in ds]
+    opening = sum(door.width for door in doors)
     return {
         "doors": float(degree[region]),
         "dead_ends": float(sum(degree[n] == 1 for n in graph[region])),
-        "opening_m": float(sum(door.width for door in doors)),
+        "opening_share": opening / perimeter_m if perimeter_m else 0.0,
         "door_width_max_m": max(widths, default=0.0),
         "door_width_mean_m": float(np.mean(widths)) if widths else 0.0,
         "door_span_m": _span(np.asarray([d.centre for d in doors], float).reshape(-1, 2)),
