@@ -239,9 +239,14 @@ def test_a_corridor_offices_and_an_open_floor():
     assert rule_classifier(f) == ["corridor", *["room"] * 6, "hall"]
 
 
+@pytest.fixture(scope="module")
+def office_at_two_cell_sizes():
+    return _table(_OFFICE_FLOOR, 0.05), _table(_OFFICE_FLOOR, 0.1)
+
+
 @pytest.mark.parametrize("name", FEATURES)
-def test_features_do_not_depend_on_the_cell_size(name):
-    fine, coarse = _table(_OFFICE_FLOOR, 0.05), _table(_OFFICE_FLOOR, 0.1)
+def test_features_do_not_depend_on_the_cell_size(name, office_at_two_cell_sizes):
+    fine, coarse = office_at_two_cell_sizes
     # the same building at 5 and 10 cm: the same values, to a cell or two of the coarse map
     tolerance = {"branch_points": 0, "doors": 0, "dead_ends": 0, "betweenness": 0}
     assert fine[name] == pytest.approx(coarse[name], rel=0.06, abs=tolerance.get(name, 0.2))
