@@ -45,7 +45,12 @@ class RuleClassifier:
       :attr:`corridor_width_m`: narrower strips are laser rays or gaps) and either long for
       its width (slenderness :attr:`corridor_length` or more) or opening onto
       :attr:`hub_doors` regions or more (a room has one or two entrances);
-    - ``room``: everything else.
+    - ``room``: everything else;
+    - then, when the table has ``"links"``, the corridor system goes on where no door stops
+      it: a room as narrow as a corridor, passed through (two neighbours or more), that
+      opens onto a corridor through an opening of :attr:`corridor_opening_m` or more
+      (wider than a single door) is a corridor too, until no region changes. A corridor
+      that the segmentation cut into short pieces is one corridor system again.
 
     Examples
     --------
@@ -59,6 +64,12 @@ class RuleClassifier:
     ... }
     >>> RuleClassifier()(table)  # a corridor, a room, a hall and a fan of laser rays
     ['corridor', 'room', 'hall', 'room']
+    >>> table["width_m"][1] = 3.0  # a 3 m wide piece between the corridor and the hall
+    >>> table["doors"][1] = 2.0
+    >>> table["id"] = np.array([1.0, 2.0, 3.0, 4.0])
+    >>> table["links"] = np.array([[1, 2, 2.5], [2, 3, 2.5], [1, 4, 0.4]])
+    >>> RuleClassifier()(table)  # no door between it and the corridor: the corridor goes on
+    ['corridor', 'corridor', 'hall', 'room']
     """
 
     doorway_area_m2: float = _threshold(3.0, 1.0, 6.0, "a door leaf is 0.8-1.5 m wide")
@@ -73,6 +84,9 @@ class RuleClassifier:
         4.0, 1.5, 8.0, "a room is rarely over 2.5 times as long as wide; a corridor is walked"
     )
     hub_doors: float = _threshold(6.0, 3.0, 15.0, "a room has one or two entrances")
+    corridor_opening_m: float = _threshold(
+        1.2, 0.8, 2.5, "a single door is 0.8-1.2 m: a wider opening is no door"
+    )
     hall_area_m2: float = _threshold(150.0, 80.0, 400.0, "beyond any office or flat room")
     hall_extent_m: float = _threshold(8.0, 5.0, 20.0, "open across, not a long strip")
     hall_width_m: float = _threshold(6.0, 3.0, 12.0, "wider than any corridor")
@@ -99,7 +113,33 @@ class RuleClassifier:
             (f["slenderness"] >= self.corridor_length) | (f["doors"] >= self.hub_doors)
         )
         labels = np.select([doorway, hall, corridor], ["doorway", "hall", "corridor"], "room")
+        if "links" in features:
+            passed = narrow & (f["doors"] >= 2)
+            labels = self._continue_corridors(labels, passed, features)
         return [str(label) for label in labels]
+
+    def _continue_corridors(
+        self,
+        labels: NDArray[np.str_],
+        passed: NDArray[np.bool_],
+        features: Mapping[str, NDArray[np.float64]],
+    ) -> NDArray[np.str_]:
+        """``labels`` with the rooms of ``passed`` that open onto a corridor through an
+        opening of :attr:`corridor_opening_m` or more made corridors, until none changes."""
+        ids = np.asarray(features["id"], float)
+        links = np.asarray(features["links"], float).reshape(-1, 3)
+        links = links[links[:, 2] >= self.corridor_opening_m]
+        where = {region: i for i, region in enumerate(ids.tolist())}
+        pairs = [(where[a], where[b]) for a, b, _ in links.tolist() if a in where and b in where]
+        ends = np.asarray(pairs, int).reshape(-1, 2)
+        ends = np.vstack([ends, ends[:, ::-1]])  # both directions
+        labels = labels.copy()
+        while True:
+            joins = passed[ends[:, 0]] & (labels[ends[:, 0]] == "room")
+            joins &= labels[ends[:, 1]] == "corridor"
+            if not joins.any():
+                return labels
+            labels[ends[joins, 0]] = "corridor"
 
     @classmethod
     def thresholds(cls) -> dict[str, tuple[float, tuple[float, float], str]]:

@@ -4,6 +4,8 @@
 columns, one value per region in ascending id order. ``"id"`` holds the region ids and is not a
 feature; the features, in the column order an estimator's ``predict`` gets them
 (:func:`feature_matrix`), are :data:`FEATURES`, with the units of :data:`FEATURE_UNITS`.
+``"links"`` is not a feature either: one row ``(region a, region b, widest opening m)`` per
+pair of touching regions, for classifiers that look at a region's neighbours.
 """
 
 from __future__ import annotations
@@ -41,6 +43,12 @@ FEATURE_UNITS = {
     "door_span_m": "m, largest distance between two door centres",
     "solidity": "1, area / area of the convex hull",
     "extent_m": "m, short side of the minimum-area rectangle",
+    "axis_width_median_m": "m, median width along the medial axis",
+    "axis_width_cv": "1, spread of the width along the medial axis (std / mean; 0: constant)",
+    "corridor_axis_m": "m, length of the medial axis where the space is 1.2-3 m wide",
+    "width_median_m": "m, twice the median distance to the region's edge over its floor",
+    "dead_ends": "count, neighbours that open onto this region only",
+    "opening_share": "1, summed width of the openings / perimeter",
 }
 FEATURES = tuple(FEATURE_UNITS)
 #: Furniture holes up to this size (m^2) are filled before measuring shape.
@@ -49,11 +57,14 @@ FURNITURE_HOLE_M2 = 4.0
 SKELETON_CELL_M = 0.1
 #: Notches (furniture against a wall) narrower than twice this (m) are closed, too.
 FURNITURE_GAP_M = 0.5
+#: Widths (m) of a corridor by building practice: 1.2 m (codes' least) to 3 m (wide ones).
+CORRIDOR_WIDTHS_M = (1.2, 3.0)
 
 
 def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.float64]]:
     """The feature table: :data:`FEATURES` and ``"id"`` as columns, one value per region of
-    ``graph``, regions in ascending id order.
+    ``graph``, regions in ascending id order, and ``"links"`` (the graph's edges as rows
+    ``(a, b, widest opening m)``).
 
     Shape is measured after filling furniture holes up to :data:`FURNITURE_HOLE_M2` and
     closing notches narrower than twice :data:`FURNITURE_GAP_M` (furniture along walls);
@@ -70,21 +81,28 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
     >>> table = region_features(regions, region_graph(regions))
     >>> table["id"].tolist(), round(float(table["area_m2"][0])), round(float(table["extent_m"][0]))
     ([1.0], 20, 2)
+    >>> round(float(table["axis_width_median_m"][0]), 1), round(float(table["corridor_axis_m"][0]))
+    (2.0, 8)
     """
     ids = sorted(int(n) for n in graph.nodes)
     between = nx.betweenness_centrality(graph) if len(graph) > 2 else {}
+    degree = dict(graph.degree())
     boxes = ndimage.find_objects(regions.labels)
     columns: dict[str, list[float]] = {name: [] for name in ("id", *FEATURES)}
     for region in ids:
+        shape = _shape(regions.labels[boxes[region - 1]] == region, regions.grid.resolution)
         values = {
             "id": float(region),
-            **_shape(regions.labels[boxes[region - 1]] == region, regions.grid.resolution),
-            **_connections(graph, region),
+            **shape,
+            **_connections(graph, region, degree, shape["perimeter_m"]),
             "betweenness": float(between.get(region, 0.0)),
         }
         for name, value in values.items():
             columns[name].append(value)
-    return {name: np.asarray(values, float) for name, values in columns.items()}
+    table = {name: np.asarray(values, float) for name, values in columns.items()}
+    links = [(a, b, w) for a, b, w in graph.edges(data="width")]
+    table["links"] = np.asarray(links, float).reshape(-1, 3)
+    return table
 
 
 def _shape(mask: NDArray[np.bool_], res: float) -> dict[str, float]:
@@ -95,11 +113,15 @@ def _shape(mask: NDArray[np.bool_], res: float) -> dict[str, float]:
     filled = cv2.morphologyEx(filled.astype(np.uint8), cv2.MORPH_CLOSE, kernel).astype(bool)
     area = float(filled.sum()) * res**2
     distance = clearance_of(filled, 1.0).astype(np.float64)  # cells; the mask is padded
-    width = 2 * float(np.percentile(distance[filled], 95)) * res
+    # to the edge: half a cell nearer than the nearest outside cell's centre
+    floor = (distance[filled] - 0.5) * res
+    width = 2 * float(np.percentile(floor, 95))
     step = max(1, int(SKELETON_CELL_M / res))
-    length, mean_width, branches = skeleton_shape(
-        filled[::step, ::step], distance[::step, ::step] / step, res * step
-    )
+    coarse, cell = distance[::step, ::step] / step, res * step
+    axis = medial_axis(filled[::step, ::step], coarse)
+    length, mean_width, branches = skeleton_shape(filled[::step, ::step], coarse, cell, axis)
+    widths = 2 * coarse[axis] * cell if axis.any() else np.array([mean_width])
+    narrow, wide = CORRIDOR_WIDTHS_M
     edge = float(perimeter(filled)) * res
     outline, _ = cv2.findContours(
         filled.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE
@@ -120,33 +142,45 @@ def _shape(mask: NDArray[np.bool_], res: float) -> dict[str, float]:
         "branch_points": float(branches),
         "solidity": min(1.0, area / hull) if hull else 1.0,
         "extent_m": (min(w, h) + 1) * res,
+        "axis_width_median_m": float(np.median(widths)),
+        "axis_width_cv": float(widths.std() / widths.mean()) if widths.mean() else 0.0,
+        "corridor_axis_m": float(((widths >= narrow) & (widths <= wide)).sum()) * cell,
+        "width_median_m": 2 * float(np.median(floor)),
     }
 
 
-def _connections(graph: nx.Graph, region: int) -> dict[str, float]:
-    """The door columns of one region of ``graph``."""
+def _connections(
+    graph: nx.Graph, region: int, degree: Mapping[int, int], perimeter_m: float
+) -> dict[str, float]:
+    """The door columns of one region of ``graph`` (``degree``: every region's number of
+    neighbours; ``perimeter_m``: the region's outline)."""
     widths = [float(d) for _, _, d in graph.edges(region, data="width")]
-    doors = [door.centre for _, _, ds in graph.edges(region, data="doors") for door in ds]
+    doors = [door for _, _, ds in graph.edges(region, data="doors") for door in ds]
+    opening = sum(door.width for door in doors)
     return {
-        "doors": float(graph.degree(region)),
+        "doors": float(degree[region]),
+        "dead_ends": float(sum(degree[n] == 1 for n in graph[region])),
+        "opening_share": opening / perimeter_m if perimeter_m else 0.0,
         "door_width_max_m": max(widths, default=0.0),
         "door_width_mean_m": float(np.mean(widths)) if widths else 0.0,
-        "door_span_m": _span(np.asarray(doors, float).reshape(-1, 2)),
+        "door_span_m": _span(np.asarray([d.centre for d in doors], float).reshape(-1, 2)),
     }
 
 
 def skeleton_shape(
-    mask: NDArray[np.bool_], distance: NDArray[np.float64], resolution: float
+    mask: NDArray[np.bool_],
+    distance: NDArray[np.float64],
+    resolution: float,
+    axis: NDArray[np.bool_] | None = None,
 ) -> tuple[float, float, int]:
-    """``(length m, mean width m, branch points)`` of the medial axis of ``mask``.
+    """``(length m, mean width m, branch points)`` of the medial axis of ``mask``
+    (:func:`medial_axis`, or ``axis`` when given; ``distance`` is the distance to the edge in
+    cells).
 
-    The axis is :func:`skimage.morphology.skeletonize` with its spurs cut: a piece between an
-    end and a branch point shorter than the space is wide at that branch point (twice
-    ``distance`` there, ``distance`` being the distance to the edge in cells) is a corner or a
-    notch, not a way through. The length counts axis cells (a straight axis of n cells is n
-    cells long), the width is twice the mean ``distance`` along the axis, and branch points are
-    the clusters of axis cells with three or more axis neighbours. A ``w`` x ``l`` rectangle
-    (``w < l``) has an axis about ``l - w`` long and ``w`` wide, with no branch point.
+    The length counts axis cells (a straight axis of n cells is n cells long), the width is
+    twice the mean ``distance`` along the axis, and branch points are the clusters of axis
+    cells with three or more axis neighbours. A ``w`` x ``l`` rectangle (``w < l``) has an
+    axis about ``l - w`` long and ``w`` wide, with no branch point.
 
     Examples
     --------
@@ -155,6 +189,28 @@ def skeleton_shape(
     >>> length, width, branches = skeleton_shape(mask, ndimage.distance_transform_edt(mask), 0.05)
     >>> round(length), round(width), branches
     (8, 2, 0)
+    """
+    axis = medial_axis(mask, distance) if axis is None else axis
+    if not axis.any():
+        return 0.0, 2 * float(distance.max()) * resolution, 0
+    _, branches = ndimage.label(axis & (_axis_neighbours(axis) >= 3), np.ones((3, 3), bool))
+    length = float(axis.sum()) * resolution
+    return length, 2 * float(distance[axis].mean()) * resolution, int(branches)
+
+
+def medial_axis(mask: NDArray[np.bool_], distance: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """The medial axis of ``mask``: :func:`skimage.morphology.skeletonize` with its spurs cut.
+
+    A piece between an end and a branch point shorter than the space is wide at that branch
+    point (twice ``distance`` there, ``distance`` being the distance to the edge in cells) is
+    a corner or a notch, not a way through.
+
+    Examples
+    --------
+    >>> mask = np.zeros((7, 20), bool)
+    >>> mask[1:6, 1:19] = True
+    >>> medial_axis(mask, ndimage.distance_transform_edt(mask)).sum(axis=0).tolist()[5:15]
+    [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]
     """
     axis = skeletonize(mask)
     for _ in range(2):  # cutting spurs can leave a new, shorter one at a former branch point
@@ -174,11 +230,7 @@ def skeleton_shape(
         if not spur.any():
             break
         axis = axis & ~spur[pieces]
-    if not axis.any():
-        return 0.0, 2 * float(distance.max()) * resolution, 0
-    _, branches = ndimage.label(axis & (_axis_neighbours(axis) >= 3), np.ones((3, 3), bool))
-    length = float(axis.sum()) * resolution
-    return length, 2 * float(distance[axis].mean()) * resolution, int(branches)
+    return axis
 
 
 def _axis_neighbours(axis: NDArray[np.bool_]) -> NDArray[np.int64]:
@@ -208,7 +260,8 @@ def _fill_small_holes(mask: NDArray[np.bool_], most: int) -> NDArray[np.bool_]:
 
 
 def feature_matrix(features: Mapping[str, NDArray[np.float64]]) -> NDArray[np.float64]:
-    """The feature columns as an ``(n_regions, len(FEATURES))`` matrix, ``id`` left out.
+    """The feature columns as an ``(n_regions, len(FEATURES))`` matrix, ``id`` and ``links``
+    left out.
 
     Examples
     --------

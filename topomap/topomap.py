@@ -302,7 +302,8 @@ class TopoMap:
     def feature_table(self) -> dict[str, NDArray[np.float64]]:
         """The table a classifier receives: ``"id"`` and the columns of
         :data:`~topomap.features.FEATURES` (units in :data:`~topomap.features.FEATURE_UNITS`),
-        one value per region in ascending id order."""
+        one value per region in ascending id order, and ``"links"`` (not a feature: a row
+        ``(region a, region b, widest opening m)`` per edge of the region graph)."""
         return region_features(self.regions, self.graph)
 
     def region(self, query: int | str) -> int:

@@ -13,7 +13,7 @@ from maps.grid import OccupancyGrid
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
 from topomap.classifiers import rule_classifier
-from topomap.features import _fill_small_holes, region_features, skeleton_shape
+from topomap.features import FEATURES, _fill_small_holes, region_features, skeleton_shape
 
 CELL = 0.05  # m
 
@@ -166,3 +166,111 @@ def test_axis_neighbours_are_the_3x3_sums_scipy_gives(axis):
     ones = np.ones((3, 3), np.int64)
     expected = ndimage.convolve(axis.astype(np.int64), ones, mode="constant") - 1
     assert np.array_equal(_axis_neighbours(axis), expected)
+
+
+def _drawn(rectangles: list[tuple[int, float, float, float, float]], cell: float) -> np.ndarray:
+    """A label image at ``cell`` metres of ``(id, x0, y0, x1, y1)`` rectangles in metres
+    (x along columns, y along rows), later ones drawn over earlier ones."""
+    width = max(r[3] for r in rectangles) + 1
+    height = max(r[4] for r in rectangles) + 1
+    labels = np.zeros((round(height / cell), round(width / cell)), np.int32)
+    for region, x0, y0, x1, y1 in rectangles:
+        labels[round(y0 / cell) : round(y1 / cell), round(x0 / cell) : round(x1 / cell)] = region
+    return labels
+
+
+def _table(rectangles: list[tuple[int, float, float, float, float]], cell: float = CELL) -> dict:
+    labels = _drawn(rectangles, cell)
+    grid = OccupancyGrid(np.where(labels > 0, 0, 100).astype(np.int8), cell)
+    regions = Regions(grid, labels)
+    return region_features(regions, region_graph(regions))
+
+
+def test_a_rectangle_measures_its_analytic_values_in_metres():
+    # a lone 10 x 2 m strip
+    f = _table([(1, 1, 1, 11, 3)])
+    # the medial axis: l - w = 8 m long, all of it 2 m wide (a corridor's width)
+    assert f["area_m2"][0] == pytest.approx(20.0)
+    assert f["perimeter_m"][0] == pytest.approx(24.0, rel=0.03)
+    assert f["extent_m"][0] == pytest.approx(2.0, abs=0.06)
+    assert f["elongation"][0] == pytest.approx(5.0, rel=0.03)
+    assert f["solidity"][0] == pytest.approx(1.0, abs=0.01)
+    assert f["skeleton_length_m"][0] == pytest.approx(8.0, abs=0.4)  # 4 axis cells
+    assert f["axis_width_median_m"][0] == pytest.approx(2.0, abs=0.1)
+    assert f["axis_width_cv"][0] == pytest.approx(0.0, abs=0.05)
+    assert f["corridor_axis_m"][0] == pytest.approx(8.0, abs=0.4)
+    # half the floor is farther than d from the edge when (2 - 2d)(10 - 2d) = 10: d = 0.4505
+    assert f["width_median_m"][0] == pytest.approx(2 * 0.4505, abs=0.05)
+    assert (f["doors"][0], f["dead_ends"][0], f["opening_share"][0]) == (0, 0, 0)
+    assert f["links"].shape == (0, 3)
+
+
+def test_doors_dead_ends_and_opening_share():
+    # a 10 x 2 m corridor (1) and two 4 x 4 m rooms (2, 3) above it, each through a 1 m door
+    f = _table(
+        [
+            (1, 1, 5.1, 11, 7.1),
+            (2, 1, 1, 5, 5),
+            (2, 2.5, 5, 3.5, 5.1),
+            (3, 6, 1, 10, 5),
+            (3, 7.5, 5, 8.5, 5.1),
+        ]
+    )
+    assert f["doors"].tolist() == [2, 1, 1]
+    assert f["dead_ends"].tolist() == [2, 0, 0]  # both rooms open onto the corridor only
+    # two 1 m doors on the corridor's 24 m outline; one on a room's 4 x 4 m one (+ 0.2 m)
+    assert f["opening_share"][0] == pytest.approx(2 / 24, rel=0.05)
+    assert f["opening_share"][1] == pytest.approx(1 / 16.2, rel=0.05)
+    assert sorted(f["links"][:, :2].astype(int).tolist()) == [[1, 2], [1, 3]]
+    assert f["links"][:, 2] == pytest.approx([1.0, 1.0], abs=0.06)
+
+
+_OFFICE_FLOOR = [
+    (1, 1, 5.1, 31, 7.1),  # a 30 x 2 m corridor
+    *[(k + 2, 1 + 5 * k, 1, 5 + 5 * k, 5) for k in range(6)],  # 4 x 4 m offices above it
+    *[(k + 2, 2.5 + 5 * k, 5, 3.5 + 5 * k, 5.1) for k in range(6)],  # their 1 m doors
+    (8, 1, 7.2, 31, 27.2),  # a 30 x 20 m open floor below it
+    (8, 15, 7.1, 16.5, 7.2),  # through a 1.5 m door
+]
+
+
+def test_a_corridor_offices_and_an_open_floor():
+    f = _table(_OFFICE_FLOOR)
+    assert rule_classifier(f) == ["corridor", *["room"] * 6, "hall"]
+
+
+@pytest.fixture(scope="module")
+def office_at_two_cell_sizes():
+    return _table(_OFFICE_FLOOR, 0.05), _table(_OFFICE_FLOOR, 0.1)
+
+
+@pytest.mark.parametrize("name", FEATURES)
+def test_features_do_not_depend_on_the_cell_size(name, office_at_two_cell_sizes):
+    fine, coarse = office_at_two_cell_sizes
+    # the same building at 5 and 10 cm: the same values, to a cell or two of the coarse map
+    tolerance = {"branch_points": 0, "doors": 0, "dead_ends": 0, "betweenness": 0}
+    assert fine[name] == pytest.approx(coarse[name], rel=0.06, abs=tolerance.get(name, 0.2))
+
+
+def test_a_corridor_cut_into_pieces_is_one_corridor_system():
+    # a 20 x 2 m corridor cut (by the segmentation) into a 14 m piece (1) and a 6 x 2.5 m
+    # piece (2), squat for a corridor, that leads on to a 4 x 4 m room (3) and has a 4 x 4 m
+    # room (4) on its side, each through a 1 m door
+    pieces = [
+        (1, 1, 5.1, 15, 7.1),
+        (2, 15, 5.1, 21, 7.6),
+        (3, 21.1, 5.1, 25.1, 9.1),
+        (3, 21, 6, 21.1, 7),
+        (4, 16, 1, 20, 5),
+        (4, 17.5, 5, 18.5, 5.1),
+    ]
+    f = _table(pieces)
+    assert f["slenderness"][1] < rule_classifier.corridor_length
+    # no door between the two pieces (the 2 m cut): the corridor system goes on
+    assert rule_classifier(f) == ["corridor", "corridor", "room", "room"]
+    assert rule_classifier({k: v for k, v in f.items() if k != "links"})[1] == "room"
+    # behind a wall (10 cm) with a 1 m door, the piece is a room (with two doors) of its own
+    walled = [pieces[0], (2, 15.1, 5.1, 21, 7.6), (2, 15, 5.6, 15.1, 6.6), *pieces[2:]]
+    f = _table(walled)
+    assert f["links"][0].tolist() == pytest.approx([1, 2, 1.0], abs=0.06)
+    assert rule_classifier(f) == ["corridor", "room", "room", "room"]

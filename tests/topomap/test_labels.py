@@ -111,8 +111,14 @@ def test_feature_table_is_what_a_classifier_receives():
     plan = generate_floor_plan("flat", random_state=4)
     topo = TopoMap.from_grid(plan.grid, random_state=4)
     table = topo.feature_table()
-    assert list(table) == ["id", *FEATURES] and set(FEATURES) == set(FEATURE_UNITS)
+    assert list(table) == ["id", *FEATURES, "links"] and set(FEATURES) == set(FEATURE_UNITS)
     assert table["id"].tolist() == sorted(topo.graph.nodes)
+    # links: one row (a, b, widest opening) per edge of the region graph
+    assert sorted(map(tuple, table["links"][:, :2].astype(int).tolist())) == sorted(
+        tuple(sorted(e)) for e in topo.graph.edges
+    )
+    widths = {tuple(sorted(e)): w for *e, w in topo.graph.edges(data="width")}
+    assert [widths[int(a), int(b)] for a, b, _ in table["links"]] == table["links"][:, 2].tolist()
     seen = {}
 
     def spy(features):

@@ -20,7 +20,7 @@ from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
 from topomap.classifiers import PLACE_TYPES, ForestClassifier, RuleClassifier, rule_classifier
 from topomap.cli.drawing import _map_figure, _save
 from topomap.cli.label_sources import LabelledMap
-from topomap.features import feature_matrix
+from topomap.features import FEATURES, feature_matrix
 
 #: A method: trained on some maps, it returns a classifier of a feature table.
 Method = Callable[[Sequence[LabelledMap]], Callable[[LabelledMap], list[str]]]
@@ -229,9 +229,7 @@ def region_records(maps: Sequence[LabelledMap], result: dict[str, Any]) -> list[
                     "id": int(m.features["id"][i]),
                     "truth": truth,
                     **{method: r["labels"][k][i] for method, r in result.items()},
-                    "features": {
-                        n: round(float(v[i]), 4) for n, v in m.features.items() if n != "id"
-                    },
+                    "features": {n: round(float(m.features[n][i]), 4) for n in FEATURES},
                 }
             )
     return records

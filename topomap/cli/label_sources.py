@@ -86,7 +86,7 @@ def labelled_map(
         name,
         regions,
         graph,
-        {k: v[keep] for k, v in features.items()},
+        {k: v if k == "links" else v[keep] for k, v in features.items()},
         [t for t in types if t is not None],
     )
 
