@@ -260,7 +260,44 @@ class Pairwise:
         return symmetric(values, i, j, cloud.n_keyframes)
 
 
+@dataclass(frozen=True)
+class ByFieldOfView:
+    """The shared view (:class:`~segmentation.views.SharedView`) for scans that see all
+    around, the paper's nearest-neighbour similarity (:class:`NearestNeighbour`) otherwise.
+
+    What a scan saw is the area its beams swept: from anywhere in a room a 360 degree scan
+    sees the room whole, so the overlap of two such views says whether they stand in one
+    space. A scan of a narrower field sees what it faces: two keyframes in one room facing
+    away from each other share little of it, and the walls they hit (the paper's criterion)
+    say more. Keyframes whose scans are all full circles use the view (virtual keyframes on
+    a map, a 360 degree lidar), others the nearest neighbours (a 180 degree laser).
+
+    Examples
+    --------
+    >>> from maps.scan import LaserScan
+    >>> ring = LaserScan(np.full(360, 2.0), -math.pi, 2 * math.pi / 360, 0.0, 10.0)
+    >>> half = LaserScan(np.full(181, 2.0), -math.pi / 2, math.pi / 180, 0.0, 10.0)
+    >>> ByFieldOfView().chosen([Keyframe((0.0, 0.0, 0.0), ring)]).__class__.__name__
+    'SharedView'
+    >>> ByFieldOfView().chosen([Keyframe((0.0, 0.0, 0.0), half)]).__class__.__name__
+    'NearestNeighbour'
+    """
+
+    def chosen(self, keyframes: Sequence[Keyframe]) -> Criterion:
+        """The criterion for these keyframes."""
+        whole = all(
+            abs(k.scan.angle_increment) * len(k.scan.ranges) >= 2 * math.pi - 1e-6
+            for k in keyframes
+        )
+        return SharedView() if whole else NearestNeighbour()
+
+    def affinity(self, keyframes: Sequence[Keyframe]) -> sparse.csr_matrix:
+        """The affinity of :meth:`chosen`'s criterion."""
+        return self.chosen(keyframes).affinity(keyframes)
+
+
 CRITERIA: dict[str, Callable[[], Criterion]] = {
+    "auto": ByFieldOfView,
     "nn": NearestNeighbour,
     "hausdorff": Hausdorff,
     "features": SharedFeatures,
@@ -269,7 +306,8 @@ CRITERIA: dict[str, Callable[[], Criterion]] = {
 
 
 def as_criterion(criterion: str | Criterion | PointsSimilarity) -> Criterion:
-    """A criterion from its name (``nn``, ``hausdorff``, ``features``), object or callable."""
+    """A criterion from its name (``auto``, ``nn``, ``hausdorff``, ``features``, ``view``),
+    object or callable."""
     if isinstance(criterion, str):
         if criterion not in CRITERIA:
             raise ParameterError(

@@ -90,9 +90,10 @@ def add_segmenter_options(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--criterion",
-        choices=["nn", "hausdorff", "features", "view"],
-        help="keyframe similarity: view (default: the overlap of what two scans saw) or the "
-        "paper's nn (eq. 12), hausdorff, features",
+        choices=["auto", "nn", "hausdorff", "features", "view"],
+        help="keyframe similarity: auto (default: view for 360 degree scans, as on a map "
+        "alone, nn otherwise), view (the overlap of what two scans saw) or the paper's nn "
+        "(eq. 12), hausdorff, features",
     )
     parser.add_argument(
         "--contrast",
