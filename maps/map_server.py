@@ -50,8 +50,24 @@ def cells_from_image(
     channels = pixels.shape[2]
     has_alpha = channels in (2, 4)
     averaged = channels - 1 if has_alpha else channels
-    grey = pixels[:, :, :averaged].astype(np.int32).sum(axis=2) // averaged
-    alpha = pixels[:, :, -1] if has_alpha else np.full(grey.shape, 255)
+    if averaged == 1:
+        grey = pixels[:, :, 0]
+    else:
+        grey = pixels[:, :, :averaged].astype(np.int32).sum(axis=2) // averaged
+    # every grey value's cell, looked up: the arithmetic on 256 values, not on every pixel
+    table = _cell_table(np.arange(256), mode, negate, occupied_thresh, free_thresh)
+    cells = table[grey]
+    if mode == "scale" and has_alpha:  # a fully transparent pixel is unknown
+        opaque = _cell_table(np.arange(256), "trinary", negate, occupied_thresh, free_thresh)
+        transparent = pixels[:, :, -1] == 0
+        cells[transparent] = opaque[grey[transparent]]
+    return cells
+
+
+def _cell_table(
+    grey: NDArray[np.int64], mode: str, negate: bool, occupied_thresh: float, free_thresh: float
+) -> NDArray[np.int8]:
+    """The occupancy value of each ``grey`` value (an opaque pixel), map_server's rule."""
     if negate:
         grey = 255 - grey
     if mode == "raw":
@@ -61,7 +77,7 @@ def cells_from_image(
     cells[occ > occupied_thresh] = OCCUPIED
     cells[occ < free_thresh] = FREE
     if mode == "scale":
-        between = (occ <= occupied_thresh) & (occ >= free_thresh) & (alpha > 0)
+        between = (occ <= occupied_thresh) & (occ >= free_thresh)
         ratio = (occ[between] - free_thresh) / (occupied_thresh - free_thresh)
         cells[between] = (1 + 98 * ratio).astype(np.int8)
     return cells
