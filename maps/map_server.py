@@ -50,17 +50,16 @@ def cells_from_image(
     channels = pixels.shape[2]
     has_alpha = channels in (2, 4)
     averaged = channels - 1 if has_alpha else channels
-    if averaged == 1:
-        grey = pixels[:, :, 0]
-    else:
-        grey = pixels[:, :, :averaged].astype(np.int32).sum(axis=2) // averaged
-    # every grey value's cell, looked up: the arithmetic on 256 values, not on every pixel
-    table = _cell_table(np.arange(256), mode, negate, occupied_thresh, free_thresh)
-    cells = table[grey]
+    total = pixels[:, :, 0].astype(np.uint16)  # the sum of the colour channels
+    for channel in range(1, averaged):
+        total += pixels[:, :, channel]
+    # every sum's cell, looked up: the arithmetic on the 256 grey values, not on every pixel
+    grey = np.arange(255 * averaged + 1) // averaged
+    cells = _cell_table(grey, mode, negate, occupied_thresh, free_thresh)[total]
     if mode == "scale" and has_alpha:  # a fully transparent pixel is unknown
-        opaque = _cell_table(np.arange(256), "trinary", negate, occupied_thresh, free_thresh)
         transparent = pixels[:, :, -1] == 0
-        cells[transparent] = opaque[grey[transparent]]
+        trinary = _cell_table(grey, "trinary", negate, occupied_thresh, free_thresh)
+        cells[transparent] = trinary[total[transparent]]
     return cells
 
 
@@ -208,7 +207,10 @@ def read_image(path: str | Path, *, field: str | None = None) -> NDArray[np.uint
         pixels = (pixels.astype(np.uint16) >> 8).astype(np.uint8)
     if pixels.dtype != np.uint8:
         raise MapFormatError(f"unsupported pixel type {pixels.dtype}", path=path, field=field)
-    if pixels.ndim == 3 and pixels.shape[2] >= 3:  # OpenCV gives BGR(A); keep RGB(A) order
+    if pixels.ndim == 3 and pixels.shape[2] in (3, 4):  # OpenCV gives BGR(A); keep RGB(A)
+        swap = cv2.COLOR_BGR2RGB if pixels.shape[2] == 3 else cv2.COLOR_BGRA2RGBA
+        pixels = cv2.cvtColor(pixels, swap)
+    elif pixels.ndim == 3 and pixels.shape[2] > 4:
         pixels = pixels[:, :, [2, 1, 0, *range(3, pixels.shape[2])]]
     return np.ascontiguousarray(pixels)
 

@@ -70,12 +70,10 @@ def most_open_cells(
     clearance: NDArray[np.floating], labels: NDArray[np.integer], wanted: NDArray[np.integer]
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """``(rows, cols)`` of the cell of largest ``clearance`` of each label in ``wanted``, the
-    first in row-major order on ties.
-
-    The labelled cells are sorted by label (a stable sort keeps each label's cells in
-    row-major order) and each label's peak is a ``maximum.reduceat`` over its run: 3-6 times
-    faster than ``np.maximum.at`` on the 4.7 M cells of office_g, and SciPy's
-    ``ndimage.maximum_position`` is slower still.
+    first in row-major order on ties (one pass over the image: SciPy's
+    ``ndimage.maximum_position`` takes four times as long, 44 ms against 12 for 88 places of
+    a 768 x 864 map). The peaks are kept in ``clearance``'s own type: ``np.maximum.at`` into
+    another type takes 20-30 times as long (0.2 s against 0.01 on office_g's 4.7 M cells).
 
     Examples
     --------
@@ -84,19 +82,15 @@ def most_open_cells(
     >>> [v.tolist() for v in most_open_cells(clearance, labels, np.array([1, 2]))]
     [[0, 1], [1, 1]]
     """
-    flat = labels.ravel()
-    cells = np.flatnonzero(flat > 0)
-    cells = cells[np.argsort(flat[cells], kind="stable")]
-    owner = flat[cells]
-    value = clearance.ravel()[cells]
-    starts = np.flatnonzero(np.diff(owner, prepend=0))  # where each label's run begins
-    if len(starts) == 0:
-        empty = np.zeros(0, np.intp)
-        return empty, empty.copy()
-    peak = np.maximum.reduceat(value, starts)
-    at_peak = np.flatnonzero(value == np.repeat(peak, np.diff(starts, append=len(cells))))
-    owners, first = np.unique(owner[at_peak], return_index=True)
-    chosen = cells[at_peak[first[np.isin(owners, wanted)]]]
+    peak = np.full(
+        int(labels.max(initial=0)) + 1, -np.inf, np.promote_types(clearance.dtype, np.float32)
+    )
+    inside = labels > 0
+    np.maximum.at(peak, labels[inside], clearance[inside])
+    at_peak = inside & (clearance == peak[labels])
+    flat = np.flatnonzero(at_peak)
+    owners, first = np.unique(labels.ravel()[flat], return_index=True)
+    chosen = flat[first[np.isin(owners, wanted)]]
     return np.unravel_index(chosen, labels.shape)
 
 

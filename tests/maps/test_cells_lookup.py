@@ -1,12 +1,14 @@
 """``cells_from_image`` looks grey values up in a table: the same cells as the arithmetic on
 every pixel that it replaced (random images, every mode)."""
 
+import cv2
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from maps.map_server import FREE, OCCUPIED, UNKNOWN, cells_from_image
+from maps.map_server import FREE, OCCUPIED, UNKNOWN, cells_from_image, read_image
 
 
 def cells_plain(image, *, mode, negate, occupied_thresh, free_thresh):
@@ -52,3 +54,11 @@ def test_cells_equal_the_arithmetic_on_every_pixel(image, mode, negate, threshol
     found = cells_from_image(image, **options)
     assert found.dtype == np.int8
     assert found.tolist() == cells_plain(image, **options).tolist()
+
+
+@pytest.mark.parametrize("channels", [3, 4])
+def test_colour_images_are_read_in_rgb_order(tmp_path, channels):
+    bgr = np.random.default_rng(channels).integers(0, 256, (7, 9, channels), dtype=np.uint8)
+    cv2.imwrite(str(tmp_path / "map.png"), bgr)
+    order = [2, 1, 0, 3][:channels]
+    assert read_image(tmp_path / "map.png").tolist() == bgr[:, :, order].tolist()

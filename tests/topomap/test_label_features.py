@@ -166,3 +166,12 @@ def test_axis_neighbours_are_the_3x3_sums_scipy_gives(axis):
     ones = np.ones((3, 3), np.int64)
     expected = ndimage.convolve(axis.astype(np.int64), ones, mode="constant") - 1
     assert np.array_equal(_axis_neighbours(axis), expected)
+
+
+@given(arrays(bool, st.tuples(st.integers(1, 30), st.integers(1, 30))))
+def test_perimeter_is_scikit_images(mask):
+    from skimage.measure import perimeter as skimage_perimeter
+
+    from topomap.features import perimeter
+
+    assert perimeter(mask) == skimage_perimeter(mask)
