@@ -57,7 +57,8 @@ def virtual_poses(
         wanted = np.flatnonzero(~covered[1:]) + 1
     else:
         pieces = np.where(open_space, places, 0)
-        wanted = np.unique(pieces[pieces > 0])
+        wanted = np.flatnonzero(np.bincount(pieces.ravel()))  # the labels present, ascending
+        wanted = wanted[wanted > 0]
     if len(wanted):
         rows, cols = most_open_cells(clearance, pieces, wanted)
         chosen[rows, cols] = True
