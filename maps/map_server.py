@@ -50,8 +50,23 @@ def cells_from_image(
     channels = pixels.shape[2]
     has_alpha = channels in (2, 4)
     averaged = channels - 1 if has_alpha else channels
-    grey = pixels[:, :, :averaged].astype(np.int32).sum(axis=2) // averaged
-    alpha = pixels[:, :, -1] if has_alpha else np.full(grey.shape, 255)
+    total = pixels[:, :, 0].astype(np.uint16)  # the sum of the colour channels
+    for channel in range(1, averaged):
+        total += pixels[:, :, channel]
+    # every sum's cell, looked up: the arithmetic on the 256 grey values, not on every pixel
+    grey = np.arange(255 * averaged + 1) // averaged
+    cells = _cell_table(grey, mode, negate, occupied_thresh, free_thresh)[total]
+    if mode == "scale" and has_alpha:  # a fully transparent pixel is unknown
+        transparent = pixels[:, :, -1] == 0
+        trinary = _cell_table(grey, "trinary", negate, occupied_thresh, free_thresh)
+        cells[transparent] = trinary[total[transparent]]
+    return cells
+
+
+def _cell_table(
+    grey: NDArray[np.int64], mode: str, negate: bool, occupied_thresh: float, free_thresh: float
+) -> NDArray[np.int8]:
+    """The occupancy value of each ``grey`` value (an opaque pixel), map_server's rule."""
     if negate:
         grey = 255 - grey
     if mode == "raw":
@@ -61,7 +76,7 @@ def cells_from_image(
     cells[occ > occupied_thresh] = OCCUPIED
     cells[occ < free_thresh] = FREE
     if mode == "scale":
-        between = (occ <= occupied_thresh) & (occ >= free_thresh) & (alpha > 0)
+        between = (occ <= occupied_thresh) & (occ >= free_thresh)
         ratio = (occ[between] - free_thresh) / (occupied_thresh - free_thresh)
         cells[between] = (1 + 98 * ratio).astype(np.int8)
     return cells
@@ -192,7 +207,10 @@ def read_image(path: str | Path, *, field: str | None = None) -> NDArray[np.uint
         pixels = (pixels.astype(np.uint16) >> 8).astype(np.uint8)
     if pixels.dtype != np.uint8:
         raise MapFormatError(f"unsupported pixel type {pixels.dtype}", path=path, field=field)
-    if pixels.ndim == 3 and pixels.shape[2] >= 3:  # OpenCV gives BGR(A); keep RGB(A) order
+    if pixels.ndim == 3 and pixels.shape[2] in (3, 4):  # OpenCV gives BGR(A); keep RGB(A)
+        swap = cv2.COLOR_BGR2RGB if pixels.shape[2] == 3 else cv2.COLOR_BGRA2RGBA
+        pixels = cv2.cvtColor(pixels, swap)
+    elif pixels.ndim == 3 and pixels.shape[2] > 4:
         pixels = pixels[:, :, [2, 1, 0, *range(3, pixels.shape[2])]]
     return np.ascontiguousarray(pixels)
 

@@ -48,7 +48,8 @@ def region_graph(regions: Regions, keyframe_regions: NDArray[np.integer] | None 
     graph = nx.Graph(resolution=regions.grid.resolution, origin=tuple(regions.grid.origin))
     grid = regions.grid
     on_free = np.where(grid.free, regions.labels, 0)
-    ids = np.unique(on_free[on_free > 0])
+    ids = np.flatnonzero(np.bincount(on_free.ravel()))  # the ids on free cells, ascending
+    ids = ids[ids > 0]
     rows, cols = most_open_cells(clearance_of(grid.free, grid.resolution), on_free, ids)
     xs, ys = grid.cell_to_world(rows, cols)
     open_point = {

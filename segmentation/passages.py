@@ -38,13 +38,16 @@ def boundary_openness(
     count = int(places.max(initial=0)) + 1
     peak = np.zeros(count)
     inside = places > 0
-    np.maximum.at(peak, places[inside], clearance[inside])
+    # the values in the maxima's own type: np.maximum.at casting float32 is 20-30 times slower
+    np.maximum.at(peak, places[inside], clearance[inside].astype(np.float64))
     ra, ca, rb, cb = boundary_pairs(places)
     first = places[ra, ca].astype(np.int64)
     second = places[rb, cb].astype(np.int64)
     pair, index = np.unique(first * count + second, return_inverse=True)
     widest = np.zeros(len(pair))
-    np.maximum.at(widest, index, np.minimum(clearance[ra, ca], clearance[rb, cb]))
+    np.maximum.at(
+        widest, index, np.minimum(clearance[ra, ca], clearance[rb, cb]).astype(np.float64)
+    )
     a, b = np.divmod(pair, count)
     side = np.maximum(np.minimum(peak[a], peak[b]), grid.resolution)
     return a, b, np.clip(widest / side, grid.resolution / side, 1.0)

@@ -48,14 +48,17 @@ def basins(grid: OccupancyGrid, depth: float = 0.3) -> NDArray[np.int32]:
     if count < 2:
         return seeds
     peak = np.zeros(count + 1)
-    np.maximum.at(peak, seeds[free], clearance[free])
+    # the values in the peaks' own type: np.maximum.at casting float32 is 20-30 times slower
+    np.maximum.at(peak, seeds[free], clearance[free].astype(np.float64))
     ra, ca, rb, cb = boundary_pairs(seeds)
     # the passage between two basins: the most open of the cells where they meet
     pairs, where = np.unique(
         seeds[ra, ca].astype(np.int64) * (count + 1) + seeds[rb, cb], return_inverse=True
     )
     passage = np.zeros(len(pairs))
-    np.maximum.at(passage, where, np.minimum(clearance[ra, ca], clearance[rb, cb]))
+    np.maximum.at(
+        passage, where, np.minimum(clearance[ra, ca], clearance[rb, cb]).astype(np.float64)
+    )
     a, b = np.divmod(pairs, count + 1)
     parent = np.arange(count + 1)
 
@@ -116,10 +119,10 @@ def merge_open_boundaries(
     clearance = clearance_of(grid.free, grid.resolution)
     peak = np.zeros(int(basin.max(initial=0)) + 1)
     inside = basin > 0
-    np.maximum.at(peak, basin[inside], clearance[inside])
+    np.maximum.at(peak, basin[inside], clearance[inside].astype(np.float64))
     ra, ca, rb, cb = boundary_pairs(labels)
     a, b = labels[ra, ca].astype(np.int64), labels[rb, cb].astype(np.int64)
-    passage = np.minimum(clearance[ra, ca], clearance[rb, cb])
+    passage = np.minimum(clearance[ra, ca], clearance[rb, cb]).astype(np.float64)
     side_a, side_b = peak[basin[ra, ca]], peak[basin[rb, cb]]
     pair = a * (int(labels.max()) + 1) + b
     pairs, index = np.unique(pair, return_inverse=True)

@@ -189,7 +189,7 @@ class Regions:
     @property
     def ids(self) -> list[int]:
         """Region ids present, ascending."""
-        return [int(v) for v in np.unique(self.labels) if v > 0]
+        return (np.flatnonzero(self.cell_counts[1:]) + 1).tolist()
 
     @cached_property
     def cell_counts(self) -> NDArray[np.int64]:
@@ -219,34 +219,107 @@ class Regions:
     def polygons(self) -> dict[int, BaseGeometry]:
         """Outline of each region in map-frame metres, along cell edges, holes kept.
 
-        Built as the union of the region's runs of cells along each row; coordinates are
-        rounded to the nanometre.
+        Built from the region's rectangles of cells (its runs of cells along each row, a run
+        joined with the same run in the rows below), each rectangle's top and bottom edges cut
+        at the corners of the region's rectangles on the other side: the rectangles then
+        share their edges exactly and their union is a coverage union, which joins them along
+        the shared edges without a general overlay (2-4 times faster on ragged SLAM maps; the
+        same outline). Coordinates are rounded to the nanometre.
         """
         labels = self.labels
-        height = labels.shape[0]
-        padded = np.pad(labels, ((0, 0), (1, 1)), constant_values=-1)
-        change = padded[:, 1:] != padded[:, :-1]
-        rows, cols = np.nonzero(change[:, :-1])  # a run of equal labels starts at (row, col)
-        ends = np.nonzero(change[:, 1:])[1] + 1  # ... and ends before this column
-        values = labels[rows, cols]
-        keep = values > 0
-        rows, cols, ends, values = rows[keep], cols[keep], ends[keep], values[keep]
+        height, width = labels.shape
+        value, top, bottom, left, right = _rectangles(labels)
+        if len(value) == 0:
+            return {}
+        # every rectangle corner on each horizontal line of cell edges of each region, sorted
+        lines = _line_key(np.tile(value, 4), np.concatenate([top, top, bottom, bottom]), height)
+        corners = np.unique(lines * (width + 1) + np.concatenate([left, right, left, right]))
+
+        def inner_corners(line: NDArray[np.int64]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+            """Where the corners strictly between each rectangle's two ends on ``line`` lie
+            in ``corners``: ``[start, stop)``."""
+            base = _line_key(value, line, height) * (width + 1)
+            return (
+                np.searchsorted(corners, base + left, side="right"),
+                np.searchsorted(corners, base + right, side="left"),
+            )
+
+        bottom_start, bottom_stop = inner_corners(bottom)
+        top_start, top_stop = inner_corners(top)
+        corner_x = corners % (width + 1)
+        # each ring: bottom-left, the bottom edge's cuts left to right, bottom-right, top-right,
+        # the top edge's cuts right to left, top-left, bottom-left again
+        n_bottom, n_top = bottom_stop - bottom_start, top_stop - top_start
+        size = 5 + n_bottom + n_top
+        begin = np.cumsum(size) - size
+        x = np.empty(int(size.sum()), np.int64)
+        y = np.empty(len(x), np.int64)
+        for offset, xs, ys in (
+            (0, left, bottom),
+            (1 + n_bottom, right, bottom),
+            (2 + n_bottom, right, top),
+            (3 + n_bottom + n_top, left, top),
+            (4 + n_bottom + n_top, left, bottom),
+        ):
+            x[begin + offset], y[begin + offset] = xs, ys
+        at = _ranges(begin + 1, n_bottom)
+        x[at], y[at] = corner_x[_ranges(bottom_start, n_bottom)], np.repeat(bottom, n_bottom)
+        at = _ranges(begin + 3 + n_bottom, n_top)
+        from_right = _ranges(np.zeros_like(n_top), n_top)
+        x[at], y[at] = corner_x[np.repeat(top_stop - 1, n_top) - from_right], np.repeat(top, n_top)
         res = self.grid.resolution
-        boxes = shapely.box(
-            cols * res, (height - 1 - rows) * res, ends * res, (height - rows) * res
-        )
+        ring = np.repeat(np.arange(len(value)), size)
+        boxes = shapely.polygons(shapely.linearrings(x * res, (height - y) * res, indices=ring))
         ox, oy, yaw = self.grid.origin
         c, s = np.cos(yaw), np.sin(yaw)
         result: dict[int, BaseGeometry] = {}
-        order = np.argsort(values, kind="stable")
-        bounds = np.searchsorted(values[order], np.arange(1, int(values.max(initial=0)) + 2))
+        bounds = np.searchsorted(value, np.arange(1, int(value.max()) + 2))
         for region in range(1, len(bounds)):
-            chosen = order[bounds[region - 1] : bounds[region]]
-            if len(chosen) == 0:
+            chosen = slice(bounds[region - 1], bounds[region])
+            if chosen.start == chosen.stop:
                 continue
             shape = affinity.affine_transform(
-                shapely.union_all(boxes[chosen]), [c, -s, s, c, ox, oy]
+                shapely.coverage_union_all(boxes[chosen]), [c, -s, s, c, ox, oy]
             )
             # nanometre coordinates: text exports (WKT, JSON) then read back the same numbers
             result[region] = shapely.transform(shape, lambda xy: np.round(xy, 9))
         return result
+
+
+def _rectangles(labels: NDArray[np.integer]) -> tuple[NDArray[np.int64], ...]:
+    """``(value, top, bottom, left, right)`` of the rectangles of cells of equal label > 0,
+    in cell edges (rows ``top..bottom - 1``, columns ``left..right - 1``), ordered by label:
+    the runs of each row, a run joined with the same run in the rows below."""
+    padded = np.pad(labels, ((0, 0), (1, 1)), constant_values=-1)
+    change = padded[:, 1:] != padded[:, :-1]
+    rows, cols = np.nonzero(change[:, :-1])  # a run of equal labels starts at (row, col)
+    ends = np.nonzero(change[:, 1:])[1] + 1  # ... and ends before this column
+    values = labels[rows, cols].astype(np.int64)
+    keep = values > 0
+    rows, cols, ends, values = rows[keep], cols[keep], ends[keep], values[keep]
+    order = np.lexsort((rows, ends, cols, values))
+    rows, cols, ends, values = rows[order], cols[order], ends[order], values[order]
+    # in order of label, then columns, then row: a run continues the one before it when it
+    # spans the same columns in the next row
+    new = np.ones(len(rows), bool)
+    new[1:] = (
+        (values[1:] != values[:-1])
+        | (cols[1:] != cols[:-1])
+        | (ends[1:] != ends[:-1])
+        | (rows[1:] != rows[:-1] + 1)
+    )
+    first = np.flatnonzero(new)
+    last = np.append(first[1:] - 1, len(rows) - 1) if len(first) else first
+    return values[first], rows[first], rows[last] + 1, cols[first], ends[first]
+
+
+def _line_key(value: NDArray[np.int64], line: NDArray[np.int64], height: int) -> NDArray[np.int64]:
+    """One number per (label, horizontal line of cell edges ``0..height``), in their order."""
+    return value * (height + 1) + line
+
+
+def _ranges(starts: NDArray[np.integer], counts: NDArray[np.integer]) -> NDArray[np.int64]:
+    """``starts[i] + arange(counts[i])`` for every ``i``, concatenated."""
+    total = int(counts.sum())
+    offsets = np.repeat(np.cumsum(counts) - counts, counts)
+    return np.repeat(starts, counts) + np.arange(total) - offsets

@@ -57,7 +57,8 @@ def virtual_poses(
         wanted = np.flatnonzero(~covered[1:]) + 1
     else:
         pieces = np.where(open_space, places, 0)
-        wanted = np.unique(pieces[pieces > 0])
+        wanted = np.flatnonzero(np.bincount(pieces.ravel()))  # the labels present, ascending
+        wanted = wanted[wanted > 0]
     if len(wanted):
         rows, cols = most_open_cells(clearance, pieces, wanted)
         chosen[rows, cols] = True
@@ -72,7 +73,8 @@ def most_open_cells(
     """``(rows, cols)`` of the cell of largest ``clearance`` of each label in ``wanted``, the
     first in row-major order on ties (one pass over the image: SciPy's
     ``ndimage.maximum_position`` takes four times as long, 44 ms against 12 for 88 places of
-    a 768 x 864 map).
+    a 768 x 864 map). The peaks are kept in ``clearance``'s own type: ``np.maximum.at`` into
+    another type takes 20-30 times as long (0.2 s against 0.01 on office_g's 4.7 M cells).
 
     Examples
     --------
@@ -81,7 +83,9 @@ def most_open_cells(
     >>> [v.tolist() for v in most_open_cells(clearance, labels, np.array([1, 2]))]
     [[0, 1], [1, 1]]
     """
-    peak = np.full(int(labels.max(initial=0)) + 1, -np.inf)
+    peak = np.full(
+        int(labels.max(initial=0)) + 1, -np.inf, np.promote_types(clearance.dtype, np.float32)
+    )
     inside = labels > 0
     np.maximum.at(peak, labels[inside], clearance[inside])
     at_peak = inside & (clearance == peak[labels])

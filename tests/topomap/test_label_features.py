@@ -274,3 +274,12 @@ def test_a_corridor_cut_into_pieces_is_one_corridor_system():
     f = _table(walled)
     assert f["links"][0].tolist() == pytest.approx([1, 2, 1.0], abs=0.06)
     assert rule_classifier(f) == ["corridor", "room", "room", "room"]
+
+
+@given(arrays(bool, st.tuples(st.integers(1, 30), st.integers(1, 30))))
+def test_perimeter_is_scikit_images(mask):
+    from skimage.measure import perimeter as skimage_perimeter
+
+    from topomap.features import perimeter
+
+    assert perimeter(mask) == skimage_perimeter(mask)

@@ -120,17 +120,18 @@ def bench_command(
 ) -> list[dict[str, Any]]:
     """:func:`time_command` on every map of ``data_dir`` (the layouts
     :func:`topomap.cli.evaluate.floor_plans` reads; ROSE²'s images are given a map_server YAML
-    first); start-up is the median of three runs of the imports alone."""
+    first); start-up is a run of the imports alone just before each map's command, so that a
+    machine busy with other work weighs on the two alike."""
     from topomap.cli.evaluate import floor_plans
 
     out = Path(out)
-    startup = sorted(_wall([sys.executable, "-c", STARTUP]) for _ in range(3))[1]
     records = []
     with tempfile.TemporaryDirectory() as scratch:
         for plan in progress(floor_plans(data_dir)):
             yaml = plan.yaml
             if yaml.suffix != ".yaml":
                 yaml = plan.grid().save(Path(scratch) / f"{plan.name}.yaml")
+            startup = _wall([sys.executable, "-c", STARTUP])
             records.append(time_command(yaml, Path(scratch) / plan.name, startup))
     out.mkdir(parents=True, exist_ok=True)
     (out / "command.json").write_text(json.dumps(records, indent=2))

@@ -44,7 +44,8 @@ def map_image(
     weight = alpha * colours[None, :, 3:]
     table = shades * (1 - weight) + colours[None, :, :3] * weight  # (class, region, rgb)
     table = np.concatenate((table, np.ones((*table.shape[:2], 1))), axis=2)
-    return np.rint(255 * table).astype(np.uint8)[kind, labels]
+    rgba = np.rint(255 * table).astype(np.uint8).reshape(-1, 4)
+    return np.take(rgba, kind * len(colours) + labels, axis=0)  # faster than table[kind, labels]
 
 
 def show_grid(

@@ -1,0 +1,64 @@
+"""``cells_from_image`` looks grey values up in a table: the same cells as the arithmetic on
+every pixel that it replaced (random images, every mode)."""
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from maps.map_server import FREE, OCCUPIED, UNKNOWN, cells_from_image, read_image
+
+
+def cells_plain(image, *, mode, negate, occupied_thresh, free_thresh):
+    pixels = np.asarray(image)
+    if pixels.ndim == 2:
+        pixels = pixels[:, :, None]
+    channels = pixels.shape[2]
+    has_alpha = channels in (2, 4)
+    averaged = channels - 1 if has_alpha else channels
+    grey = pixels[:, :, :averaged].astype(np.int32).sum(axis=2) // averaged
+    alpha = pixels[:, :, -1] if has_alpha else np.full(grey.shape, 255)
+    if negate:
+        grey = 255 - grey
+    if mode == "raw":
+        return np.where(grey <= OCCUPIED, grey, UNKNOWN).astype(np.int8)
+    occ = (255 - grey) / 255.0
+    cells = np.full(grey.shape, UNKNOWN, np.int8)
+    cells[occ > occupied_thresh] = OCCUPIED
+    cells[occ < free_thresh] = FREE
+    if mode == "scale":
+        between = (occ <= occupied_thresh) & (occ >= free_thresh) & (alpha > 0)
+        ratio = (occ[between] - free_thresh) / (occupied_thresh - free_thresh)
+        cells[between] = (1 + 98 * ratio).astype(np.int8)
+    return cells
+
+
+shapes = st.tuples(st.integers(1, 8), st.integers(1, 8)).flatmap(
+    lambda hw: st.sampled_from([hw, (*hw, 1), (*hw, 2), (*hw, 3), (*hw, 4)])
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    arrays(np.uint8, shapes, elements=st.sampled_from([0, 1, 50, 100, 101, 127, 205, 254, 255])),
+    st.sampled_from(["trinary", "scale", "raw"]),
+    st.booleans(),
+    st.sampled_from([(0.65, 0.196), (0.65, 0.05), (0.9, 0.1), (0.5, 0.5)]),
+)
+def test_cells_equal_the_arithmetic_on_every_pixel(image, mode, negate, thresholds):
+    options = dict(
+        mode=mode, negate=negate, occupied_thresh=thresholds[0], free_thresh=thresholds[1]
+    )
+    found = cells_from_image(image, **options)
+    assert found.dtype == np.int8
+    assert found.tolist() == cells_plain(image, **options).tolist()
+
+
+@pytest.mark.parametrize("channels", [3, 4])
+def test_colour_images_are_read_in_rgb_order(tmp_path, channels):
+    bgr = np.random.default_rng(channels).integers(0, 256, (7, 9, channels), dtype=np.uint8)
+    cv2.imwrite(str(tmp_path / "map.png"), bgr)
+    order = [2, 1, 0, 3][:channels]
+    assert read_image(tmp_path / "map.png").tolist() == bgr[:, :, order].tolist()

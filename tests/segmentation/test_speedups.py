@@ -1,0 +1,98 @@
+"""Faster implementations give exactly what the plain ones they replaced gave (random inputs)."""
+
+import numpy as np
+import pytest
+import shapely
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from shapely import affinity
+
+from maps.grid import OccupancyGrid
+from segmentation.regions import Regions
+from segmentation.virtual import most_open_cells
+
+label_images = arrays(
+    np.int32, st.tuples(st.integers(1, 20), st.integers(1, 20)), elements=st.integers(0, 6)
+)
+
+
+def most_open_cells_plain(clearance, labels, wanted):
+    """The implementation with ``np.maximum.at`` that :func:`most_open_cells` replaced."""
+    peak = np.full(int(labels.max(initial=0)) + 1, -np.inf)
+    inside = labels > 0
+    np.maximum.at(peak, labels[inside], clearance[inside])
+    at_peak = inside & (clearance == peak[labels])
+    flat = np.flatnonzero(at_peak)
+    owners, first = np.unique(labels.ravel()[flat], return_index=True)
+    chosen = flat[first[np.isin(owners, wanted)]]
+    return np.unravel_index(chosen, labels.shape)
+
+
+@settings(max_examples=200, deadline=None)
+@given(label_images, st.data())
+def test_most_open_cells_equals_the_plain_one(labels, data):
+    # few distinct clearances, so that ties (the first cell in row-major order wins) are common
+    clearance = data.draw(
+        arrays(np.float32, labels.shape, elements=st.sampled_from([0.0, 0.5, 1.0, 2.5]))
+    )
+    wanted = np.array(data.draw(st.lists(st.integers(1, 7), max_size=6, unique=True)), int)
+    found = most_open_cells(clearance, labels, wanted)
+    plain = most_open_cells_plain(clearance, labels, wanted)
+    for got, expected in zip(found, plain, strict=True):
+        assert got.tolist() == expected.tolist()
+
+
+def polygons_plain(regions):
+    """The union of one box per run of cells along a row, which
+    :attr:`~segmentation.regions.Regions.polygons` replaced (by the coverage union of
+    rectangles of runs cut at each other's corners)."""
+    labels = regions.labels
+    height = labels.shape[0]
+    padded = np.pad(labels, ((0, 0), (1, 1)), constant_values=-1)
+    change = padded[:, 1:] != padded[:, :-1]
+    rows, cols = np.nonzero(change[:, :-1])
+    ends = np.nonzero(change[:, 1:])[1] + 1
+    values = labels[rows, cols]
+    keep = values > 0
+    rows, cols, ends, values = rows[keep], cols[keep], ends[keep], values[keep]
+    res = regions.grid.resolution
+    boxes = shapely.box(cols * res, (height - 1 - rows) * res, ends * res, (height - rows) * res)
+    ox, oy, yaw = regions.grid.origin
+    c, s = np.cos(yaw), np.sin(yaw)
+    return {
+        int(region): shapely.transform(
+            affinity.affine_transform(
+                shapely.union_all(boxes[values == region]), [c, -s, s, c, ox, oy]
+            ),
+            lambda xy: np.round(xy, 9),
+        )
+        for region in np.unique(values)
+    }
+
+
+@settings(max_examples=150, deadline=None)
+@given(label_images, st.sampled_from([0.05, 0.1, 0.5]), st.sampled_from([0.0, 0.7, -2.0]))
+def test_polygons_equal_the_union_of_row_runs(labels, resolution, yaw):
+    grid = OccupancyGrid(np.zeros(labels.shape, np.int8), resolution, origin=(1.5, -3.0, yaw))
+    regions = Regions(grid, labels)
+    found, plain = regions.polygons, polygons_plain(regions)
+    assert sorted(found) == sorted(plain)
+    for region, shape in found.items():
+        # the same region: the same geometry (the vertices along straight edges may differ,
+        # and off the axes they are straight to the nanometre the coordinates are rounded to)
+        assert shape.geom_type == plain[region].geom_type
+        assert shapely.get_num_interior_rings(shape) == shapely.get_num_interior_rings(
+            plain[region]
+        )
+        assert shapely.hausdorff_distance(shape, plain[region]) < 1e-8
+        assert shapely.get_num_geometries(shape) == shapely.get_num_geometries(plain[region])
+        if yaw == 0.0:  # unrotated, the corners are the same floating-point numbers
+            assert shapely.equals(shape, plain[region])
+        assert shape.area == pytest.approx(plain[region].area, rel=1e-6)
+
+
+@given(label_images)
+def test_ids_are_the_labels_present(labels):
+    grid = OccupancyGrid(np.zeros(labels.shape, np.int8), 0.1)
+    assert Regions(grid, labels).ids == [int(v) for v in np.unique(labels) if v > 0]
