@@ -81,42 +81,78 @@ class KinematicOMPL:
         self._planner.growRoadmap(seconds)
 
     def solve(
-        self, start: Pose, goal: Pose, time_limit: float, simplify: bool = True
+        self,
+        start: Pose,
+        goal: Pose | list[Pose],
+        time_limit: float,
+        simplify: bool = True,
     ) -> tuple[NDArray[np.float64] | None, dict[str, float]]:
-        """Poses ``(n, 3)`` from ``start`` to ``goal``, at most :data:`POSE_SPACING` apart, or
+        """Poses ``(n, 3)`` from ``start`` to ``goal`` (a pose, or a list of poses any of
+        which will do: the path ends on one of them), at most :data:`POSE_SPACING` apart, or
         None when no exact solution was found in ``time_limit`` seconds; and the seconds of
-        planning and simplification."""
+        planning and simplification (:meth:`search`, then :meth:`smooth`)."""
+        vertices, seconds = self.search(start, goal, time_limit)
+        if vertices is None:
+            return None, seconds
+        poses, seconds["simplification"] = self.smooth(vertices, simplify)
+        return poses, seconds
+
+    def search(
+        self, start: Pose, goal: Pose | list[Pose], time_limit: float
+    ) -> tuple[NDArray[np.float64] | None, dict[str, float]]:
+        """The planner's solution from ``start`` to ``goal`` (as for :meth:`solve`) as its
+        vertices ``(n, 3)`` after OMPL's ``reduceVertices`` (the vertices it can skip), or
+        None; and the seconds of planning. Every planner stops at its first exact
+        solution."""
         clock = time.perf_counter()
+        goals = (
+            [self._state(pose) for pose in goal] if isinstance(goal, list) else self._state(goal)
+        )
         problem = solve_query(
             self._si,
             self._planner,
             self._keeps_roadmap,
             self._state(start),
-            self._state(goal),
+            goals,
             time_limit,
+            first=True,
         )
-        seconds = {"planning": time.perf_counter() - clock}
         if not problem.hasExactSolution():
-            return None, seconds
+            return None, {"planning": time.perf_counter() - clock}
         path = problem.getSolutionPath()
+        og.PathSimplifier(self._si).reduceVertices(path)
+        return _poses(path), {"planning": time.perf_counter() - clock}
+
+    def admits(self, pose: Pose) -> bool:
+        """Whether ``pose`` is a valid state of this set-up (valid and within its bounds)."""
+        return self.cspace.valid(*pose) and bool(self._space.satisfiesBounds(self._state(pose)))
+
+    def smooth(
+        self, vertices: NDArray[np.float64], simplify: bool = True
+    ) -> tuple[NDArray[np.float64], float]:
+        """The path through ``vertices`` (valid motions of this space between them),
+        simplified by OMPL's ``PathSimplifier.simplifyMax`` when ``simplify``, as poses at
+        most :data:`POSE_SPACING` apart; and the seconds it took."""
         clock = time.perf_counter()
+        path = og.PathGeometric(self._si)
+        for vertex in vertices:
+            path.append(self._state((vertex[0], vertex[1], vertex[2])))
         if simplify:
             og.PathSimplifier(self._si).simplifyMax(path)
         path.interpolate(max(2, math.ceil(path.length() / POSE_SPACING) + 1))
-        poses = np.array(
-            [
-                (path.getState(i).getX(), path.getState(i).getY(), path.getState(i).getYaw())
-                for i in range(path.getStateCount())
-            ]
-        )
-        seconds["simplification"] = time.perf_counter() - clock
-        return poses, seconds
+        return _poses(path), time.perf_counter() - clock
 
     def _state(self, pose: Pose) -> Any:
         state = self._space.allocState()
         state.setXY(pose[0], pose[1])
         state.setYaw(pose[2])
         return state
+
+
+def _poses(path: Any) -> NDArray[np.float64]:
+    """The states of an OMPL path as poses ``(n, 3)``."""
+    states = (path.getState(i) for i in range(path.getStateCount()))
+    return np.array([(s.getX(), s.getY(), s.getYaw()) for s in states])
 
 
 def check_pose(cspace: HeadingCSpace, pose: ArrayLike, what: str) -> Pose:
