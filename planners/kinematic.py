@@ -72,11 +72,11 @@ class KinematicOMPL:
         step = cspace.robot.motion_step(cspace.grid.resolution)
         self._si.setStateValidityCheckingResolution(step / self._space.getMaximumExtent())
         self._si.setup()
-        self._planner, self._keeps_roadmap = make_planner(self._si, planner)
+        self._planner, self.keeps_roadmap = make_planner(self._si, planner)
 
     def grow_roadmap(self, seconds: float) -> None:
         """Grow a roadmap planner's graph for ``seconds`` before any query."""
-        if not self._keeps_roadmap:
+        if not self.keeps_roadmap:
             raise PlannerParameterError("only PRM planners keep a roadmap")
         self._planner.growRoadmap(seconds)
 
@@ -111,7 +111,7 @@ class KinematicOMPL:
         problem = solve_query(
             self._si,
             self._planner,
-            self._keeps_roadmap,
+            self.keeps_roadmap,
             self._state(start),
             goals,
             time_limit,

@@ -94,9 +94,12 @@ class KinematicHierarchicalPlanner:
         :attr:`~planners.robots.Footprint.reach` (what passing a door needs).
     random_state
         OMPL's seed (process-wide: only the first planner made in a process sets it).
-    """
 
-    name = "hierarchical"
+    Attributes
+    ----------
+    name
+        ``"hierarchical"`` in the default mode, else ``"hierarchical_<mode>"``.
+    """
 
     def __init__(
         self,
@@ -133,6 +136,7 @@ class KinematicHierarchicalPlanner:
             symmetric = cspace.robot.state_space().hasSymmetricInterpolate()
             planner = "RRTConnect" if symmetric else "RRT"
         self.cspace, self.graph, self.planner, self.mode = cspace, graph, planner, mode
+        self.name = "hierarchical" if mode == MODES[0] else f"hierarchical_{mode}"
         # the whole map's OMPL set-up: the joined path is simplified there
         self._whole = KinematicOMPL(cspace, planner)
         self.labels = self.doors.labels
