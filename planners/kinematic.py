@@ -131,16 +131,35 @@ class KinematicOMPL:
         self, vertices: NDArray[np.float64], simplify: bool = True
     ) -> tuple[NDArray[np.float64], float]:
         """The path through ``vertices`` (valid motions of this space between them),
-        simplified by OMPL's ``PathSimplifier.simplifyMax`` when ``simplify``, as poses at
-        most :data:`POSE_SPACING` apart; and the seconds it took."""
+        simplified by OMPL's ``PathSimplifier.simplifyMax`` when ``simplify``, as poses a
+        motion-check step apart (no footprint point moves more than a cell between two; OMPL's
+        ``interpolate()``) and at most :data:`POSE_SPACING`; and the seconds it took."""
         clock = time.perf_counter()
         path = og.PathGeometric(self._si)
         for vertex in vertices:
             path.append(self._state((vertex[0], vertex[1], vertex[2])))
         if simplify:
             og.PathSimplifier(self._si).simplifyMax(path)
-        path.interpolate(max(2, math.ceil(path.length() / POSE_SPACING) + 1))
-        return _poses(path), time.perf_counter() - clock
+        # states a motion-check step apart: a step moves no footprint point more than a cell
+        path.interpolate()
+        poses = _poses(path)
+        if len(poses) > 1 and np.hypot(*np.diff(poses[:, :2], axis=0).T).max() > POSE_SPACING:
+            poses = self._densify(path)  # cells coarser than the spacing
+        return poses, time.perf_counter() - clock
+
+    def _densify(self, path: Any) -> NDArray[np.float64]:
+        """Poses along ``path`` with states inserted so that none is more than
+        :data:`POSE_SPACING` of the state space's distance (so also of position) from the
+        next."""
+        out, between = [], self._space.allocState()
+        for i in range(path.getStateCount() - 1):
+            a, b = path.getState(i), path.getState(i + 1)
+            pieces = max(1, math.ceil(self._space.distance(a, b) / POSE_SPACING))
+            for k in range(pieces):
+                self._space.interpolate(a, b, k / pieces, between)
+                out.append((between.getX(), between.getY(), between.getYaw()))
+        last = path.getState(path.getStateCount() - 1)
+        return np.array([*out, (last.getX(), last.getY(), last.getYaw())])
 
     def _state(self, pose: Pose) -> Any:
         state = self._space.allocState()
