@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -40,6 +41,7 @@ from planners.kinematic import KinematicOMPL, Pose, check_pose
 from planners.legs import Crossing, door_poses
 from planners.path import PlannedPath
 from planners.region_route import region_routes
+from planners.robots import Dubins
 from planners.workspace import Workspace
 from segmentation.names import find_region
 
@@ -47,14 +49,18 @@ log = logging.getLogger(__name__)
 
 #: How OMPL runs along a route.
 MODES = ("legs", "union")
+#: Confined OMPL set-ups a planner keeps for the legs to come (a memory bound).
+KEPT_SUBMAPS = 512
 
 
 @dataclass(frozen=True)
 class Route:
-    """A route to plan along: ``ids`` of ``labels`` in the order it passes them (``boxes``
-    their bounding boxes), and the ``crossings`` between each two in a row."""
+    """A route to plan along: ``ids`` of ``labels`` (``kind``: ``"parts"`` or
+    ``"regions"``) in the order it passes them (``boxes`` their bounding boxes), and the
+    ``crossings`` between each two in a row."""
 
     what: str
+    kind: str
     labels: NDArray[np.int32]
     boxes: list
     ids: list[int]
@@ -139,6 +145,8 @@ class KinematicHierarchicalPlanner:
         self.name = "hierarchical" if mode == MODES[0] else f"hierarchical_{mode}"
         # the whole map's OMPL set-up: the joined path is simplified there
         self._whole = KinematicOMPL(cspace, planner)
+        self._per_leg = not isinstance(cspace.robot, Dubins)  # see _legs
+        self._kept: OrderedDict[tuple[str, tuple[int, ...]], KinematicOMPL] = OrderedDict()
         self.labels = self.doors.labels
         self.time_limit, self.routes = float(time_limit), int(routes)
         self._grow = max(1, round(margin / cspace.grid.resolution))
@@ -196,9 +204,8 @@ class KinematicHierarchicalPlanner:
             tried.append(route.what)
             until = clock + (deadline - clock) / (self.routes - k)
             along = self._legs if self.mode == "legs" else self._union
-            vertices = along(route, s, g, until, seconds)
-            if vertices is not None:
-                poses, seconds["simplification"] = self._whole.smooth(vertices)
+            poses = along(route, s, g, until, seconds)
+            if poses is not None:
                 crossed = regions_along(self.cspace.grid, self.labels, poses[:, :2])
                 return PlannedPath.from_poses(poses, self.name, crossed, seconds)
         if not tried:
@@ -224,7 +231,7 @@ class KinematicHierarchicalPlanner:
                 )
             ]
             what = f"door graph through submaps {parts}"
-            yield Route(what, self.doors.parts, self._part_boxes, parts, crossings)
+            yield Route(what, "parts", self.doors.parts, self._part_boxes, parts, crossings)
         ends = self.region_at(s[0], s[1]), self.region_at(g[0], g[1])
         try:
             for found in region_routes(self.graph, *ends, min_width=self.min_width):
@@ -233,20 +240,26 @@ class KinematicHierarchicalPlanner:
                     Crossing(t.centre, (t.start, t.end), a, b)
                     for t, a, b in zip(found.doors, ids[:-1], ids[1:], strict=True)
                 ]
-                yield Route(f"regions {ids}", self.labels, self._region_boxes, ids, crossings)
+                what = f"regions {ids}"
+                yield Route(what, "regions", self.labels, self._region_boxes, ids, crossings)
         except NoPathError as err:
             log.debug("no region route: %s", err)
 
     def _union(
         self, route: Route, start: Pose, goal: Pose, until: float, seconds: dict[str, float]
     ) -> NDArray[np.float64] | None:
-        """One OMPL query inside the union of the route's submaps: its vertices."""
-        return self._solve(route, route.ids, start, goal, until, seconds)
+        """One OMPL query inside the union of the route's submaps, simplified on the whole
+        map: its poses."""
+        vertices = self._solve(route, route.ids, start, goal, until, seconds)
+        return None if vertices is None else self._smooth(vertices, seconds)
 
     def _legs(
         self, route: Route, start: Pose, goal: Pose, until: float, seconds: dict[str, float]
     ) -> NDArray[np.float64] | None:
-        """One OMPL query per leg between door poses, the legs' vertices joined end to end."""
+        """One OMPL query per leg between door poses, the legs joined end to end: their poses.
+        A robot that turns in place simplifies each leg inside its submaps (passing each door
+        pose costs it nothing); a car simplifies the joined path on the whole map, where
+        shortcuts may drop the fixed door headings it would otherwise manoeuvre to."""
         clock = time.perf_counter()
         ids: list[int] = [route.ids[0]]
         legs: list[tuple[list[int], list[Pose]]] = []
@@ -260,13 +273,22 @@ class KinematicHierarchicalPlanner:
         seconds["submaps"] += time.perf_counter() - clock
         pieces, pose = [], start
         for k, (leg, ends) in enumerate(legs):
-            found = self._solve(route, list(dict.fromkeys(leg)), pose, ends, until, seconds)
+            found = self._solve(
+                route, list(dict.fromkeys(leg)), pose, ends, until, seconds, self._per_leg
+            )
             if found is None:
                 log.debug("leg %d of %d (submaps %s) failed", k + 1, len(legs), leg)
                 return None
             pieces.append(found if k == 0 else found[1:])
             pose = (float(found[-1, 0]), float(found[-1, 1]), float(found[-1, 2]))
-        return np.vstack(pieces)
+        joined = np.vstack(pieces)
+        return joined if self._per_leg else self._smooth(joined, seconds)
+
+    def _smooth(self, vertices: NDArray[np.float64], seconds: dict[str, float]) -> NDArray:
+        """The path through ``vertices`` simplified on the whole map, as poses."""
+        poses, spent = self._whole.smooth(vertices)
+        seconds["simplification"] += spent
+        return poses
 
     def _solve(
         self,
@@ -276,13 +298,15 @@ class KinematicHierarchicalPlanner:
         goal: Pose | list[Pose],
         until: float,
         seconds: dict[str, float],
+        smooth: bool = False,
     ) -> NDArray[np.float64] | None:
         """One OMPL query inside the cells of ``route.labels`` labelled ``ids``, grown by the
-        submap margin, with the time left until ``until``: the solution's vertices."""
+        submap margin, with the time left until ``until``: the solution's vertices, or its
+        poses simplified inside the submaps when ``smooth``."""
         clock = time.perf_counter()
         if clock >= until:
             return None
-        ompl = KinematicOMPL(self._confined(route.labels, route.boxes, ids), self.planner)
+        ompl = self._submaps(route, ids)
         goals = [pose for pose in (goal if isinstance(goal, list) else [goal]) if ompl.admits(pose)]
         seconds["submaps"] += time.perf_counter() - clock
         if not (goals and ompl.admits(start)):
@@ -291,7 +315,23 @@ class KinematicHierarchicalPlanner:
         poses, spent = ompl.search(start, goals, max(until - time.perf_counter(), 1e-3))
         for key, value in spent.items():
             seconds[key] += value
+        if poses is None or not smooth:
+            return poses
+        poses, spent_smoothing = ompl.smooth(poses)
+        seconds["simplification"] += spent_smoothing
         return poses
+
+    def _submaps(self, route: Route, ids: list[int]) -> KinematicOMPL:
+        """The OMPL set-up confined to the submaps ``ids`` of ``route``, made once and kept
+        (the :data:`KEPT_SUBMAPS` used last): legs through the same submaps recur."""
+        key = (route.kind, tuple(ids))
+        ompl = self._kept.pop(key, None)
+        if ompl is None:
+            ompl = KinematicOMPL(self._confined(route.labels, route.boxes, ids), self.planner)
+        self._kept[key] = ompl
+        while len(self._kept) > KEPT_SUBMAPS:
+            self._kept.popitem(last=False)
+        return ompl
 
     def _confined(self, labels: NDArray[np.int32], boxes: list, ids: list[int]) -> HeadingCSpace:
         """The configuration space inside the cells labelled ``ids``, grown by the margin."""
