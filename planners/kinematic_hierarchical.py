@@ -3,8 +3,8 @@
 A query searches the door graph of :class:`~planners.hierarchical.HierarchicalPlanner` built
 for a disc as wide as the narrowest door this robot takes (the footprint's width plus
 ``door_margin``, by default what the configuration space grows it by: a narrower door is no
-door), which gives the route's submaps (near-convex
-parts) and the doors between them. Along the route OMPL runs in one of two modes:
+door), which gives the route's submaps (near-convex parts) and the doors between them. Along
+the route OMPL runs in one of two modes:
 
 - ``"legs"`` (the default): one query per leg, from a pose across one door to any valid pose
   across the next (:mod:`planners.legs`), each leg confined to its submap grown by the
