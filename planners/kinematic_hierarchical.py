@@ -54,6 +54,20 @@ KEPT_SUBMAPS = 512
 
 
 @dataclass(frozen=True)
+class Budget:
+    """The time a query has left: until ``deadline`` (``time.perf_counter()`` seconds), to
+    share over ``shares`` routes (this one and those that may follow)."""
+
+    deadline: float
+    shares: int
+
+    def until(self) -> float:
+        """When one OMPL query started now must stop: its share of the time left."""
+        now = time.perf_counter()
+        return now + max(self.deadline - now, 0.0) / self.shares
+
+
+@dataclass(frozen=True)
 class Route:
     """A route to plan along: ``ids`` of ``labels`` (``kind``: ``"parts"`` or
     ``"regions"``) in the order it passes them (``boxes`` their bounding boxes), and the
@@ -85,8 +99,8 @@ class KinematicHierarchicalPlanner:
         along motions reversed, which a forward-only car cannot drive, and stalls at a door
         pose facing a wall beyond the submap).
     time_limit
-        Seconds OMPL may take per query, all routes and legs together (route ``k`` of
-        ``routes`` may take the time left over the routes left).
+        Seconds OMPL may take per query, all routes and legs together (a leg, or the union's
+        query, of route ``k`` of ``routes`` may take the time left over the routes left).
     routes
         Routes tried, best first, before giving up.
     mode
@@ -202,9 +216,8 @@ class KinematicHierarchicalPlanner:
             if route is None or clock >= deadline:
                 break
             tried.append(route.what)
-            until = clock + (deadline - clock) / (self.routes - k)
             along = self._legs if self.mode == "legs" else self._union
-            poses = along(route, s, g, until, seconds)
+            poses = along(route, s, g, Budget(deadline, self.routes - k), seconds)
             if poses is not None:
                 crossed = regions_along(self.cspace.grid, self.labels, poses[:, :2])
                 return PlannedPath.from_poses(poses, self.name, crossed, seconds)
@@ -246,17 +259,19 @@ class KinematicHierarchicalPlanner:
             log.debug("no region route: %s", err)
 
     def _union(
-        self, route: Route, start: Pose, goal: Pose, until: float, seconds: dict[str, float]
+        self, route: Route, start: Pose, goal: Pose, budget: Budget, seconds: dict[str, float]
     ) -> NDArray[np.float64] | None:
         """One OMPL query inside the union of the route's submaps, simplified on the whole
         map: its poses."""
-        vertices = self._solve(route, route.ids, start, goal, until, seconds)
+        vertices = self._solve(route, route.ids, start, goal, budget.until(), seconds)
         return None if vertices is None else self._smooth(vertices, seconds)
 
     def _legs(
-        self, route: Route, start: Pose, goal: Pose, until: float, seconds: dict[str, float]
+        self, route: Route, start: Pose, goal: Pose, budget: Budget, seconds: dict[str, float]
     ) -> NDArray[np.float64] | None:
         """One OMPL query per leg between door poses, the legs joined end to end: their poses.
+        Each leg may take the budget's share of the time left, so a leg that fails leaves
+        time for the next routes, and a long route of easy legs may use the whole budget.
         A robot that turns in place simplifies each leg inside its submaps (passing each door
         pose costs it nothing); a car simplifies the joined path on the whole map, where
         shortcuts may drop the fixed door headings it would otherwise manoeuvre to."""
@@ -274,7 +289,7 @@ class KinematicHierarchicalPlanner:
         pieces, pose = [], start
         for k, (leg, ends) in enumerate(legs):
             found = self._solve(
-                route, list(dict.fromkeys(leg)), pose, ends, until, seconds, self._per_leg
+                route, list(dict.fromkeys(leg)), pose, ends, budget.until(), seconds, self._per_leg
             )
             if found is None:
                 log.debug("leg %d of %d (submaps %s) failed", k + 1, len(legs), leg)
