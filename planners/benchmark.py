@@ -151,8 +151,9 @@ def _record(
 
 def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     """Per map and planner: success rate, median and 90th-percentile query time, path length
-    over the optimum (median, max), collisions, and the hierarchical planner's speed-up
-    (this planner's median time over the hierarchical one's)."""
+    over the optimum (median, max), collisions, the hierarchical planner's speed-up (this
+    planner's median time over the hierarchical one's), the map's :func:`best_flat` planner
+    and how many times faster than it this planner's median is (``vs_best_flat``)."""
     rows = []
     maps = list(dict.fromkeys(r["map"] for r in records))
     for name in maps:
@@ -178,6 +179,20 @@ def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
                 }
             )
         base = medians.get("hierarchical")
-        for row in rows[-len(medians) :]:
-            row["speedup"] = round(medians[row["planner"]] / base, 1) if base else None
+        here_rows = rows[-len(medians) :]
+        best = best_flat(here_rows)
+        for row in here_rows:
+            median = medians[row["planner"]]
+            row["speedup"] = round(median / base, 1) if base else None
+            row["best_flat"] = best
+            row["vs_best_flat"] = round(medians[best] / median, 1) if best and median else None
     return rows
+
+
+def best_flat(rows: Sequence[dict[str, Any]]) -> str | None:
+    """The best flat planner (``flat_*``) among one map's summary rows: the lowest median
+    query time (failures count with the time they took), then the highest success rate."""
+    flats = [r for r in rows if r["planner"].startswith("flat_")]
+    if not flats:
+        return None
+    return str(min(flats, key=lambda r: (r["median_s"], -r["success"]))["planner"])

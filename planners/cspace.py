@@ -32,6 +32,11 @@ from planners.workspace import crop_grid
 HEADINGS = 64
 
 
+def bin_turn(robot: Footprint, headings: int) -> float:
+    """How far a footprint point moves when the heading turns over half a bin, metres."""
+    return 2 * robot.circumradius * math.sin(math.pi / headings / 2)
+
+
 def footprint_kernels(
     robot: Footprint, resolution: float, headings: int, margin: float, yaw: float = 0.0
 ) -> list[NDArray[np.uint8]]:
@@ -47,8 +52,7 @@ def footprint_kernels(
     >>> kernel.shape, int(kernel.sum())
     ((9, 9), 35)
     """
-    half = math.pi / headings
-    turn = 2 * robot.circumradius * math.sin(half / 2)  # a point's move over half a bin
+    turn = bin_turn(robot, headings)
     reach = robot.circumradius + turn + margin + resolution
     size = math.ceil(reach / resolution)
     offsets = np.arange(-size, size + 1) * resolution
@@ -120,6 +124,13 @@ class HeadingCSpace:
             layer = cv2.dilate(walls, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=1)
             packed[:, :, k // 8] |= np.asarray(layer, np.uint8) << np.uint8(k % 8)
         return packed
+
+    @property
+    def growth(self) -> float:
+        """Metres this space grows the footprint by on every side: the turn over half a
+        heading bin, the margin and a cell (the reference point anywhere in its cell). A
+        door narrower than the footprint's width plus twice this has no valid pose."""
+        return bin_turn(self.robot, self.headings) + (self.margin or 0.0) + self.grid.resolution
 
     # ------------------------------------------------------------------ lookups
     def bin_of(self, yaw: ArrayLike) -> NDArray[np.intp]:

@@ -73,16 +73,33 @@ def make_planner(si: Any, name: str) -> tuple[Any, bool]:
 
 
 def solve_query(
-    si: Any, planner: Any, keeps_roadmap: bool, start: Any, goal: Any, time_limit: float
+    si: Any,
+    planner: Any,
+    keeps_roadmap: bool,
+    start: Any,
+    goal: Any,
+    time_limit: float,
+    *,
+    first: bool = False,
 ) -> Any:
-    """One query of ``planner`` from state ``start`` to ``goal``: its problem definition, after
-    solving for at most ``time_limit`` seconds. A roadmap planner keeps its roadmap (only the
-    query is cleared) and accepts the first path it finds; any other starts afresh."""
+    """One query of ``planner`` from state ``start`` to ``goal`` (a state, or a list of
+    states any of which will do): its problem definition, after solving for at most
+    ``time_limit`` seconds. A roadmap planner keeps its roadmap (only the query is cleared)
+    and accepts the first path it finds, as does any planner when ``first``; any other
+    starts afresh."""
     problem = ob.ProblemDefinition(si)
-    problem.setStartAndGoalStates(start, goal)
+    if isinstance(goal, list):
+        goals = ob.GoalStates(si)
+        for state in goal:
+            goals.addState(state)
+        problem.addStartState(start)
+        problem.setGoal(goals)
+    else:
+        problem.setStartAndGoalStates(start, goal)
+    if keeps_roadmap or first:
+        problem.setOptimizationObjective(_first_solution(si))
     if keeps_roadmap:
         planner.clearQuery()
-        problem.setOptimizationObjective(_first_solution(si))
     else:
         planner.clear()
     planner.setProblemDefinition(problem)

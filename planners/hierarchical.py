@@ -248,23 +248,16 @@ class HierarchicalPlanner:
             No route: disconnected free space, or every route needs a closed door.
         """
         s, g = self._end(start, "start"), self._end(goal, "goal")
-        if self.space.component_at(s) != self.space.component_at(g):
-            raise NoPathError(f"start {s} and goal {g} lie in different parts of the free space")
-        matrix = self.door_matrix()
+        self.door_matrix()  # the door graph, built on first use: preprocessing, not the query
         clock = time.perf_counter()
-        ends = self.reach(s), self.reach(g)
-        direct = self._direct(s, g) if ends[0].part == ends[1].part else None
-        local = time.perf_counter()
-        bound = math.inf if direct is None else polyline_length(direct)
-        doors = self._search(matrix, *ends, bound)
+        ends, direct, doors, local = self._route(s, g)
         searched = time.perf_counter()
         crossings: dict[int, int] = {}
         if doors is not None:
             waypoints = self._stitch(doors, *ends, crossings)
-        elif direct is not None:
-            waypoints = direct
         else:
-            raise NoPathError(f"no route from {s} to {g} through open doors")
+            assert direct is not None  # _route raised otherwise
+            waypoints = direct
         kept = shortcut(self.space, waypoints)
         portals = {i: self.doors[crossings[k]].portal for i, k in enumerate(kept) if k in crossings}
         # legs are shortest paths: only door crossings and points whose neighbours changed
@@ -280,6 +273,41 @@ class HierarchicalPlanner:
         }
         crossed = regions_along(self.space.grid, self.labels, waypoints)
         return PlannedPath(waypoints, self.name, crossed, seconds)
+
+    def door_route(self, start: Goal, goal: Goal) -> tuple[list[int], list[int]]:
+        """The doors of the shortest route from ``start`` to ``goal`` (indices into
+        :attr:`doors`, in order) and the parts it passes through (one more than the doors;
+        one part and no door when the shortest path stays in the part holding both ends).
+
+        Raises
+        ------
+        InvalidQueryError, RegionNotFoundError, NoPathError
+            As :meth:`plan`.
+        """
+        s, g = self._end(start, "start"), self._end(goal, "goal")
+        ends, _, doors, _ = self._route(s, g)
+        if doors is None:
+            return [], [ends[0].part]
+        inner = [self._edge_part[(min(a, b), max(a, b))] for a, b in itertools.pairwise(doors)]
+        return doors, [ends[0].part, *inner, ends[1].part]
+
+    def _route(
+        self, s: Point, g: Point
+    ) -> tuple[tuple[Reach, Reach], NDArray[np.float64] | None, list[int] | None, float]:
+        """How ``s`` and ``g`` join their parts' doors, the direct path when both lie in one
+        part, the doors of the shortest route (None when the direct path is shorter) and the
+        clock when the ends were joined."""
+        if self.space.component_at(s) != self.space.component_at(g):
+            raise NoPathError(f"start {s} and goal {g} lie in different parts of the free space")
+        matrix = self.door_matrix()
+        ends = self.reach(s), self.reach(g)
+        direct = self._direct(s, g) if ends[0].part == ends[1].part else None
+        local = time.perf_counter()
+        bound = math.inf if direct is None else polyline_length(direct)
+        doors = self._search(matrix, *ends, bound)
+        if doors is None and direct is None:
+            raise NoPathError(f"no route from {s} to {g} through open doors")
+        return ends, direct, doors, local
 
     def reach(self, point: Point) -> Reach:
         """The open doors of ``point``'s part and the shortest distances to them inside the

@@ -37,6 +37,8 @@ from planners.path import PlannedPath
 Pose = tuple[float, float, float]
 #: Largest distance between two poses of a returned path, metres.
 POSE_SPACING = 0.05
+#: Steps of OMPL's B-spline smoothing in a simplification (OMPL's ``simplify`` uses 3).
+SMOOTHING_STEPS = 3
 
 
 class KinematicOMPL:
@@ -72,51 +74,112 @@ class KinematicOMPL:
         step = cspace.robot.motion_step(cspace.grid.resolution)
         self._si.setStateValidityCheckingResolution(step / self._space.getMaximumExtent())
         self._si.setup()
-        self._planner, self._keeps_roadmap = make_planner(self._si, planner)
+        self._planner, self.keeps_roadmap = make_planner(self._si, planner)
 
     def grow_roadmap(self, seconds: float) -> None:
         """Grow a roadmap planner's graph for ``seconds`` before any query."""
-        if not self._keeps_roadmap:
+        if not self.keeps_roadmap:
             raise PlannerParameterError("only PRM planners keep a roadmap")
         self._planner.growRoadmap(seconds)
 
     def solve(
-        self, start: Pose, goal: Pose, time_limit: float, simplify: bool = True
+        self,
+        start: Pose,
+        goal: Pose | list[Pose],
+        time_limit: float,
+        simplify: bool = True,
     ) -> tuple[NDArray[np.float64] | None, dict[str, float]]:
-        """Poses ``(n, 3)`` from ``start`` to ``goal``, at most :data:`POSE_SPACING` apart, or
+        """Poses ``(n, 3)`` from ``start`` to ``goal`` (a pose, or a list of poses any of
+        which will do: the path ends on one of them), at most :data:`POSE_SPACING` apart, or
         None when no exact solution was found in ``time_limit`` seconds; and the seconds of
-        planning and simplification."""
+        planning and simplification (:meth:`search`, then :meth:`smooth`)."""
+        vertices, seconds = self.search(start, goal, time_limit)
+        if vertices is None:
+            return None, seconds
+        poses, seconds["simplification"] = self.smooth(vertices, simplify)
+        return poses, seconds
+
+    def search(
+        self, start: Pose, goal: Pose | list[Pose], time_limit: float
+    ) -> tuple[NDArray[np.float64] | None, dict[str, float]]:
+        """The planner's solution from ``start`` to ``goal`` (as for :meth:`solve`) as its
+        vertices ``(n, 3)`` after OMPL's ``reduceVertices`` (the vertices it can skip), or
+        None; and the seconds of planning. Every planner stops at its first exact
+        solution."""
         clock = time.perf_counter()
+        goals = (
+            [self._state(pose) for pose in goal] if isinstance(goal, list) else self._state(goal)
+        )
         problem = solve_query(
             self._si,
             self._planner,
-            self._keeps_roadmap,
+            self.keeps_roadmap,
             self._state(start),
-            self._state(goal),
+            goals,
             time_limit,
+            first=True,
         )
-        seconds = {"planning": time.perf_counter() - clock}
         if not problem.hasExactSolution():
-            return None, seconds
+            return None, {"planning": time.perf_counter() - clock}
         path = problem.getSolutionPath()
+        og.PathSimplifier(self._si).reduceVertices(path)
+        return _poses(path), {"planning": time.perf_counter() - clock}
+
+    def admits(self, pose: Pose) -> bool:
+        """Whether ``pose`` is a valid state of this set-up (valid and within its bounds)."""
+        return self.cspace.valid(*pose) and bool(self._space.satisfiesBounds(self._state(pose)))
+
+    def smooth(
+        self, vertices: NDArray[np.float64], simplify: bool = True
+    ) -> tuple[NDArray[np.float64], float]:
+        """The path through ``vertices`` (valid motions of this space between them),
+        simplified when ``simplify`` by one pass of OMPL's ``PathSimplifier``
+        (``reduceVertices``, ``partialShortcutPath``, ``smoothBSpline`` of
+        :data:`SMOOTHING_STEPS`; ``simplifyMax`` repeats such passes until nothing changes,
+        3-4 times the cost for paths under 1 % shorter on the office), as poses a
+        motion-check step apart (no footprint point moves more than a cell between two; OMPL's
+        ``interpolate()``) and at most :data:`POSE_SPACING`; and the seconds it took."""
         clock = time.perf_counter()
+        path = og.PathGeometric(self._si)
+        for vertex in vertices:
+            path.append(self._state((vertex[0], vertex[1], vertex[2])))
         if simplify:
-            og.PathSimplifier(self._si).simplifyMax(path)
-        path.interpolate(max(2, math.ceil(path.length() / POSE_SPACING) + 1))
-        poses = np.array(
-            [
-                (path.getState(i).getX(), path.getState(i).getY(), path.getState(i).getYaw())
-                for i in range(path.getStateCount())
-            ]
-        )
-        seconds["simplification"] = time.perf_counter() - clock
-        return poses, seconds
+            simplifier = og.PathSimplifier(self._si)
+            simplifier.reduceVertices(path)
+            simplifier.partialShortcutPath(path)
+            simplifier.smoothBSpline(path, SMOOTHING_STEPS)
+        # states a motion-check step apart: a step moves no footprint point more than a cell
+        path.interpolate()
+        poses = _poses(path)
+        if len(poses) > 1 and np.hypot(*np.diff(poses[:, :2], axis=0).T).max() > POSE_SPACING:
+            poses = self._densify(path)  # cells coarser than the spacing
+        return poses, time.perf_counter() - clock
+
+    def _densify(self, path: Any) -> NDArray[np.float64]:
+        """Poses along ``path`` with states inserted so that none is more than
+        :data:`POSE_SPACING` of the state space's distance (so also of position) from the
+        next."""
+        out, between = [], self._space.allocState()
+        for i in range(path.getStateCount() - 1):
+            a, b = path.getState(i), path.getState(i + 1)
+            pieces = max(1, math.ceil(self._space.distance(a, b) / POSE_SPACING))
+            for k in range(pieces):
+                self._space.interpolate(a, b, k / pieces, between)
+                out.append((between.getX(), between.getY(), between.getYaw()))
+        last = path.getState(path.getStateCount() - 1)
+        return np.array([*out, (last.getX(), last.getY(), last.getYaw())])
 
     def _state(self, pose: Pose) -> Any:
         state = self._space.allocState()
         state.setXY(pose[0], pose[1])
         state.setYaw(pose[2])
         return state
+
+
+def _poses(path: Any) -> NDArray[np.float64]:
+    """The states of an OMPL path as poses ``(n, 3)``."""
+    states = (path.getState(i) for i in range(path.getStateCount()))
+    return np.array([(s.getX(), s.getY(), s.getYaw()) for s in states])
 
 
 def check_pose(cspace: HeadingCSpace, pose: ArrayLike, what: str) -> Pose:

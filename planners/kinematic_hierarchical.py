@@ -1,24 +1,30 @@
 """Hierarchical planning for footprint robots: the region graph first, then OMPL in submaps.
 
-A query finds the start's and the goal's regions and searches the region graph for routes over
-the doors this robot fits through (a door narrower than the footprint's width plus
-``door_margin`` is no door: :func:`planners.region_route.region_routes`). Along the best route
-it runs one OMPL query confined to the union of the route's submaps, the regions grown by
-``submap_margin`` (a state whose reference point lies outside is invalid; the footprint is
-checked against the whole map's configuration space). If OMPL finds nothing within its time
-limit, the next-best route is tried, up to ``routes`` of them, before :class:`NoPathError`.
+A query searches the door graph of :class:`~planners.hierarchical.HierarchicalPlanner` built
+for a disc as wide as the narrowest door this robot takes (the footprint's width plus
+``door_margin``, by default what the configuration space grows it by: a narrower door is no
+door), which gives the route's submaps (near-convex parts) and the doors between them. Along
+the route OMPL runs in one of two modes:
 
-One query over the union of the route's regions, not a query per leg between door poses:
-a leg has to fix the robot's pose at each door (position and heading), which a car may only
-reach by manoeuvring, and a leg that fails for a bad door pose fails the route; the union
-keeps the search as free as the flat planner's inside a space a few rooms large.
+- ``"legs"`` (the default): one query per leg, from a pose across one door to any valid pose
+  across the next (:mod:`planners.legs`), each leg confined to its submap grown by the
+  robot's reach; the legs join into one continuous path.
+- ``"union"``: one query from start to goal confined to the union of the route's submaps.
+
+A confined space is the whole map's configuration space with the cells outside the submaps
+(grown by ``submap_margin``) blocked for the reference point; the footprint is checked against
+the whole map. If a route fails, the region graph's routes over doors the robot fits are
+tried (:func:`planners.region_route.region_routes`, shortest first; submaps whole regions), up
+to ``routes`` in all, within one ``time_limit`` per query, before :class:`NoPathError`.
 """
 
 from __future__ import annotations
 
 import logging
 import time
+from collections import OrderedDict
 from collections.abc import Iterator
+from dataclasses import dataclass
 
 import cv2
 import networkx as nx
@@ -32,21 +38,52 @@ from planners.errors import InvalidQueryError, NoPathError, PlannerParameterErro
 from planners.flat import _seed_once
 from planners.hierarchical import HierarchicalPlanner, regions_along
 from planners.kinematic import KinematicOMPL, Pose, check_pose
+from planners.legs import Crossing, door_poses
 from planners.path import PlannedPath
 from planners.region_route import region_routes
-from planners.workspace import Workspace, sample_polyline
+from planners.robots import Dubins
+from planners.workspace import Workspace
 from segmentation.names import find_region
 
 log = logging.getLogger(__name__)
 
-#: Metres a door must be wider than the footprint.
-DOOR_MARGIN = 0.1
-#: Metres a submap reaches beyond its part or region, so the robot can pass the doorways.
-SUBMAP_MARGIN = 1.0
+#: How OMPL runs along a route.
+MODES = ("legs", "union")
+#: Confined OMPL set-ups a planner keeps for the legs to come (a memory bound).
+KEPT_SUBMAPS = 512
+
+
+@dataclass(frozen=True)
+class Budget:
+    """The time a query has left: until ``deadline`` (``time.perf_counter()`` seconds), to
+    share over ``shares`` routes (this one and those that may follow)."""
+
+    deadline: float
+    shares: int
+
+    def until(self) -> float:
+        """When one OMPL query started now must stop: its share of the time left."""
+        now = time.perf_counter()
+        return now + max(self.deadline - now, 0.0) / self.shares
+
+
+@dataclass(frozen=True)
+class Route:
+    """A route to plan along: ``ids`` of ``labels`` (``kind``: ``"parts"`` or
+    ``"regions"``) in the order it passes them (``boxes`` their bounding boxes), and the
+    ``crossings`` between each two in a row."""
+
+    what: str
+    kind: str
+    labels: NDArray[np.int32]
+    boxes: list
+    ids: list[int]
+    crossings: list[Crossing]
 
 
 class KinematicHierarchicalPlanner:
-    """Door-graph route first, then one OMPL query inside the route's submaps.
+    """Door-graph route first, then OMPL inside the route's submaps (per leg or over their
+    union).
 
     Parameters
     ----------
@@ -57,18 +94,32 @@ class KinematicHierarchicalPlanner:
     graph
         The region adjacency graph; edges carry ``doors`` with their ``width``.
     planner
-        OMPL planner name (:data:`planners.flat.PLANNERS`).
+        OMPL planner name (:data:`planners.flat.PLANNERS`); by default RRTConnect, or RRT
+        for a robot whose motions are not symmetric (Dubins: RRTConnect grows its goal tree
+        along motions reversed, which a forward-only car cannot drive, and stalls at a door
+        pose facing a wall beyond the submap).
     time_limit
-        Seconds OMPL may take per route.
+        Seconds OMPL may take per query, all routes and legs together (a leg, or the union's
+        query, of route ``k`` of ``routes`` may take the time left over the routes left).
     routes
         Routes tried, best first, before giving up.
-    door_margin, submap_margin
-        See :data:`DOOR_MARGIN`, :data:`SUBMAP_MARGIN`.
+    mode
+        ``"legs"`` or ``"union"`` (:data:`MODES`, see the module's description).
+    door_margin
+        Metres a door must be wider than the footprint; by default twice the configuration
+        space's :attr:`~planners.cspace.HeadingCSpace.growth` (a narrower door has no valid
+        pose: it is no door for this robot).
+    submap_margin
+        Metres a submap reaches beyond its part or region; by default the robot's
+        :attr:`~planners.robots.Footprint.reach` (what passing a door needs).
     random_state
         OMPL's seed (process-wide: only the first planner made in a process sets it).
-    """
 
-    name = "hierarchical"
+    Attributes
+    ----------
+    name
+        ``"hierarchical"`` in the default mode, else ``"hierarchical_<mode>"``.
+    """
 
     def __init__(
         self,
@@ -76,11 +127,12 @@ class KinematicHierarchicalPlanner:
         labels: NDArray[np.integer],
         graph: nx.Graph,
         *,
-        planner: str = "RRTConnect",
+        planner: str | None = None,
         time_limit: float = 5.0,
         routes: int = 3,
-        door_margin: float = DOOR_MARGIN,
-        submap_margin: float = SUBMAP_MARGIN,
+        mode: str = "legs",
+        door_margin: float | None = None,
+        submap_margin: float | None = None,
         random_state: RandomState = 0,
     ) -> None:
         clock = time.perf_counter()
@@ -88,14 +140,30 @@ class KinematicHierarchicalPlanner:
             raise PlannerParameterError(f"time_limit must be > 0 seconds, got {time_limit}")
         if routes < 1:
             raise PlannerParameterError(f"routes must be >= 1, got {routes}")
+        if mode not in MODES:
+            raise PlannerParameterError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
+        margin = cspace.robot.reach if submap_margin is None else float(submap_margin)
+        if not margin >= 0:
+            raise PlannerParameterError(f"submap_margin must be >= 0 metres, got {submap_margin}")
         _seed_once(random_state)
-        self.min_width = cspace.robot.width + door_margin
+        fit = 2 * cspace.growth if door_margin is None else float(door_margin)
+        if not fit >= 0:
+            raise PlannerParameterError(f"door_margin must be >= 0 metres, got {door_margin}")
+        self.min_width = cspace.robot.width + fit
         # the door graph of a disc as wide as the narrowest door this robot may take
         self.doors = HierarchicalPlanner(Workspace(cspace.grid, self.min_width / 2), labels, graph)
-        self.cspace, self.graph, self.planner = cspace, graph, planner
+        if planner is None:
+            symmetric = cspace.robot.state_space().hasSymmetricInterpolate()
+            planner = "RRTConnect" if symmetric else "RRT"
+        self.cspace, self.graph, self.planner, self.mode = cspace, graph, planner, mode
+        self.name = "hierarchical" if mode == MODES[0] else f"hierarchical_{mode}"
+        # the whole map's OMPL set-up: the joined path is simplified there
+        self._whole = KinematicOMPL(cspace, planner)
+        self._per_leg = not isinstance(cspace.robot, Dubins)  # see _legs
+        self._kept: OrderedDict[tuple[str, tuple[int, ...]], KinematicOMPL] = OrderedDict()
         self.labels = self.doors.labels
         self.time_limit, self.routes = float(time_limit), int(routes)
-        self._grow = max(1, round(submap_margin / cspace.grid.resolution))
+        self._grow = max(1, round(margin / cspace.grid.resolution))
         self._region_boxes = ndimage.find_objects(self.labels)
         self._part_boxes = ndimage.find_objects(self.doors.parts)
         self.build_seconds = time.perf_counter() - clock
@@ -126,6 +194,8 @@ class KinematicHierarchicalPlanner:
         NoPathError
             No route through doors the robot fits, or OMPL failed on every route tried.
         """
+        clock = time.perf_counter()
+        deadline = clock + self.time_limit
         start, goal = (
             self.doors.centre(find_region(self.graph, end))
             if isinstance(end, int | np.integer | str)
@@ -139,15 +209,15 @@ class KinematicHierarchicalPlanner:
         seconds = {"route_search": 0.0, "submaps": 0.0, "planning": 0.0, "simplification": 0.0}
         routes = self._routes(s, g)
         tried: list[str] = []
-        for _ in range(self.routes):
+        for k in range(self.routes):
             clock = time.perf_counter()
-            found = next(routes, None)
+            route = next(routes, None)
             seconds["route_search"] += time.perf_counter() - clock
-            if found is None:
+            if route is None or clock >= deadline:
                 break
-            what, labels, boxes, ids = found
-            tried.append(what)
-            poses = self._inside(labels, boxes, ids, s, g, seconds)
+            tried.append(route.what)
+            along = self._legs if self.mode == "legs" else self._union
+            poses = along(route, s, g, Budget(deadline, self.routes - k), seconds)
             if poses is not None:
                 crossed = regions_along(self.cspace.grid, self.labels, poses[:, :2])
                 return PlannedPath.from_poses(poses, self.name, crossed, seconds)
@@ -160,36 +230,126 @@ class KinematicHierarchicalPlanner:
             f"on any of the routes tried: {'; '.join(tried)}"
         )
 
-    def _routes(self, s: Pose, g: Pose) -> Iterator[tuple[str, NDArray[np.int32], list, list[int]]]:
-        """Routes best first, each as (description, label image, its boxes, the ids kept)."""
+    def _routes(self, s: Pose, g: Pose) -> Iterator[Route]:
+        """Routes best first: the door graph's, then the region graph's."""
         try:
-            guide = self.doors.plan(s[:2], g[:2])
+            doors, parts = self.doors.door_route(s[:2], g[:2])
         except PlanningError as err:
             log.debug("no door-graph route (%s): trying region routes", err)
         else:
-            points = sample_polyline(guide.waypoints, self.cspace.grid.resolution)
-            rows, cols = self.cspace.grid.world_to_cell(points[:, 0], points[:, 1])
-            parts = [int(p) for p in dict.fromkeys(self.doors.parts[rows, cols]) if p > 0]
-            yield f"door graph through submaps {parts}", self.doors.parts, self._part_boxes, parts
+            crossings = [
+                Crossing(door.point, (door.opening.start, door.opening.end), a, b)
+                for door, a, b in zip(
+                    (self.doors.doors[d] for d in doors), parts[:-1], parts[1:], strict=False
+                )
+            ]
+            what = f"door graph through submaps {parts}"
+            yield Route(what, "parts", self.doors.parts, self._part_boxes, parts, crossings)
         ends = self.region_at(s[0], s[1]), self.region_at(g[0], g[1])
         try:
-            for route in region_routes(self.graph, *ends, min_width=self.min_width):
-                ids = list(route.regions)
-                yield f"regions {ids}", self.labels, self._region_boxes, ids
+            for found in region_routes(self.graph, *ends, min_width=self.min_width):
+                ids = list(found.regions)
+                crossings = [
+                    Crossing(t.centre, (t.start, t.end), a, b)
+                    for t, a, b in zip(found.doors, ids[:-1], ids[1:], strict=True)
+                ]
+                what = f"regions {ids}"
+                yield Route(what, "regions", self.labels, self._region_boxes, ids, crossings)
         except NoPathError as err:
             log.debug("no region route: %s", err)
 
-    def _inside(
+    def _union(
+        self, route: Route, start: Pose, goal: Pose, budget: Budget, seconds: dict[str, float]
+    ) -> NDArray[np.float64] | None:
+        """One OMPL query inside the union of the route's submaps, simplified on the whole
+        map: its poses."""
+        vertices = self._solve(route, route.ids, start, goal, budget.until(), seconds)
+        return None if vertices is None else self._smooth(vertices, seconds)
+
+    def _legs(
+        self, route: Route, start: Pose, goal: Pose, budget: Budget, seconds: dict[str, float]
+    ) -> NDArray[np.float64] | None:
+        """One OMPL query per leg between door poses, the legs joined end to end: their poses.
+        Each leg may take the budget's share of the time left, so a leg that fails leaves
+        time for the next routes, and a long route of easy legs may use the whole budget.
+        A robot that turns in place simplifies each leg inside its submaps (passing each door
+        pose costs it nothing); a car simplifies the joined path on the whole map, where
+        shortcuts may drop the fixed door headings it would otherwise manoeuvre to."""
+        clock = time.perf_counter()
+        ids: list[int] = [route.ids[0]]
+        legs: list[tuple[list[int], list[Pose]]] = []
+        for crossing, after in zip(route.crossings, route.ids[1:], strict=True):
+            poses = door_poses(crossing, route.labels, self.cspace)
+            if poses:
+                legs.append((ids, poses))
+                ids = []
+            ids.append(after)
+        legs.append((ids, [goal]))
+        seconds["submaps"] += time.perf_counter() - clock
+        pieces, pose = [], start
+        for k, (leg, ends) in enumerate(legs):
+            found = self._solve(
+                route, list(dict.fromkeys(leg)), pose, ends, budget.until(), seconds, self._per_leg
+            )
+            if found is None:
+                log.debug("leg %d of %d (submaps %s) failed", k + 1, len(legs), leg)
+                return None
+            pieces.append(found if k == 0 else found[1:])
+            pose = (float(found[-1, 0]), float(found[-1, 1]), float(found[-1, 2]))
+        joined = np.vstack(pieces)
+        return joined if self._per_leg else self._smooth(joined, seconds)
+
+    def _smooth(self, vertices: NDArray[np.float64], seconds: dict[str, float]) -> NDArray:
+        """The path through ``vertices`` simplified on the whole map, as poses."""
+        poses, spent = self._whole.smooth(vertices)
+        seconds["simplification"] += spent
+        return poses
+
+    def _solve(
         self,
-        labels: NDArray[np.int32],
-        boxes: list,
+        route: Route,
         ids: list[int],
         start: Pose,
-        goal: Pose,
+        goal: Pose | list[Pose],
+        until: float,
         seconds: dict[str, float],
+        smooth: bool = False,
     ) -> NDArray[np.float64] | None:
-        """One OMPL query inside the cells labelled ``ids``, grown by the submap margin."""
+        """One OMPL query inside the cells of ``route.labels`` labelled ``ids``, grown by the
+        submap margin, with the time left until ``until``: the solution's vertices, or its
+        poses simplified inside the submaps when ``smooth``."""
         clock = time.perf_counter()
+        if clock >= until:
+            return None
+        ompl = self._submaps(route, ids)
+        goals = [pose for pose in (goal if isinstance(goal, list) else [goal]) if ompl.admits(pose)]
+        seconds["submaps"] += time.perf_counter() - clock
+        if not (goals and ompl.admits(start)):
+            log.debug("the ends %s, %s are not valid in submaps %s", start, goal, ids)
+            return None
+        poses, spent = ompl.search(start, goals, max(until - time.perf_counter(), 1e-3))
+        for key, value in spent.items():
+            seconds[key] += value
+        if poses is None or not smooth:
+            return poses
+        poses, spent_smoothing = ompl.smooth(poses)
+        seconds["simplification"] += spent_smoothing
+        return poses
+
+    def _submaps(self, route: Route, ids: list[int]) -> KinematicOMPL:
+        """The OMPL set-up confined to the submaps ``ids`` of ``route``, made once and kept
+        (the :data:`KEPT_SUBMAPS` used last): legs through the same submaps recur."""
+        key = (route.kind, tuple(ids))
+        ompl = self._kept.pop(key, None)
+        if ompl is None:
+            ompl = KinematicOMPL(self._confined(route.labels, route.boxes, ids), self.planner)
+        self._kept[key] = ompl
+        while len(self._kept) > KEPT_SUBMAPS:
+            self._kept.popitem(last=False)
+        return ompl
+
+    def _confined(self, labels: NDArray[np.int32], boxes: list, ids: list[int]) -> HeadingCSpace:
+        """The configuration space inside the cells labelled ``ids``, grown by the margin."""
         h, w = labels.shape
         picked = [boxes[i - 1] for i in ids]
         rows = slice(
@@ -200,12 +360,6 @@ class KinematicHierarchicalPlanner:
             max(min(b[1].start for b in picked) - self._grow, 0),
             min(max(b[1].stop for b in picked) + self._grow, w),
         )
-        inside = np.isin(labels[rows, cols], ids).astype(np.uint8)
-        disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * self._grow + 1,) * 2)
-        keep = cv2.dilate(inside, disc).astype(bool)
-        ompl = KinematicOMPL(self.cspace.crop(rows, cols, keep), self.planner)
-        seconds["submaps"] += time.perf_counter() - clock
-        poses, spent = ompl.solve(start, goal, self.time_limit)
-        for key, value in spent.items():
-            seconds[key] += value
-        return poses
+        outside = (~np.isin(labels[rows, cols], ids)).astype(np.uint8)
+        away = cv2.distanceTransform(outside, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        return self.cspace.crop(rows, cols, away <= self._grow)

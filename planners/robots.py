@@ -83,6 +83,8 @@ class Footprint:
     polygon: NDArray[np.float64]
 
     name = "se2"
+    #: Whether the robot may cross a door either way round (it turns in place or reverses).
+    reverses = True
 
     def __post_init__(self) -> None:
         p = np.asarray(self.polygon, float)
@@ -116,6 +118,12 @@ class Footprint:
         spans = p @ normals.T  # the narrowest extent is across an edge of the hull
         return float((spans.max(axis=0) - spans.min(axis=0)).min())
 
+    @property
+    def reach(self) -> float:
+        """How far past a door its reference point may have to go to pass the door, metres:
+        the circumradius (the footprint turning in place)."""
+        return self.circumradius
+
     def motion_step(self, resolution: float) -> float:
         """Longest step, in the state space's distance, after which no footprint point has
         moved more than ``resolution`` metres (SE(2): metres plus half the turn, radians)."""
@@ -136,10 +144,17 @@ class Dubins(Footprint):
     turning_radius: float = 1.0
 
     name = "dubins"
+    reverses = False
 
     def __post_init__(self) -> None:
         super().__post_init__()
         _positive(self.turning_radius, "turning radius")
+
+    @property
+    def reach(self) -> float:
+        """The circumradius plus the turning radius (the car turning through the door),
+        metres."""
+        return self.circumradius + self.turning_radius
 
     def motion_step(self, resolution: float) -> float:
         """Longest arc, metres, after which no footprint point has moved more than
@@ -158,6 +173,7 @@ class ReedsShepp(Dubins):
     ``turning_radius`` metres."""
 
     name = "reeds-shepp"
+    reverses = True
 
     def state_space(self) -> ob.StateSpace:
         from ompl import base as ob

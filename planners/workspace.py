@@ -8,7 +8,6 @@ on one side of each piece (exact grid traversal, not sampling).
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -320,11 +319,13 @@ def crop_grid(grid: OccupancyGrid, rows: slice, cols: slice) -> OccupancyGrid:
 def sample_polyline(waypoints: ArrayLike, step: float) -> NDArray[np.float64]:
     """Points along a polyline at most ``step`` apart, both ends included."""
     p = np.asarray(waypoints, float).reshape(-1, 2)
-    samples = [p[-1:]]
-    for a, b in itertools.pairwise(p):
-        n = max(1, int(np.ceil(np.hypot(*(b - a)) / step)))
-        samples.append(a + np.linspace(0, 1, n, endpoint=False)[:, None] * (b - a))
-    return np.concatenate(samples[1:] + samples[:1])
+    if len(p) < 2:
+        return p[-1:].copy()
+    d = np.diff(p, axis=0)
+    counts = np.maximum(1, np.ceil(np.hypot(*d.T) / step).astype(np.intp))
+    owner = np.repeat(np.arange(len(d)), counts)
+    t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / counts[owner]
+    return np.vstack([p[owner] + t[:, None] * d[owner], p[-1:]])
 
 
 def _snap1(value: float) -> float:

@@ -53,3 +53,22 @@ def test_ompl_log_loads_into_the_planner_arena_database(space, tmp_path):
     assert [r[2] for r in solved] == pytest.approx([r["length_m"] for r in records[:3]])
     (failed,) = [r for r in rows if planners[r[0]] == "broken"]
     assert failed[1] == 0 and failed[2] is None
+
+
+def test_the_footprint_picture_draws_the_hierarchical_paths(two_rooms, tmp_path):
+    from topomap.cli.plan_report import plot_footprint_paths
+
+    grid = two_rooms()
+    yaml = grid.save(tmp_path / "rooms.yaml")
+    xmin, ymin, xmax, _ = grid.bounds()
+    poses = [[xmin + 1.0, ymin + 1.0, 0.0], [xmax - 1.0, ymin + 1.0, 0.5]]
+    about = {
+        "footprint": [[0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2], [0.3, -0.2]],
+        "maps": {"rooms": str(yaml)},
+        "paths": [
+            {"map": "rooms", "query": 0, "planner": "hierarchical", "poses": poses},
+            {"map": "rooms", "query": 0, "planner": "flat_rrtconnect", "poses": poses},
+        ],
+    }
+    written = plot_footprint_paths(tmp_path / "paths.png", about)
+    assert written.stat().st_size > 10_000

@@ -131,25 +131,29 @@ def test_hierarchical_paths_cross_the_door_without_collision(spec):
 
 
 def test_a_door_narrower_than_the_robot_is_no_door():
-    planner = _planner("rect:0.6x0.5", door=0.55)  # 0.55 m < 0.5 m + the 0.1 m margin
-    with pytest.raises(NoPathError, match=r"at least 0\.6 m wide"):
+    planner = _planner("rect:0.6x0.5", door=0.65)
+    # the width plus what the configuration space grows the footprint by on both sides
+    assert planner.min_width == pytest.approx(0.5 + 2 * planner.cspace.growth)
+    assert 0.65 < planner.min_width < 0.7
+    with pytest.raises(NoPathError, match=rf"at least {planner.min_width:g} m wide"):
         planner.plan((1.0, 2.0), (7.0, 2.0))
 
 
-def test_a_failed_route_falls_back_to_the_next(monkeypatch):
-    planner = _planner("rect:0.6x0.4")
+@pytest.mark.parametrize("mode", ["legs", "union"])
+def test_a_failed_route_falls_back_to_the_next(monkeypatch, mode):
+    planner = _planner("rect:0.6x0.4", mode=mode)
     calls = []
-    inside = KinematicHierarchicalPlanner._inside
+    along = getattr(KinematicHierarchicalPlanner, f"_{mode}")
 
-    def first_fails(self, labels, boxes, ids, *rest):
-        calls.append(list(ids))
-        return None if len(calls) == 1 else inside(self, labels, boxes, ids, *rest)
+    def first_fails(self, route, *rest):
+        calls.append(list(route.ids))
+        return None if len(calls) == 1 else along(self, route, *rest)
 
-    monkeypatch.setattr(KinematicHierarchicalPlanner, "_inside", first_fails)
+    monkeypatch.setattr(KinematicHierarchicalPlanner, f"_{mode}", first_fails)
     path = planner.plan((1.0, 1.0, 0.0), (7.0, 3.0, 0.0))
     assert len(calls) == 2 and calls[1] == [1, 2]  # then the region route, whole regions
     _check(path, planner.cspace.grid, planner.cspace.robot, (1.0, 1.0, 0.0), (7.0, 3.0, 0.0))
-    monkeypatch.setattr(KinematicHierarchicalPlanner, "_inside", lambda *args: None)
+    monkeypatch.setattr(KinematicHierarchicalPlanner, f"_{mode}", lambda *args: None)
     with pytest.raises(NoPathError, match=r"routes tried: door graph .*; regions \[1, 2\]"):
         planner.plan((1.0, 1.0, 0.0), (7.0, 3.0, 0.0))
 

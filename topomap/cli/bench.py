@@ -34,7 +34,7 @@ from planners.workspace import Point, Workspace
 from segmentation.errors import ParameterError
 from segmentation.naive import naive_segment
 from segmentation.spectral import SpectralSegmenter
-from topomap.cli.plan_report import write_report
+from topomap.cli.plan_report import plot_footprint_paths, write_report
 from topomap.topomap import TopoMap
 
 
@@ -251,8 +251,11 @@ def bench_plan(
     return records, summary
 
 
-#: Flat OMPL planners of the footprint benchmark.
-ROBOT_BASELINES = ("RRTConnect", "KPIECE1")
+#: Flat OMPL planners of the footprint benchmark (each stops at its first exact solution;
+#: PRM keeps its roadmap across the queries of a map).
+ROBOT_BASELINES = ("RRTConnect", "RRTstar", "BITstar", "KPIECE1", "PRM")
+#: Paths drawn per map in ``paths.png``.
+DRAWN_PATHS = 3
 
 
 def bench_plan_robot(
@@ -268,15 +271,19 @@ def bench_plan_robot(
     progress: Callable[[Any], Any] = iter,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Hierarchical planning with OMPL inside submaps against flat OMPL on the whole map for a
-    footprint robot: the same configuration space (computed once per map, timed as
-    preprocessing), state space, validity and motion checks, simplification and
-    ``time_limit`` per query (the hierarchical planner's per route); flat planners
-    :data:`ROBOT_BASELINES`, RRTConnect for the hierarchical one. Queries are far-apart
-    points where a disc as wide as the narrowest door the robot takes stands, each at the
-    valid heading nearest 0. Collisions are counted by the independent footprint sweep
+    footprint robot: the same configuration space (computed once per map and shared, timed
+    as preprocessing), state space, validity and motion checks, simplification and
+    ``time_limit`` per query (for the hierarchical planner: all its routes and legs); flat
+    planners :data:`ROBOT_BASELINES` (PRM's roadmap grown first for as long as the
+    hierarchical preprocessing took, at most :data:`PRM_MAX_GROWTH` s, and kept), the
+    hierarchical planner per leg (``hierarchical``) and over the union of the route's
+    submaps (``hierarchical_union``). Queries are far-apart points where a disc as wide as
+    the narrowest door the robot takes stands, each at the valid heading nearest 0.
+    Collisions are counted by the independent footprint sweep
     (:func:`planners.sweep.footprint_collisions`); lengths are compared with the disc's
-    door-graph path. Writes :func:`topomap.cli.plan_report.write_report`'s files and
-    ``paths.json`` (footprint, maps, every path's poses).
+    door-graph path. Writes :func:`topomap.cli.plan_report.write_report`'s files,
+    ``paths.json`` (footprint, maps, every path's poses) and ``paths.png`` (a few paths of
+    each map with the footprint drawn along them).
     """
     records: list[dict[str, Any]] = []
     preprocessing: dict[str, dict[str, Any]] = {}
@@ -289,16 +296,23 @@ def bench_plan_robot(
         clock = time.perf_counter()
         cspace = HeadingCSpace(grid, robot)
         pre["cspace"] = time.perf_counter() - clock
-        hierarchical = KinematicHierarchicalPlanner(
-            cspace, topo.regions.labels, topo.graph, time_limit=time_limit, random_state=seed
-        )
+        hierarchical, union = (
+            KinematicHierarchicalPlanner(
+                cspace, topo.regions.labels, topo.graph, time_limit=time_limit, mode=mode,
+                random_state=seed,
+            )
+            for mode in ("legs", "union")
+        )  # fmt: skip
         pre["submaps"] = hierarchical.build_seconds
         pre["door_graph"] = hierarchical.prepare()
-        planners: list[Planner] = [hierarchical]
+        union.prepare()
+        planners: list[Planner] = [hierarchical, union]
         for baseline in ROBOT_BASELINES:
-            planners.append(
-                FlatKinematicPlanner(cspace, baseline, time_limit=time_limit, random_state=seed)
-            )
+            flat = FlatKinematicPlanner(cspace, baseline, time_limit=time_limit, random_state=seed)
+            if flat.ompl.keeps_roadmap:
+                pre["prm_roadmap"] = min(PRM_MAX_GROWTH, pre["submaps"] + pre["door_graph"])
+                flat.ompl.grow_roadmap(pre["prm_roadmap"])
+            planners.append(flat)
         guide = hierarchical.doors
         pairs = far_queries(guide.space, queries, random_state=seed)
         pairs = [
@@ -323,6 +337,7 @@ def bench_plan_robot(
     write_report(out, records, summary, preprocessing, time_limit, seed)
     about = {"footprint": robot.polygon.tolist(), "maps": maps, "paths": found_paths}
     (Path(out) / "paths.json").write_text(json.dumps(about))
+    plot_footprint_paths(Path(out) / "paths.png", about, per_map=DRAWN_PATHS)
     return records, summary
 
 

@@ -119,7 +119,8 @@ def write_ompl_log(
 
 
 #: Columns of the summary table (lengths are ratios to the exact shortest path; ``speedup``
-#: is the planner's median time over the hierarchical planner's).
+#: is the planner's median time over the hierarchical planner's, ``vs_best_flat`` the best
+#: flat planner's median time over this planner's).
 COLUMNS = [
     "map",
     "planner",
@@ -127,6 +128,7 @@ COLUMNS = [
     "median_s",
     "p90_s",
     "speedup",
+    "vs_best_flat",
     "length_median",
     "length_max",
     "collisions",
@@ -158,4 +160,58 @@ def _plot(path: Path, records: Sequence[dict[str, Any]]) -> Path:
     ax.set_title("planning query times")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
+    return path
+
+
+#: Metres between two footprints drawn along a path in :func:`plot_footprint_paths`.
+FOOTPRINT_EVERY = 1.5
+
+
+def plot_footprint_paths(path: Path, about: dict[str, Any], *, per_map: int = 3) -> Path:
+    """Draw ``per_map`` hierarchical paths of each map of ``about`` (the contents of the
+    footprint benchmark's ``paths.json``) over the map, the footprint drawn every
+    :data:`FOOTPRINT_EVERY` metres along them, with the flat planners' paths of the same
+    queries as thin lines; one panel per map, written to ``path``."""
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Polygon as Patch
+    from matplotlib.transforms import Affine2D
+
+    from maps.grid import OccupancyGrid
+
+    footprint = np.asarray(about["footprint"], float)
+    names = list(about["maps"])
+    fig = Figure(figsize=(8, 5.5 * max(1, len(names))))
+    for k, name in enumerate(names):
+        ax = fig.add_subplot(len(names), 1, k + 1)
+        grid = OccupancyGrid.load(about["maps"][name])
+        (h, w), r = grid.shape, grid.resolution
+        ox, oy, yaw = grid.origin
+        image = ax.imshow(
+            np.where(grid.free, 1.0, 0.25), cmap="gray", vmin=0, vmax=1, extent=(0, w * r, 0, h * r)
+        )
+        image.set_transform(Affine2D().rotate(yaw).translate(ox, oy) + ax.transData)
+        mine = [p for p in about["paths"] if p["map"] == name]
+        queries = list(dict.fromkeys(p["query"] for p in mine if p["planner"] == "hierarchical"))
+        for colour, query in enumerate(queries[:per_map]):
+            for found in (p for p in mine if p["query"] == query):
+                poses = np.asarray(found["poses"], float)
+                if found["planner"] != "hierarchical":
+                    ax.plot(*poses[:, :2].T, color=f"C{colour}", lw=0.6, ls="--")
+                    continue
+                ax.plot(*poses[:, :2].T, color=f"C{colour}", lw=1.2, label=f"query {query}")
+                steps = np.hypot(*np.diff(poses[:, :2], axis=0).T)
+                along = np.concatenate([[0.0], np.cumsum(steps)])
+                marks = np.searchsorted(along, np.arange(0, along[-1], FOOTPRINT_EVERY))
+                for x, y, a in poses[np.append(marks, len(poses) - 1)]:
+                    c, s = np.cos(a), np.sin(a)
+                    corners = footprint @ np.array([[c, s], [-s, c]]) + (x, y)
+                    ax.add_patch(Patch(corners, closed=True, fill=False, lw=0.5, ec=f"C{colour}"))
+        ax.set_title(f"{name}: hierarchical paths (footprints), flat paths dashed", fontsize=9)
+        ax.set_aspect("equal")
+        xmin, ymin, xmax, ymax = grid.bounds()
+        ax.set_xlim(xmin, xmax)
+        ax.set_ylim(ymin, ymax)
+        ax.legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=150)
     return path

@@ -1,0 +1,155 @@
+"""Per-leg planning for footprint robots: door poses, legs joined continuously, both modes on a
+generated building, the best flat planner, and typed errors for bad parameters."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_kinematic import _planner, _rooms
+
+from maps.floorplan import generate_floor_plan
+from planners.benchmark import best_flat, far_queries
+from planners.cspace import HeadingCSpace
+from planners.errors import InvalidQueryError, PlannerParameterError
+from planners.kinematic import POSE_SPACING
+from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
+from planners.legs import Crossing, door_poses
+from planners.robots import Footprint, RobotSpecError, parse_robot, rectangle
+from planners.sweep import footprint_collisions
+from segmentation.graph import region_graph
+from segmentation.regions import Regions
+from topomap.topomap import TopoMap
+
+CAR = "reeds-shepp:radius=1,footprint=0.9x0.6"
+
+
+def _door(planner, before=1, after=2):
+    """The two-room map's door, crossed from region ``before`` into ``after``."""
+    (door,) = planner.graph.edges[1, 2]["doors"]
+    return Crossing(door.centre, (door.start, door.end), before, after)
+
+
+@pytest.mark.parametrize(
+    ("spec", "headings"),
+    [
+        ("rect:0.6x0.4", 2),
+        ("reeds-shepp:radius=0.5,footprint=0.6x0.4", 2),
+        ("dubins:radius=0.5,footprint=0.6x0.4", 1),
+    ],
+)
+def test_door_poses_head_across_the_door_from_before_into_after(spec, headings):
+    planner = _planner(spec)
+    for before, after, east in ((1, 2, True), (2, 1, False)):
+        poses = door_poses(_door(planner, before, after), planner.labels, planner.cspace)
+        assert len(poses) == headings
+        x, y, yaw = poses[0]
+        assert abs(x - 4.1) < 0.05 and abs(y - 2.0) < 0.1  # in the door, mid-wall
+        assert math.cos(yaw) == pytest.approx(1.0 if east else -1.0)
+        if headings == 2:  # and the other way round
+            assert math.cos(poses[1][2]) == pytest.approx(-math.cos(yaw))
+
+
+def test_a_door_the_footprint_does_not_fit_has_no_pose():
+    planner = _planner("rect:0.6x0.4", door=1.0)
+    wide = HeadingCSpace(planner.cspace.grid, Footprint(rectangle(0.6, 1.1)))
+    assert door_poses(_door(planner), planner.labels, wide) == []
+
+
+def _continuous_and_clear(path, cspace, start, goal):
+    poses = path.poses
+    assert np.allclose(poses[0], start) and np.allclose(poses[-1], goal)
+    assert np.hypot(*np.diff(poses[:, :2], axis=0).T).max() <= POSE_SPACING + 1e-9
+    assert footprint_collisions(cspace.grid, cspace.robot.polygon, poses) == 0
+
+
+@pytest.mark.parametrize("mode", ["legs", "union"])
+def test_legs_join_continuously_through_the_door(mode):
+    planner = _planner(CAR, mode=mode)
+    start, goal = (1.0, 1.0, 0.0), (7.0, 3.0, math.pi / 2)
+    path = planner.plan(start, goal)
+    _continuous_and_clear(path, planner.cspace, start, goal)
+    assert path.regions == (1, 2) and path.planner == planner.name
+
+
+@pytest.fixture(scope="module")
+def building():
+    """A generated 20 x 15 m building, segmented, with a rectangle's configuration space, the
+    two planners (the union given more time: it is the slower mode) and far-apart queries."""
+    grid = generate_floor_plan("flat", random_state=3).grid
+    topo = TopoMap.from_grid(grid, random_state=0)
+    cspace = HeadingCSpace(grid, parse_robot("rect:0.7x0.5"), headings=32)
+    planners = {
+        mode: KinematicHierarchicalPlanner(
+            cspace, topo.regions.labels, topo.graph, mode=mode, time_limit=limit
+        )
+        for mode, limit in (("legs", 5.0), ("union", 30.0))
+    }
+    planners["legs"].prepare()
+    pairs = far_queries(planners["legs"].doors.space, 12, random_state=0)
+    pairs = [p for p in pairs if all(len(cspace.free_headings(*end)) for end in p)]
+    return cspace, planners, pairs[:6]
+
+
+@settings(
+    max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(query=st.integers(0, 5))
+def test_legs_give_valid_paths_on_a_generated_building(building, query):
+    cspace, planners, pairs = building
+    start, goal = pairs[query]
+    path = planners["legs"].plan(start, goal)  # points: the valid heading nearest 0
+    _continuous_and_clear(path, cspace, path.poses[0], path.poses[-1])
+    assert np.allclose(path.poses[[0, -1], :2], [start, goal])
+
+
+def test_the_union_gives_a_valid_path_on_a_generated_building(building):
+    cspace, planners, pairs = building
+    start, goal = pairs[0]
+    path = planners["union"].plan(start, goal)
+    _continuous_and_clear(path, cspace, path.poses[0], path.poses[-1])
+    assert np.allclose(path.poses[[0, -1], :2], [start, goal])
+
+
+@pytest.mark.parametrize(
+    "spec",
+    ["reeds-shepp:radius=-1,footprint=0.9x0.6", "reeds-shepp:radius=0,footprint=0.9x0.6",
+     "rect:0.9x-0.6", "dubins:radius=inf,footprint=0.9x0.6"],
+)  # fmt: skip
+def test_non_positive_or_infinite_sizes_are_typed_errors(spec):
+    with pytest.raises(RobotSpecError, match="must be positive and finite"):
+        parse_robot(spec)
+    with pytest.raises(RobotSpecError, match="not a simple polygon"):
+        Footprint(np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]))
+
+
+def test_bad_planner_parameters_are_typed_errors():
+    grid, labels = _rooms(1.0)
+    graph = region_graph(Regions(grid, labels))
+    space = HeadingCSpace(grid, parse_robot("rect:0.6x0.4"))
+    for option, named in (
+        ({"mode": "both"}, "'both'"),
+        ({"submap_margin": -1.0}, "-1.0"),
+        ({"door_margin": -0.1}, "-0.1"),
+        ({"time_limit": 0.0}, "0.0"),
+    ):
+        with pytest.raises(PlannerParameterError, match=named):
+            KinematicHierarchicalPlanner(space, labels, graph, **option)
+
+
+def test_a_start_in_collision_is_named():
+    planner = _planner(CAR)
+    with pytest.raises(InvalidQueryError, match=r"start \(0\.3, 2, 1\.5\) puts the footprint"):
+        planner.plan((0.3, 2.0, 1.5), (7.0, 2.0, 0.0))
+
+
+def test_the_best_flat_planner_is_the_fastest_then_the_surest():
+    rows = [
+        {"planner": "hierarchical", "median_s": 0.1, "success": 1.0},
+        {"planner": "flat_rrtconnect", "median_s": 5.0, "success": 0.3},
+        {"planner": "flat_kpiece1", "median_s": 2.0, "success": 0.6},
+        {"planner": "flat_prm", "median_s": 2.0, "success": 0.8},
+    ]
+    assert best_flat(rows) == "flat_prm"
+    assert best_flat(rows[:1]) is None
