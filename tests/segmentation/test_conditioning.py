@@ -15,7 +15,7 @@ from segmentation.conditioning import condition, find_clutter
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.export import read_label_image
 from segmentation.metrics import score
-from segmentation.pipeline import MapSegmenter
+from segmentation.pipeline import MapSegmenter, Segmentation
 from segmentation.spectral import SpectralSegmenter
 from segmentation.working import pool, unpool
 
@@ -57,23 +57,40 @@ def test_a_ray_through_a_wall_gap_is_not_robot_space_but_belongs_to_its_room():
     assert region_count(labels) == 1 and room > 0 and (labels[ray] == room).all()
 
 
-def test_a_fan_of_rays_through_an_opening_is_a_region_beside_the_whole_room():
+def _room_and_fan(far_wall: bool) -> tuple[np.ndarray, np.ndarray, Segmentation]:
+    """A 6 x 5 m room whose laser rays fan out 3 m through a 1 m opening in its north wall,
+    ending on the far wall of a room nobody entered, or in space nobody mapped; its labels,
+    the fan's cells (short of its end) and the segmentation."""
     cells = walled(6.0, 5.0, pad=3.0)
     rows, cols = np.mgrid[0 : cells.shape[0], 0 : cells.shape[1]]
-    # rays through a 1 m window in the north wall fan out 3 m into space nobody mapped
     height = 60 - rows  # cells above the room's first row (row 60)
     fan = (height > 0) & (np.abs(cols - 120) < 10 + 0.6 * height)
     cells[fan] = 0
-    grid = OccupancyGrid(cells, 0.05)
-    found = MapSegmenter(spectral=SpectralSegmenter(random_state=0)).segment(grid)
-    assert found.conditioned.dropped["outside"] > 0  # no robot space out there
-    labels = found.regions.labels
+    if far_wall:
+        cells[fan & (height >= 59)] = 100
+    found = MapSegmenter(spectral=SpectralSegmenter(random_state=0)).segment(
+        OccupancyGrid(cells, 0.05)
+    )
+    return found.regions.labels, fan & (height > 10) & (height < 59), found
+
+
+def test_a_fan_of_rays_into_a_room_seen_through_its_door_is_a_region_beside_the_room():
+    labels, fan, _ = _room_and_fan(far_wall=True)
     room = np.unique(labels[61:159, 61:179])
-    seen = np.unique(labels[fan & (height > 10)])
-    # the fan is what a laser saw through a 1 m opening: a region of its own, as people draw
-    # rooms seen through their doors; the room itself stays whole
+    seen = np.unique(labels[fan])
+    # what a laser saw of a room through its door: a region of its own, as people draw it;
+    # the room itself stays whole
     assert len(room) == 1 and room[0] > 0 and len(seen) == 1 and seen[0] not in (0, room[0])
-    assert region_count(labels) == 2 and found.coverage.seen_rooms == 1
+    assert region_count(labels) == 2
+
+
+def test_a_fan_of_rays_out_into_unmapped_space_belongs_to_the_room():
+    labels, fan, found = _room_and_fan(far_wall=False)
+    assert found.conditioned.dropped["outside"] > 0  # no robot space out there
+    room = labels[100, 100]
+    # rays out through a window end on no wall: people draw them in the room they leave
+    assert region_count(labels) == 1 and room > 0 and (labels[fan] == room).all()
+    assert found.coverage.seen_rooms == 0
 
 
 def test_a_room_full_of_tables_stays_one_room():

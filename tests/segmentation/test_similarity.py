@@ -101,7 +101,7 @@ def test_a_callable_is_a_criterion(flat_keyframes):
 
 
 def test_bad_criteria_and_scans(flat_keyframes):
-    with pytest.raises(ParameterError, match="known: features, hausdorff, nn"):
+    with pytest.raises(ParameterError, match="known: auto, features, hausdorff, nn, view"):
         as_criterion("cosine")
     with pytest.raises(ParameterError, match="tolerance"):
         NearestNeighbour(tolerance=-1)
