@@ -8,7 +8,6 @@ import maps
 from maps.laser_sim import LaserModel, simulate_scans
 from segmentation.cloud import ScanCloud
 from segmentation.errors import ParameterError, SegmentationError
-from segmentation.naive import naive_nearest_neighbour
 from segmentation.similarity import (
     Hausdorff,
     NearestNeighbour,
@@ -19,6 +18,7 @@ from segmentation.similarity import (
     corners,
 )
 from segmentation.virtual import virtual_keyframes
+from topomap.cli.naive import naive_nearest_neighbour
 
 
 @pytest.fixture(scope="module")

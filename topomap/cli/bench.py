@@ -32,8 +32,8 @@ from planners.sweep import footprint_collisions
 from planners.visibility import VisibilityGraph
 from planners.workspace import Point, Workspace
 from segmentation.errors import ParameterError
-from segmentation.naive import naive_segment
 from segmentation.spectral import SpectralSegmenter
+from topomap.cli.naive import naive_segment
 from topomap.cli.plan_report import plot_footprint_paths, write_report
 from topomap.topomap import TopoMap
 
