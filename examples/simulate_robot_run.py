@@ -5,10 +5,10 @@ Usage: python examples/simulate_robot_run.py [SEED]
 
 import sys
 
-from maps.exploration import wander
-from maps.floorplan import generate_floor_plan
-from maps.laser_sim import LaserModel, simulate_scans
 from maps.scan import select_keyframes
+from maps.sim.exploration import wander
+from maps.sim.floorplan import generate_floor_plan
+from maps.sim.laser import LaserModel, simulate_scans
 
 seed = int(sys.argv[1]) if len(sys.argv) > 1 else 0
 plan = generate_floor_plan("flat", furniture=0.3, random_state=seed)

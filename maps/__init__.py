@@ -30,14 +30,7 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from maps.errors import OutputExistsError as OutputExistsError
     from maps.errors import TopomapError as TopomapError
     from maps.errors import TransformError as TransformError
-    from maps.exploration import Route as Route
-    from maps.exploration import wander as wander
-    from maps.floorplan import FloorPlan as FloorPlan
-    from maps.floorplan import generate_floor_plan as generate_floor_plan
     from maps.grid import OccupancyGrid as OccupancyGrid
-    from maps.laser_sim import LaserModel as LaserModel
-    from maps.laser_sim import RayCaster as RayCaster
-    from maps.laser_sim import simulate_scans as simulate_scans
     from maps.mapping import grid_from_keyframes as grid_from_keyframes
     from maps.rosbag import BagScans as BagScans
     from maps.rosbag import read_bag_scans as read_bag_scans
@@ -46,6 +39,13 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from maps.scan import Keyframe as Keyframe
     from maps.scan import LaserScan as LaserScan
     from maps.scan import select_keyframes as select_keyframes
+    from maps.sim.exploration import Route as Route
+    from maps.sim.exploration import wander as wander
+    from maps.sim.floorplan import FloorPlan as FloorPlan
+    from maps.sim.floorplan import generate_floor_plan as generate_floor_plan
+    from maps.sim.laser import LaserModel as LaserModel
+    from maps.sim.laser import RayCaster as RayCaster
+    from maps.sim.laser import simulate_scans as simulate_scans
     from maps.tf import TransformTree as TransformTree
 
 

@@ -36,10 +36,10 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from maps.grid import OccupancyGrid
-from maps.laser_sim import LaserModel
 from maps.limits import MAX_LENGTH, finite_in
 from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
+from maps.sim.laser import LaserModel
 from segmentation.affinity import PassageAffinity
 from segmentation.base import Estimator, clone
 from segmentation.blocks import BlockMap, BlockSpectralSegmenter, keyframe_blocks

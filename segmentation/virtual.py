@@ -9,9 +9,9 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid
-from maps.laser_sim import LaserModel, simulate_scans
 from maps.scan import Keyframe
 from maps.seeding import RandomState
+from maps.sim.laser import LaserModel, simulate_scans
 from segmentation.errors import ParameterError, SegmentationError
 
 #: The default virtual laser: a full circle of 180 beams reaching 15 m, no noise.

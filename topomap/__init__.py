@@ -22,13 +22,13 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from maps.errors import MapError as MapError
     from maps.errors import OutputExistsError as OutputExistsError
     from maps.errors import TopomapError as TopomapError
-    from maps.floorplan import generate_floor_plan as generate_floor_plan
     from maps.grid import OccupancyGrid as OccupancyGrid
     from maps.mapping import grid_from_keyframes as grid_from_keyframes
     from maps.rosbag import read_rosbag as read_rosbag
     from maps.scan import Keyframe as Keyframe
     from maps.scan import LaserScan as LaserScan
     from maps.scan import select_keyframes as select_keyframes
+    from maps.sim.floorplan import generate_floor_plan as generate_floor_plan
     from planners.errors import InvalidQueryError as InvalidQueryError
     from planners.errors import NoPathError as NoPathError
     from planners.errors import PlanningError as PlanningError

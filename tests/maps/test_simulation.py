@@ -7,12 +7,12 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from maps.errors import InvalidMapError, InvalidScanError
-from maps.exploration import wander
-from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
-from maps.laser_sim import LaserModel, simulate_keyframes, simulate_scans
 from maps.mapping import grid_from_keyframes
 from maps.scan import select_keyframes
+from maps.sim.exploration import wander
+from maps.sim.floorplan import generate_floor_plan
+from maps.sim.laser import LaserModel, simulate_keyframes, simulate_scans
 
 
 def square_room(side_cells=200, resolution=0.05):

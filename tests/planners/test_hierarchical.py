@@ -6,8 +6,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
+from maps.sim.floorplan import generate_floor_plan
 from planners.benchmark import far_queries
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
 from planners.hierarchical import HierarchicalPlanner

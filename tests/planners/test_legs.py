@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_kinematic import _planner, _rooms
 
-from maps.floorplan import generate_floor_plan
+from maps.sim.floorplan import generate_floor_plan
 from planners.benchmark import best_flat, far_queries
 from planners.cspace import HeadingCSpace
 from planners.errors import InvalidQueryError, PlannerParameterError

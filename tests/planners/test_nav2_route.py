@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from maps.errors import OutputExistsError
-from maps.floorplan import generate_floor_plan
+from maps.sim.floorplan import generate_floor_plan
 from planners.nav2_route import (
     RouteGraphError,
     planner_route_graph,

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from maps.floorplan import generate_floor_plan
+from maps.sim.floorplan import generate_floor_plan
 from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
 from segmentation.refine import basins, count_basins
 from segmentation.spectral import SpectralSegmenter

@@ -5,7 +5,7 @@ import pytest
 from scipy.spatial.distance import directed_hausdorff
 
 import maps
-from maps.laser_sim import LaserModel, simulate_scans
+from maps.sim.laser import LaserModel, simulate_scans
 from segmentation.cloud import ScanCloud
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.similarity import (

@@ -81,9 +81,9 @@ def test_the_re_export_lines_are_the_exports(package):
 
 
 def test_wander_is_the_function_even_after_its_module_is_imported():
-    importlib.import_module("maps.exploration")
+    importlib.import_module("maps.sim.exploration")
     assert callable(maps.wander)
-    assert maps.wander.__module__ == "maps.exploration"
+    assert maps.wander.__module__ == "maps.sim.exploration"
 
 
 @pytest.mark.parametrize(

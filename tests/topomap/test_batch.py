@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from maps.errors import FormatError, MapFileNotFoundError
-from maps.floorplan import generate_floor_plan
+from maps.sim.floorplan import generate_floor_plan
 from tests.maps.bags import Robot, tf_bag
 from topomap.cli.batch import dask_client, dask_map, run_batch
 from topomap.cli.inputs import find_inputs

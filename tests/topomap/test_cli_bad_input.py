@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from maps.errors import MapFileNotFoundError, MapFormatError, OutputExistsError
-from maps.floorplan import generate_floor_plan
+from maps.sim.floorplan import generate_floor_plan
 from segmentation.errors import ExportFormatError
 from topomap.cli.batch import BatchOptions, process, scheduler_address
 from topomap.cli.inputs import Job, find_inputs

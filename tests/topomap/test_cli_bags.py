@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from maps.floorplan import generate_floor_plan
+from maps.sim.floorplan import generate_floor_plan
 from tests.maps.bags import Robot, map_bag, tf_bag
 from topomap.cli.main import main
 from topomap.topomap import TopoMap

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 from rosbags.highlevel import AnyReader
 
-from maps.floorplan import generate_floor_plan
+from maps.sim.floorplan import generate_floor_plan
 from planners.nav2_route import read_nav2_route
 from topomap.cli.main import main
 from topomap.topomap import TopoMap

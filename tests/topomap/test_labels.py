@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
+from maps.sim.floorplan import generate_floor_plan
 from segmentation.errors import RegionNotFoundError
 from segmentation.export import read_geojson, read_graphml
 from segmentation.graph import region_graph

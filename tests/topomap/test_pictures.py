@@ -4,7 +4,7 @@ command says when it will not overwrite."""
 import cv2
 import numpy as np
 
-from maps.floorplan import generate_floor_plan
+from maps.sim.floorplan import generate_floor_plan
 from topomap.cli.main import main
 
 

@@ -9,8 +9,8 @@ import shapely
 from rosbags.highlevel import AnyReader
 
 from maps.errors import OutputExistsError
-from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
+from maps.sim.floorplan import generate_floor_plan
 from planners.route_graph import building_route_graph
 from topomap.errors import ExportError
 from topomap.graph_layout import edge_segments, label_colour

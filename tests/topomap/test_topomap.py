@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 
 import maps
 from maps.errors import MapFileNotFoundError, OutputExistsError
-from maps.floorplan import generate_floor_plan
 from maps.scan import select_keyframes
+from maps.sim.floorplan import generate_floor_plan
 from segmentation.errors import ExportFormatError, SegmentationError
 from segmentation.metrics import score
 from topomap.cli.evaluate import evaluate, floor_plans

@@ -11,7 +11,7 @@ import subprocess
 import networkx as nx
 import pytest
 
-from maps.floorplan import generate_floor_plan
+from maps.sim.floorplan import generate_floor_plan
 from topomap.cli.main import main
 from topomap.cli.viewer import viewer_data
 from topomap.topomap import TopoMap

@@ -14,11 +14,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.errors import MapFileNotFoundError
-from maps.exploration import wander
-from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
-from maps.laser_sim import LaserModel, RayCaster, simulate_keyframes, simulate_scans
 from maps.scan import Keyframe
+from maps.sim.exploration import wander
+from maps.sim.floorplan import generate_floor_plan
+from maps.sim.laser import LaserModel, RayCaster, simulate_keyframes, simulate_scans
 from planners.benchmark import Planner, far_queries, run_queries, summarise
 from planners.cspace import HeadingCSpace
 from planners.flat import FlatPlanner

@@ -20,7 +20,7 @@ log = logging.getLogger(__name__)
 
 def generated_maps(folder: Path, count: int, size: str = "flat") -> list[str]:
     """Write ``count`` generated buildings (seeds 0, 1, ...) as map YAMLs in ``folder``."""
-    from maps.floorplan import generate_floor_plan
+    from maps.sim.floorplan import generate_floor_plan
 
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
@@ -82,7 +82,7 @@ def bench_campus_blocks(
     local cluster of each worker count (the same single-threaded workers, so only their
     number differs): seconds of the whole call and of its spectral stage, the speed-up over
     the first count, and whether the regions equal the first's."""
-    from maps.floorplan import generate_floor_plan
+    from maps.sim.floorplan import generate_floor_plan
     from segmentation.pipeline import MapSegmenter
     from segmentation.spectral import SpectralSegmenter
 

@@ -19,10 +19,10 @@ from pathlib import Path
 from typing import Any
 
 from maps.carmen import read_carmen
-from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import select_keyframes
+from maps.sim.floorplan import generate_floor_plan
 from segmentation.pipeline import MapSegmenter
 from segmentation.spectral import SpectralSegmenter
 

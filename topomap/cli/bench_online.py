@@ -14,12 +14,12 @@ from numpy.typing import NDArray
 
 from maps.carmen import read_carmen
 from maps.errors import MapFileNotFoundError
-from maps.exploration import wander
-from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
-from maps.laser_sim import LaserModel, simulate_scans
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, select_keyframes
+from maps.sim.exploration import wander
+from maps.sim.floorplan import generate_floor_plan
+from maps.sim.laser import LaserModel, simulate_scans
 from segmentation.incremental import IncrementalSegmenter
 from segmentation.metrics import score
 from segmentation.online import OnlineSegmenter

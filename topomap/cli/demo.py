@@ -21,12 +21,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.exploration import Route, wander
-from maps.floorplan import FloorPlan, generate_floor_plan
 from maps.grid import OccupancyGrid
-from maps.laser_sim import LaserModel, simulate_keyframes
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array
+from maps.sim.exploration import Route, wander
+from maps.sim.floorplan import FloorPlan, generate_floor_plan
+from maps.sim.laser import LaserModel, simulate_keyframes
 from planners.benchmark import far_queries
 from planners.flat import FlatPlanner
 from planners.path import PlannedPath

@@ -30,9 +30,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.errors import MapFileNotFoundError, MapFormatError
-from maps.floorplan import generate_floor_plan
 from maps.grid import OccupancyGrid
 from maps.map_server import grid_from_image
+from maps.sim.floorplan import generate_floor_plan
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
 from topomap.classifiers import PLACE_TYPES
@@ -256,9 +256,9 @@ def generated(
     """Generated buildings with furniture (0.3 blocks per 10 m^2), typed by the generator:
     the true plans (source ``generated``) and, for the flats of the ``scanned`` seeds, the map
     a simulated robot builds (``generated-scanned``); each plan is a building."""
-    from maps.exploration import wander
-    from maps.laser_sim import LaserModel, simulate_keyframes
     from maps.mapping import grid_from_keyframes
+    from maps.sim.exploration import wander
+    from maps.sim.laser import LaserModel, simulate_keyframes
 
     jobs = [(size, seed, False) for size in sizes for seed in seeds]
     jobs += [("flat", seed, True) for seed in scanned]

@@ -25,7 +25,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def cmd_generate(args: argparse.Namespace) -> int:
     import cv2
 
-    from maps.floorplan import generate_floor_plan
+    from maps.sim.floorplan import generate_floor_plan
 
     out = Path(args.out)
     names = ["map.yaml", "map.pgm", "rooms.png", "rooms.json"]
