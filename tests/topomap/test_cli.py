@@ -295,6 +295,26 @@ def test_plan_with_saved_regions_and_a_region_goal(tmp_path, capsys):
     assert result["regions"][-1] == 2
 
 
+def test_plan_a_footprint_robot_given_by_its_size_and_turning_radius(tmp_path, capsys):
+    from planners.robots import parse_robot
+    from planners.sweep import footprint_collisions
+
+    yaml = _flat_map(tmp_path / "flat")
+    assert main(["segment", str(yaml), "--out", str(tmp_path / "seg")]) == 0
+    grid = OccupancyGrid.load(yaml)
+    rows, cols = np.nonzero(grid.inflate(0.8).free)
+    x, y = grid.cell_to_world(rows[len(rows) // 2], cols[len(cols) // 2])
+    capsys.readouterr()
+    arguments = ["plan", str(yaml), "--start", f"{x},{y},0", "--goal", "2"]
+    arguments += ["--regions", str(tmp_path / "seg"), "--robot", "reeds-shepp"]
+    assert main([*arguments, "--footprint", "0.6", "0.4", "--turning-radius", "0.5"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    poses = np.array(result["poses"])
+    assert np.allclose(poses[0], [x, y, 0.0], atol=1e-3) and result["regions"][-1] == 2
+    robot = parse_robot("reeds-shepp:radius=0.5,footprint=0.6x0.4")
+    assert footprint_collisions(grid, robot.polygon, poses) == 0
+
+
 def test_plan_rejects_a_start_in_a_wall(tmp_path, capsys):
     yaml = _flat_map(tmp_path / "flat")
     grid = OccupancyGrid.load(yaml)

@@ -302,3 +302,19 @@ def test_a_folder_of_a_newer_or_unknown_version_is_refused(tmp_path, saved):
         (folder / "topomap.json").write_text(json.dumps(about))
         with pytest.raises(ExportFormatError, match=rf"field 'version' is {version!r}; .* 1 to 2"):
             TopoMap.load(folder)
+
+
+@pytest.mark.parametrize(
+    ("robot", "shown"),
+    [
+        (["--robot", "rectangle", "--turning-radius", "1"], "--turning-radius"),
+        (["--robot", "rectangle", "--footprint", "0.9", "-1"], "footprint width"),
+        (["--robot", "reeds-shepp", "--footprint", "0.9", "0.6"], "--turning-radius R"),
+        (["--robot", "disc:0.3", "--footprint", "0.9", "0.6"], "--footprint"),
+    ],
+)
+def test_footprint_options_that_do_not_fit_the_robot(capsys, plan_map, robot, shown):
+    argv = ["plan", str(plan_map), "--start", "1,1,0", "--goal", "2", *robot]
+    assert main(argv) == 2
+    line = _error_line(capsys)
+    assert shown in line and "unrecognized" not in line and line.startswith("topomap: error:")

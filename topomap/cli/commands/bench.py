@@ -6,7 +6,12 @@ import argparse
 import json
 from pathlib import Path
 
-from topomap.cli.commands.common import ONLINE_METHODS, ROBOT_HELP, refuse_existing
+from topomap.cli.commands.common import (
+    ONLINE_METHODS,
+    add_robot_options,
+    refuse_existing,
+    robot_spec,
+)
 from topomap.cli.tables import markdown_table
 
 
@@ -88,7 +93,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     plan_bench.add_argument("--cache", default="out/cache/exact", help="exact-reference cache")
     plan_bench.add_argument("--no-cache", action="store_true", help="recompute the reference")
-    plan_bench.add_argument("--robot", help=ROBOT_HELP)
+    add_robot_options(plan_bench)
     plan_bench.set_defaults(func=cmd_bench_plan)
     batch_bench = bench_sub.add_parser("batch", help="topomap batch: maps per minute, 1-2 workers")
     batch_bench.add_argument("--out", default="out/bench-batch")
@@ -229,7 +234,7 @@ def cmd_bench_plan(args: argparse.Namespace) -> int:
         budget=args.budget,
         python_astar=args.python_astar,
         cache=None if args.no_cache else args.cache,
-        robot=args.robot,
+        robot=robot_spec(args),
         progress=args.progress,
     )
     print(markdown_table(summary, COLUMNS))

@@ -179,6 +179,54 @@ ROBOT_HELP = (
 )
 
 
+def add_robot_options(parser: argparse.ArgumentParser) -> None:
+    """``--robot`` and, for footprint robots, ``--footprint L W`` and ``--turning-radius R``."""
+    parser.add_argument("--robot", help=ROBOT_HELP)
+    parser.add_argument(
+        "--footprint",
+        nargs=2,
+        type=float,
+        metavar=("L", "W"),
+        help="with --robot rectangle, dubins or reeds-shepp: length and width, metres",
+    )
+    parser.add_argument(
+        "--turning-radius", type=float, metavar="R", help="with --robot dubins or reeds-shepp"
+    )
+
+
+def robot_spec(args: argparse.Namespace) -> str | None:
+    """The ``--robot`` spec, with ``--footprint`` and ``--turning-radius`` folded in.
+
+    Examples
+    --------
+    >>> found = argparse.Namespace(robot="reeds-shepp", footprint=[0.9, 0.6], turning_radius=1.0)
+    >>> robot_spec(found)
+    'reeds-shepp:radius=1.0,footprint=0.9x0.6'
+    >>> robot_spec(argparse.Namespace(robot="rect:0.9x0.6", footprint=None, turning_radius=None))
+    'rect:0.9x0.6'
+    """
+    spec, footprint, radius = args.robot, args.footprint, args.turning_radius
+    if footprint is None and radius is None:
+        return spec
+    kind = "" if spec is None else str(spec).strip().lower()
+    if kind in ("rect", "rectangle"):
+        if radius is not None:
+            raise UsageError(
+                "a rectangle turns in place: --turning-radius is for dubins or reeds-shepp"
+            )
+        if footprint is None:
+            raise UsageError("--robot rectangle needs --footprint L W")
+        return f"rect:{footprint[0]!r}x{footprint[1]!r}"
+    if kind in ("dubins", "reeds-shepp", "reedsshepp"):
+        if footprint is None or radius is None:
+            raise UsageError(f"--robot {spec} needs --footprint L W and --turning-radius R")
+        return f"{kind}:radius={radius!r},footprint={footprint[0]!r}x{footprint[1]!r}"
+    raise UsageError(
+        "--footprint and --turning-radius go with --robot rectangle, dubins or reeds-shepp "
+        f"(a kind without ':'), got --robot {spec}"
+    )
+
+
 def load_map(args: argparse.Namespace) -> Any:
     """The :class:`TopoMap` of ``args.map``: the regions in ``args.regions`` (a folder
     written by ``topomap segment``) or a segmentation made now."""

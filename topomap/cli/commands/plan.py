@@ -8,7 +8,14 @@ from pathlib import Path
 from typing import Any
 
 from maps.files import check_output_file
-from topomap.cli.commands.common import RADIUS, ROBOT_HELP, goal, load_map, pose
+from topomap.cli.commands.common import (
+    RADIUS,
+    add_robot_options,
+    goal,
+    load_map,
+    pose,
+    robot_spec,
+)
 from topomap.errors import UsageError
 
 
@@ -22,7 +29,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     plan.add_argument("--goal", required=True, type=goal, help="X,Y[,YAW], a region id or a name")
     plan.add_argument("--regions", help="folder written by `topomap segment` (else segment now)")
     plan.add_argument("--robot-radius", type=RADIUS, default=0.2, help="disc robot, metres")
-    plan.add_argument("--robot", help=ROBOT_HELP)
+    add_robot_options(plan)
     plan.add_argument("--draw", help="write a PNG of the path")
     plan.add_argument("--force", action="store_true", help="overwrite an existing --draw file")
     plan.add_argument(
@@ -39,7 +46,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
     if args.draw is not None:
         check_output_file(args.draw, overwrite=args.force, how="--force")
-    robot = Disc(args.robot_radius) if args.robot is None else parse_robot(args.robot)
+    spec = robot_spec(args)
+    robot = Disc(args.robot_radius) if spec is None else parse_robot(spec)
     topo = load_map(args)
     start, goal = args.start, args.goal
     if not isinstance(goal, tuple):
@@ -52,7 +60,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     else:
         from planners.kinematic import FlatKinematicPlanner
 
-        planner = topo.kinematic_planner(args.robot)
+        planner = topo.kinematic_planner(robot)
         flat = FlatKinematicPlanner(planner.cspace) if args.compare else None
     path = planner.plan(start, goal)
     result = path.to_dict()
