@@ -295,6 +295,24 @@ def test_plan_with_saved_regions_and_a_region_goal(tmp_path, capsys):
     assert result["regions"][-1] == 2
 
 
+def test_plan_from_a_region_to_a_region_by_id_and_by_name(tmp_path, capsys):
+    yaml = _flat_map(tmp_path / "flat")
+    assert main(["segment", str(yaml), "--out", str(tmp_path / "seg")]) == 0
+    graph = json.loads((tmp_path / "seg" / "graph.json").read_text())
+    names = {node["id"]: node["name"] for node in graph["nodes"]}
+    capsys.readouterr()
+    saved = ["--regions", str(tmp_path / "seg")]
+    assert main(["plan", str(yaml), "--start", "1", "--goal", "2", *saved]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["regions"][0] == 1 and result["regions"][-1] == 2
+    assert main(["plan", str(yaml), "--start", names[2], "--goal", "1", *saved]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["regions"][0] == 2 and result["regions"][-1] == 1
+    # a footprint robot needs its heading at the start
+    assert main(["plan", str(yaml), "--start", "1", "--goal", "2", "--robot", "rect:0.6x0.4"]) == 2
+    assert "starts at a pose" in capsys.readouterr().err
+
+
 def test_plan_a_footprint_robot_given_by_its_size_and_turning_radius(tmp_path, capsys):
     from planners.robots import parse_robot
     from planners.sweep import footprint_collisions

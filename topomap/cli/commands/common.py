@@ -165,9 +165,9 @@ def pose(text: str) -> tuple[float, ...]:
     return values
 
 
-def goal(text: str) -> tuple[float, ...] | int | str:
-    """``--goal``: ``X,Y`` (or ``X,Y,YAW``) is a point, a whole number a region id, anything
-    else a name."""
+def point_or_region(text: str) -> tuple[float, ...] | int | str:
+    """``--start`` and ``--goal``: ``X,Y`` (or ``X,Y,YAW``) is a point, a whole number a region
+    id, anything else a name."""
     if "," in text:
         return pose(text)
     return int(text) if text.strip().isdigit() else text

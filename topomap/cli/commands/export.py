@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from topomap.cli.commands.common import RADIUS, goal
+from topomap.cli.commands.common import RADIUS, point_or_region
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -24,7 +24,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--path",
         nargs=2,
         action="append",
-        type=goal,
+        type=point_or_region,
         metavar=("FROM", "TO"),
         help="a planned path into the bag: X,Y or a region id or name at each end (repeatable)",
     )

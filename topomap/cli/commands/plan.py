@@ -11,9 +11,8 @@ from maps.files import check_output_file
 from topomap.cli.commands.common import (
     RADIUS,
     add_robot_options,
-    goal,
     load_map,
-    pose,
+    point_or_region,
     robot_spec,
 )
 from topomap.errors import UsageError
@@ -24,9 +23,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     plan = sub.add_parser("plan", help="plan a path on a map, print it as JSON")
     plan.add_argument("map", help="map_server YAML")
     plan.add_argument(
-        "--start", required=True, type=pose, help="X,Y in metres (X,Y,YAW with --robot)"
+        "--start",
+        required=True,
+        type=point_or_region,
+        help="X,Y in metres (X,Y,YAW with --robot), a region id or a name",
     )
-    plan.add_argument("--goal", required=True, type=goal, help="X,Y[,YAW], a region id or a name")
+    plan.add_argument(
+        "--goal", required=True, type=point_or_region, help="X,Y[,YAW], a region id or a name"
+    )
     plan.add_argument("--regions", help="folder written by `topomap segment` (else segment now)")
     plan.add_argument("--robot-radius", type=RADIUS, default=0.2, help="disc robot, metres")
     add_robot_options(plan)
@@ -50,10 +54,13 @@ def cmd_plan(args: argparse.Namespace) -> int:
     robot = Disc(args.robot_radius) if spec is None else parse_robot(spec)
     topo = load_map(args)
     start, goal = args.start, args.goal
-    if not isinstance(goal, tuple):
-        goal = find_region(topo.graph, goal)
+    if not isinstance(robot, Disc) and not isinstance(start, tuple):
+        raise UsageError("a robot with a footprint starts at a pose: give --start as X,Y,YAW")
+    start, goal = (p if isinstance(p, tuple) else find_region(topo.graph, p) for p in (start, goal))
     if isinstance(robot, Disc):
-        if len(start) == 3 or (isinstance(goal, tuple) and len(goal) == 3):
+        if (isinstance(start, tuple) and len(start) == 3) or (
+            isinstance(goal, tuple) and len(goal) == 3
+        ):
             raise UsageError("a disc robot has no heading: give --start and --goal as X,Y")
         planner: Any = topo.planner(robot.radius)
         flat: Any = FlatPlanner(planner.space) if args.compare else None
