@@ -343,8 +343,10 @@ def test_plan_rejects_a_start_in_a_wall(tmp_path, capsys):
     assert f"start ({x:g}, {y:g}) lies in a wall" in capsys.readouterr().err
     assert main(["plan", str(yaml), "--start=-0.05,-0.05", "--goal", "3,3"]) == 2
     assert "start (-0.05, -0.05) lies in an unknown cell" in capsys.readouterr().err
-    assert main(["plan", str(yaml), "--start", "1;2", "--goal", "3,3"]) == 2
-    assert "argument --start: expected X,Y in metres, got '1;2'" in capsys.readouterr().err
+    assert main(["plan", str(yaml), "--start", "1,2,3,4", "--goal", "3,3"]) == 2
+    assert "argument --start: expected X,Y in metres, got '1,2,3,4'" in capsys.readouterr().err
+    assert main(["plan", str(yaml), "--start", "1;2", "--goal", "3,3"]) == 2  # a name
+    assert "no region named '1;2'; known names: " in capsys.readouterr().err
 
 
 def test_plan_on_a_real_floor_plan(data_dir, capsys):

@@ -85,8 +85,8 @@ def test_a_bug_keeps_its_traceback(tmp_path, monkeypatch):
 
 
 def test_usage_errors_return_two(capsys):
-    assert main(["plan", "map.yaml", "--start", "1", "--goal", "2,2"]) == 2
-    assert "argument --start: expected X,Y in metres, got '1'" in capsys.readouterr().err
+    assert main(["plan", "map.yaml", "--start", "1,x", "--goal", "2,2"]) == 2
+    assert "argument --start: expected X,Y in metres, got '1,x'" in capsys.readouterr().err
     assert main(["--help"]) == 0
 
 
