@@ -56,12 +56,10 @@ def cmd_plan(args: argparse.Namespace) -> int:
     start, goal = args.start, args.goal
     if not isinstance(robot, Disc) and not isinstance(start, tuple):
         raise UsageError("a robot with a footprint starts at a pose: give --start as X,Y,YAW")
-    start, goal = (p if isinstance(p, tuple) else find_region(topo.graph, p) for p in (start, goal))
+    if isinstance(robot, Disc) and any(isinstance(e, tuple) and len(e) == 3 for e in (start, goal)):
+        raise UsageError("a disc robot has no heading: give --start and --goal as X,Y")
+    start, goal = (e if isinstance(e, tuple) else find_region(topo.graph, e) for e in (start, goal))
     if isinstance(robot, Disc):
-        if (isinstance(start, tuple) and len(start) == 3) or (
-            isinstance(goal, tuple) and len(goal) == 3
-        ):
-            raise UsageError("a disc robot has no heading: give --start and --goal as X,Y")
         planner: Any = topo.planner(robot.radius)
         flat: Any = FlatPlanner(planner.space) if args.compare else None
     else:
