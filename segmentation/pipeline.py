@@ -50,6 +50,7 @@ from segmentation.refine import basins, count_basins, merge_open_boundaries
 from segmentation.regions import Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter, at_most
 from segmentation.virtual import VIRTUAL_LASER, most_open_cells, virtual_keyframes
+from segmentation.walls import wall_gaps
 from segmentation.working import pool, pool_factor, unpool
 
 log = logging.getLogger(__name__)
@@ -311,15 +312,22 @@ class MapSegmenter(Estimator):
     ) -> tuple[ConditionedMap, OccupancyGrid, NDArray[np.int32]]:
         """Stage ``places``: the clearance basins of the building space, in cells of about
         ``cell_size``, those bounded by unknown space dropped; returns the conditioned map
-        without them, the working grid and the places on it."""
+        without them, the working grid and the places on it.
+
+        The gaps of straight walls (:func:`~segmentation.walls.wall_gaps`) are wall on the
+        working grid: places, keyframes and passages end at them like at a wall with a door.
+        The cover gives their cells a region."""
         grid = conditioned.grid
         factor = pool_factor(grid.resolution, self.cell_size)
+        walls = ~pool(~(grid.occupied & ~conditioned.clutter), grid, factor).free
         space = pool(conditioned.space, grid, factor)
+        gaps = wall_gaps(walls, space.free, space.resolution)
+        space = _without(space, gaps)
         places = basins(space, self.place_depth)
         outside = drop_outside(conditioned, unpool(places, factor, conditioned.space))
         if outside is not conditioned:
             conditioned = outside
-            space = pool(conditioned.space, grid, factor)
+            space = _without(pool(conditioned.space, grid, factor), gaps)
             places = consecutive(np.where(space.free, places, 0))
         return conditioned, space, places
 
@@ -347,6 +355,10 @@ class MapSegmenter(Estimator):
 
     def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
         return cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
+
+
+def _without(space: OccupancyGrid, cells: NDArray[np.bool_]) -> OccupancyGrid:
+    return OccupancyGrid.from_masks(space.free & ~cells, space.resolution, space.origin)
 
 
 def by_place(

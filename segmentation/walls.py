@@ -1,0 +1,108 @@
+"""Walls that continue past a gap: where a straight wall breaks off and goes on along the same
+line, the gap between is where people draw the room's edge.
+
+A SLAM map rarely shows a room's wall whole: an open door, a wide opening onto a corridor, a
+glass wall the laser saw through leave a gap in a straight wall. The clearance alone cannot
+tell a corridor beside a wide opening from the room behind it (the space only widens), so the
+places found in it straddle the opening. A wall that goes on past the gap, on the same line,
+says where the edge is. :func:`wall_gaps` finds such gaps (the walls' lines by a probabilistic
+Hough transform, kept along the building's main directions) and returns the free cells that
+close them; the places are then found with these cells as wall, so a gap is a passage like a
+door, and the partition decides whether to cut there.
+
+Every length is in metres: a gap at most as wide as double doors (``gap``), walls at least
+``flank`` long on both sides of it, lines at least ``min_length`` long.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+#: The widest gap closed: double doors, metres (the coverage's widest door too).
+GAP = 2.0
+#: The wall on each side of a gap, metres: a room's wall, not a door frame or a cabinet.
+FLANK = 1.0
+#: The shortest wall line, metres.
+MIN_LENGTH = 2.5
+#: Walls lie along a building's few main directions; a line direction (within ``TOLERANCE``
+#: degrees) carrying less than ``SHARE`` of all line length is a ray's end or clutter's edge.
+TOLERANCE = 3
+SHARE = 0.1
+
+
+def wall_gaps(
+    walls: NDArray[np.bool_],
+    free: NDArray[np.bool_],
+    resolution: float,
+    *,
+    gap: float = GAP,
+    flank: float = FLANK,
+    min_length: float = MIN_LENGTH,
+) -> NDArray[np.bool_]:
+    """Free cells that close the gaps of straight walls (see the module docstring).
+
+    Parameters
+    ----------
+    walls
+        Wall cells (occupied, furniture left out).
+    free
+        Free cells; only these are returned.
+    resolution
+        Metres per cell.
+    gap, flank, min_length
+        The widest gap, the wall on each side of it, the shortest line, metres.
+
+    Examples
+    --------
+    >>> walls = np.zeros((40, 60), bool)
+    >>> walls[20, :25] = walls[20, 40:] = True  # a wall with a 1.5 m gap (0.1 m cells)
+    >>> closed = wall_gaps(walls, ~walls, 0.1)
+    >>> bool(closed[20, 32]), bool(closed[5, 32]), bool(closed[20, 10])
+    (True, False, False)
+    """
+    out = np.zeros(free.shape, np.uint8)
+    lines = cv2.HoughLinesP(
+        walls.astype(np.uint8),
+        1,
+        math.pi / 180,
+        threshold=max(3, round(min_length / resolution / 2)),
+        minLineLength=min_length / resolution,
+        maxLineGap=gap / resolution,
+    )
+    if lines is None:
+        return out.astype(bool)
+    lines = _main_directions(lines.reshape(-1, 4))
+    near = cv2.dilate(walls.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0  # jagged walls
+    for x0, y0, x1, y1 in lines.tolist():
+        n = max(abs(x1 - x0), abs(y1 - y0)) + 1
+        xs = np.rint(np.linspace(x0, x1, n)).astype(int)
+        ys = np.rint(np.linspace(y0, y1, n)).astype(int)
+        on = near[ys, xs]
+        starts = np.flatnonzero(np.r_[True, on[1:] != on[:-1]])
+        ends = np.r_[starts[1:], n]
+        for run in np.flatnonzero(~on[starts[1:-1]]) + 1:  # gaps with wall on both sides
+            i, j = starts[run], ends[run]
+            if (
+                (j - i) * resolution <= gap
+                and min(ends[run - 1] - starts[run - 1], ends[run + 1] - starts[run + 1])
+                * resolution
+                >= flank
+                and free[ys[i:j], xs[i:j]].mean() > 0.5
+            ):
+                cv2.line(out, (int(xs[i - 1]), int(ys[i - 1])), (int(xs[j]), int(ys[j])), 1, 2)
+    return out.astype(bool) & free
+
+
+def _main_directions(lines: NDArray[np.int32]) -> NDArray[np.int32]:
+    """The lines along directions (degrees, modulo 180) that carry at least :data:`SHARE` of
+    the lines' length within :data:`TOLERANCE` degrees."""
+    dx, dy = lines[:, 2] - lines[:, 0], lines[:, 3] - lines[:, 1]
+    angle = np.rint(np.degrees(np.arctan2(dy, dx))).astype(int) % 180
+    length = np.hypot(dx, dy)
+    per_degree = np.bincount(angle, length, 180)
+    around = sum(np.roll(per_degree, s) for s in range(-TOLERANCE, TOLERANCE + 1))
+    return lines[around[angle] >= SHARE * length.sum()]
