@@ -59,6 +59,7 @@ def sparsify(affinity: sparse.spmatrix, p: float, *, connected: bool = False) ->
     if not 0 <= p < 1:
         raise ParameterError(f"p must lie in [0, 1), got {p!r}")
     matrix = sparse.csr_matrix(affinity, dtype=float, copy=True)
+    matrix.eliminate_zeros()  # stored zeros (keyframes a wall parts) are no links
     if matrix.nnz == 0:
         return matrix
     low, high = matrix.data.min(), matrix.data.max()

@@ -7,8 +7,9 @@ tell a corridor beside a wide opening from the room behind it (the space only wi
 places found in it straddle the opening. A wall that goes on past the gap, on the same line,
 says where the edge is. :func:`wall_gaps` finds such gaps (the walls' lines by a probabilistic
 Hough transform, kept along the building's main directions) and returns the free cells that
-close them; the places are then found with these cells as wall, so a gap is a passage like a
-door, and the partition decides whether to cut there.
+close them but for a hole in the middle; the places are then found with these cells as wall,
+so a gap is a passage narrower than a door: the places end there, and the partition decides
+whether to cut there.
 
 Every length is in metres: a gap at most as wide as double doors (``gap``), walls at least
 ``flank`` long on both sides of it, lines at least ``min_length`` long.
@@ -26,6 +27,12 @@ from numpy.typing import NDArray
 GAP = 2.0
 #: The wall on each side of a gap, metres: a room's wall, not a door frame or a cabinet.
 FLANK = 1.0
+#: The hole left in the middle of a closed gap, metres: narrower than a door, wide enough for
+#: scans to see through, so the gap is a passage (the places end there, the partition decides)
+#: and the affinity graph keeps its links (a given ``k`` stays reachable). On the ROSE² maps
+#: 0.3 m scored MCC 0.73 but cut the affinity graph apart; 0.5 m 0.71, 0.8 m 0.68; the ipa
+#: plans score the same with all three.
+HOLE = 0.5
 #: The shortest wall line, metres.
 MIN_LENGTH = 2.5
 #: Walls lie along a building's few main directions; a line direction (within ``TOLERANCE``
@@ -43,12 +50,13 @@ def wall_gaps(
     flank: float = FLANK,
     min_length: float = MIN_LENGTH,
 ) -> NDArray[np.bool_]:
-    """Free cells that close the gaps of straight walls (see the module docstring).
+    """Free cells that close the gaps of straight walls but for a :data:`HOLE` in the middle
+    (see the module docstring).
 
     Parameters
     ----------
     walls
-        Wall cells (occupied, furniture left out).
+        Wall cells (occupied, furniture left out); only their cells beside free cells count.
     free
         Free cells; only these are returned.
     resolution
@@ -61,12 +69,14 @@ def wall_gaps(
     >>> walls = np.zeros((40, 60), bool)
     >>> walls[20, :25] = walls[20, 40:] = True  # a wall with a 1.5 m gap (0.1 m cells)
     >>> closed = wall_gaps(walls, ~walls, 0.1)
-    >>> bool(closed[20, 32]), bool(closed[5, 32]), bool(closed[20, 10])
-    (True, False, False)
+    >>> bool(closed[20, 27]), bool(closed[20, 32]), bool(closed[5, 27]), bool(closed[20, 10])
+    (True, False, False, False)
     """
     out = np.zeros(free.shape, np.uint8)
+    square = np.ones((3, 3), np.uint8)
+    surface = walls & (cv2.dilate(free.astype(np.uint8), square) > 0)  # what scans saw of them
     lines = cv2.HoughLinesP(
-        walls.astype(np.uint8),
+        surface.astype(np.uint8),
         1,
         math.pi / 180,
         threshold=max(3, round(min_length / resolution / 2)),
@@ -76,7 +86,7 @@ def wall_gaps(
     if lines is None:
         return out.astype(bool)
     lines = _main_directions(lines.reshape(-1, 4))
-    near = cv2.dilate(walls.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0  # jagged walls
+    near = cv2.dilate(surface.astype(np.uint8), square) > 0  # jagged walls
     for x0, y0, x1, y1 in lines.tolist():
         n = max(abs(x1 - x0), abs(y1 - y0)) + 1
         xs = np.rint(np.linspace(x0, x1, n)).astype(int)
@@ -87,14 +97,31 @@ def wall_gaps(
         for run in np.flatnonzero(~on[starts[1:-1]]) + 1:  # gaps with wall on both sides
             i, j = starts[run], ends[run]
             if (
-                (j - i) * resolution <= gap
+                HOLE + 2 * resolution < (j - i) * resolution <= gap  # a narrower gap is a door
                 and min(ends[run - 1] - starts[run - 1], ends[run + 1] - starts[run + 1])
                 * resolution
                 >= flank
                 and free[ys[i:j], xs[i:j]].mean() > 0.5
             ):
-                cv2.line(out, (int(xs[i - 1]), int(ys[i - 1])), (int(xs[j]), int(ys[j])), 1, 2)
+                _close(out, (xs[i - 1], ys[i - 1]), (xs[j], ys[j]), HOLE / resolution)
     return out.astype(bool) & free
+
+
+def _close(
+    out: NDArray[np.uint8], start: tuple[int, int], end: tuple[int, int], hole: float
+) -> None:
+    """Draw a wall from ``start`` to ``end`` (x, y cells) with a ``hole`` cells wide in its
+    middle."""
+    a, b = np.array(start, float), np.array(end, float)
+    middle, along = (a + b) / 2, (b - a) / max(float(np.hypot(*(b - a))), 1e-9)
+    for tip, near_middle in ((a, middle - along * hole / 2), (b, middle + along * hole / 2)):
+        cv2.line(
+            out,
+            tuple(np.rint(tip).astype(int).tolist()),
+            tuple(np.rint(near_middle).astype(int).tolist()),
+            1,
+            2,
+        )
 
 
 def _main_directions(lines: NDArray[np.int32]) -> NDArray[np.int32]:

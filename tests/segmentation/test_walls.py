@@ -1,0 +1,68 @@
+"""Gaps of straight walls: closed where a wall goes on past them, never elsewhere."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+from maps.grid import OccupancyGrid
+from segmentation.pipeline import MapSegmenter
+from segmentation.spectral import SpectralSegmenter
+from segmentation.walls import wall_gaps
+
+
+def _wall_with_gap(gap_cells: int) -> np.ndarray:
+    walls = np.zeros((60, 80), bool)
+    walls[30, :30] = walls[30, 30 + gap_cells :] = True
+    return walls
+
+
+def test_a_gap_between_walls_on_one_line_is_closed_but_for_a_hole():
+    walls = _wall_with_gap(15)  # 1.5 m at 0.1 m cells
+    closed = wall_gaps(walls, ~walls, 0.1)
+    assert closed[29:32, 31:34].any() and not closed[:25].any() and not closed[36:].any()
+    # the hole keeps the two sides one space: a passage, not a wall
+    assert ndimage.label(~walls & ~closed)[1] == 1
+    assert not closed[30, 37]  # the middle of the gap
+
+
+def test_wider_gaps_and_short_walls_stay_open():
+    wide = _wall_with_gap(25)  # 2.5 m: wider than double doors
+    assert not wall_gaps(wide, ~wide, 0.1).any()
+    short = np.zeros((60, 80), bool)
+    short[30, 22:30] = short[30, 45:53] = True  # 0.8 m stubs: a door frame, not a wall
+    assert not wall_gaps(short, ~short, 0.1).any()
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.integers(5, 20),
+    st.integers(0, 2**31 - 1),
+)
+def test_only_free_cells_are_closed_and_the_space_never_falls_apart(gap, seed):
+    rng = np.random.default_rng(seed)
+    walls = _wall_with_gap(gap)
+    walls |= rng.random(walls.shape) < 0.01  # specks
+    free = ~walls
+    closed = wall_gaps(walls, free, 0.1)
+    assert not (closed & ~free).any()
+    before = ndimage.label(free)[0]
+    after = ndimage.label(free & ~closed)[0]
+    # every piece of free space left is still one piece where it was one (the holes)
+    for piece in np.unique(before[before > 0]):
+        inside = after[(before == piece) & (after > 0)]
+        big = np.bincount(inside)
+        assert (big >= 20).sum() <= 1
+
+
+def test_a_corridor_beside_a_wide_opening_is_not_the_room_behind_it():
+    free = np.zeros((150, 300), bool)  # 0.1 m cells
+    free[20:35, 10:290] = True  # a 1.5 m corridor, 28 m long
+    free[36:100, 100:180] = True  # a 6.4 x 8 m room below it
+    free[35, 130:148] = True  # a 1.8 m opening in the corridor's straight wall
+    grid = OccupancyGrid.from_masks(free, 0.1)
+    found = MapSegmenter(spectral=SpectralSegmenter(random_state=0)).segment(grid)
+    labels = found.regions.labels
+    corridor, room = labels[27, 50], labels[70, 140]
+    assert corridor > 0 and room > 0 and corridor != room
+    assert labels[27, 250] == corridor  # the corridor stays whole on both sides of the opening
