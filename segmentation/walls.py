@@ -102,9 +102,37 @@ def wall_gaps(
                 * resolution
                 >= flank
                 and free[ys[i:j], xs[i:j]].mean() > 0.5
+                and not _through_channel(
+                    near, (xs[i - 1], ys[i - 1]), (xs[j], ys[j]), flank / resolution
+                )
             ):
                 _close(out, (xs[i - 1], ys[i - 1]), (xs[j], ys[j]), HOLE / resolution)
     return out.astype(bool) & free
+
+
+def _through_channel(
+    near: NDArray[np.bool_], start: tuple[int, int], end: tuple[int, int], depth: float
+) -> bool:
+    """Whether the gap from ``start`` to ``end`` (x, y cells) is the cross-section of a channel:
+    walls run on from both its ends, across the line, on both sides for ``depth`` cells (a
+    corridor crossing the line of the rooms' walls, not an opening in a wall)."""
+    a, b = np.array(start, float), np.array(end, float)
+    along = (b - a) / max(float(np.hypot(*(b - a))), 1e-9)
+    normal = np.array([-along[1], along[0]])
+    height, width = near.shape
+    for side in (1.0, -1.0):
+        tips = (
+            np.array([tip + side * t * depth * normal for tip in (a, b) for t in (0.5, 1.0)])
+            .round()
+            .astype(int)
+        )
+        inside = (
+            (tips[:, 0] >= 0) & (tips[:, 0] < width) & (tips[:, 1] >= 0) & (tips[:, 1] < height)
+        )
+        hits = near[tips[inside, 1], tips[inside, 0]].sum()
+        if hits < 3:  # an end runs free on this side: an opening in a wall
+            return False
+    return True
 
 
 def _close(

@@ -66,3 +66,11 @@ def test_a_corridor_beside_a_wide_opening_is_not_the_room_behind_it():
     corridor, room = labels[27, 50], labels[70, 140]
     assert corridor > 0 and room > 0 and corridor != room
     assert labels[27, 250] == corridor  # the corridor stays whole on both sides of the opening
+
+
+def test_a_corridor_crossing_the_line_of_the_rooms_walls_is_not_cut():
+    free = np.zeros((120, 200), bool)  # 0.1 m cells
+    free[50:65, 5:195] = True  # a 1.5 m corridor
+    for rows in (np.s_[5:49], np.s_[66:115]):  # rooms above and below it, two by two,
+        free[rows, 20:99] = free[rows, 101:180] = True  # their walls on one line across it
+    assert not wall_gaps(~free, free, 0.1).any()
