@@ -4,7 +4,8 @@ Stages, each timed in :attr:`Segmentation.seconds`:
 
 1. ``condition``: the map's building space and its clutter (:mod:`segmentation.conditioning`).
 2. ``places``: watershed basins of the clearance (:func:`segmentation.refine.basins`) measured
-   in the conditioned space, where furniture does not count as wall; places bounded by
+   in the conditioned space, where furniture does not count as wall and the gaps of straight
+   walls are closed but for a hole (:func:`segmentation.walls.wall_gaps`); places bounded by
    unknown space rather than walls are dropped
    (:func:`~segmentation.conditioning.drop_outside`).
 3. ``keyframes``: for a map alone, virtual 360 degree scans at the most open point of every
