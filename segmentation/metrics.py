@@ -108,8 +108,8 @@ def score(segments: NDArray[np.integer], truth: NDArray[np.integer]) -> Scores:
     gt, gt_size = _numbered(_keep_large(truth))
     both = (seg > 0) & (gt > 0)
     n_gt = len(gt_size) + 1
-    overlap = np.bincount(seg[both] * n_gt + gt[both], minlength=(len(seg_size) + 1) * n_gt)
-    overlap = overlap.reshape(-1, n_gt)[1:, 1:].astype(float)
+    pairs = np.bincount(seg[both] * n_gt + gt[both], minlength=(len(seg_size) + 1) * n_gt)
+    overlap = pairs.reshape(-1, n_gt)[1:, 1:].astype(float)
     n_seg, n_gt = overlap.shape
     if n_seg == 0 or n_gt == 0:
         return Scores(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, n_seg, n_gt)
