@@ -25,6 +25,7 @@ from segmentation.base import Estimator
 from segmentation.errors import ParameterError
 from segmentation.spectral import SpectralSegmenter, at_most, kmeans
 
+
 def keyframe_blocks(
     grid: OccupancyGrid,
     basin: NDArray[np.int32],

@@ -341,9 +341,7 @@ class MapSegmenter(Estimator):
         count = count_basins(space, places, self.min_area)
         if count > self.block_places:
             blocks, per_block = keyframe_blocks(space, places, keyframes, self.block_places)
-            return BlockSpectralSegmenter(spectral, blocks, per_block, self.n_jobs).fit(
-                keyframes
-            )
+            return BlockSpectralSegmenter(spectral, blocks, per_block, self.n_jobs).fit(keyframes)
         return at_most(spectral, min(len(keyframes), count)).fit(keyframes)
 
     def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
