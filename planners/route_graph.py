@@ -17,6 +17,34 @@ and ``passable_width_m`` (the part of it the robot's centre can cross); ``region
 one per direction, carry ``id``, ``cost`` (the segment's length), ``overridable`` (true: the
 route server's scorers may price it), ``line`` (its two ends) and ``metadata`` (the region
 crossed: ``region``, ``name``, ``label``).
+
+Examples
+--------
+Two 4 x 4 m rooms, the wall between them (in no region) open over 0.8 m, for a robot of
+radius 0.1 m:
+
+>>> import networkx as nx
+>>> import numpy as np
+>>> from maps.grid import OccupancyGrid
+>>> from planners.hierarchical import HierarchicalPlanner
+>>> from planners.workspace import Workspace
+>>> cells = np.zeros((40, 80), np.int8)
+>>> cells[:, 39:41] = 100
+>>> cells[18:26, 39:41] = 0  # the doorway
+>>> labels = np.where(np.arange(80) < 40, 1, 2)[None].repeat(40, 0)
+>>> labels[cells == 100] = 0
+>>> space = Workspace(OccupancyGrid(cells, resolution=0.1), 0.1)
+>>> planner = HierarchicalPlanner(space, labels, nx.Graph([(1, 2)]))
+>>> [(door.a, door.b, round(door.width, 6)) for door in region_doors(planner)]
+[(1, 2, 0.6)]
+>>> route = building_route_graph(planner)
+>>> [route.nodes[n]["metadata"]["kind"] for n in route]
+['door', 'region', 'region']
+>>> door = route.nodes[0]["metadata"]
+>>> round(door["door_width_m"], 6), round(door["passable_width_m"], 6), len(route.edges)
+(0.8, 0.6, 4)
+>>> sorted({kind["kind"] for _, kind in planner_route_graph(planner).nodes(data="metadata")})
+['portal', 'region']
 """
 
 from __future__ import annotations
@@ -40,20 +68,7 @@ from segmentation.transitions import find_transitions
 
 def region_doors(planner: HierarchicalPlanner) -> list[Door]:
     """One door per opening between two regions of the planner's labels (every free cell in
-    a region) where its robot fits.
-
-    Examples
-    --------
-    >>> from maps.grid import OccupancyGrid
-    >>> from planners.workspace import Workspace
-    >>> cells = np.zeros((40, 80), np.int8)
-    >>> cells[:, 39:41] = 100
-    >>> cells[10:34, 39:41] = 0  # a 2.4 m opening
-    >>> labels = np.where(np.arange(80) < 40, 1, 2)[None].repeat(40, 0)
-    >>> space = Workspace(OccupancyGrid(cells, resolution=0.1), 0.2)
-    >>> planner = HierarchicalPlanner(space, labels, nx.Graph([(1, 2)]))
-    >>> [(door.a, door.b, door.width) for door in region_doors(planner)]
-    [(1, 2, 2.0)]
+    a region) where its robot fits (see the module's example).
     """
     openings = find_transitions(planner.space.grid, planner.labels)
     return find_doors(planner.space, planner.labels, openings, spacing=math.inf)
@@ -73,25 +88,7 @@ def region_point(planner: HierarchicalPlanner, region: int) -> Point | None:
 
 
 def building_route_graph(planner: HierarchicalPlanner) -> nx.DiGraph:
-    """The route graph of the building of ``planner`` (see the module's text).
-
-    Examples
-    --------
-    >>> from maps.grid import OccupancyGrid
-    >>> from planners.workspace import Workspace
-    >>> cells = np.zeros((40, 80), np.int8)
-    >>> cells[:, 39:41] = 100
-    >>> cells[18:26, 39:41] = 0  # a doorway
-    >>> labels = np.where(np.arange(80) < 40, 1, 2)[None].repeat(40, 0)
-    >>> labels[cells == 100] = 0  # the wall is in no region
-    >>> space = Workspace(OccupancyGrid(cells, resolution=0.1), 0.1)
-    >>> route = building_route_graph(HierarchicalPlanner(space, labels, nx.Graph([(1, 2)])))
-    >>> [route.nodes[n]["metadata"]["kind"] for n in route]
-    ['door', 'region', 'region']
-    >>> door = route.nodes[0]["metadata"]
-    >>> round(door["door_width_m"], 6), round(door["passable_width_m"], 6), len(route.edges)
-    (0.8, 0.6, 4)
-    """
+    """The route graph of the building of ``planner`` (see the module's text and example)."""
     regions = planner.graph
     names, labels = _names(regions)
     route = nx.DiGraph(frame="map")
@@ -132,21 +129,8 @@ def planner_route_graph(planner: HierarchicalPlanner) -> nx.DiGraph:
     as a route graph: a ``portal`` node per door between submaps (one per metre of opening,
     internal cuts of a region included), a ``region`` node per region, and an edge per
     direction whose ``line`` is the shortest path inside the submap it crosses (not straight:
-    the route server would cut its corners; give it :func:`building_route_graph`).
-
-    Examples
-    --------
-    >>> from maps.grid import OccupancyGrid
-    >>> from planners.workspace import Workspace
-    >>> cells = np.zeros((40, 80), np.int8)
-    >>> cells[:, 39:41] = 100
-    >>> cells[18:26, 39:41] = 0
-    >>> labels = np.where(np.arange(80) < 40, 1, 2)[None].repeat(40, 0)
-    >>> planner = HierarchicalPlanner(
-    ...     Workspace(OccupancyGrid(cells, resolution=0.1), 0.1), labels, nx.Graph([(1, 2)])
-    ... )
-    >>> sorted({kind["kind"] for _, kind in planner_route_graph(planner).nodes(data="metadata")})
-    ['portal', 'region']
+    the route server would cut its corners; give it :func:`building_route_graph`; see the
+    module's example).
     """
     planner.prepare()
     names, labels = _names(planner.graph)
