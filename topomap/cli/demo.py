@@ -59,6 +59,8 @@ class DemoRun:
     plan_topo: TopoMap | None = None
     summary: dict[str, Any] = field(default_factory=dict)
     offline: NDArray[np.int64] | None = None  # region of each keyframe (segment_log)
+    truth: NDArray[np.int32] | None = None  # the plan's rooms on the built map
+    offline_spectral: dict[str, float | int] | None = None  # the offline keyframes' scores
     online: dict[str, Any] | None = None  # what online_run found
     paths: dict[str, list[PlannedPath]] = field(default_factory=dict)
     optimal: list[float] = field(default_factory=list)  # the queries' shortest lengths
@@ -167,8 +169,17 @@ def segment_log(run: DemoRun) -> None:
     assert run.plan is not None and run.grid is not None
     topo = TopoMap.from_keyframes(run.keyframes, run.grid, random_state=run.seed)
     doors = MapSegmenter(method="doors").segment(run.grid, run.keyframes, random_state=run.seed)
-    _segment(run, topo, "segment_log", _truth_on(run.grid, run.plan), doors.regions.labels)
+    run.truth = _truth_on(run.grid, run.plan)
+    _segment(run, topo, "segment_log", run.truth, doors.regions.labels)
     run.offline = topo.keyframe_regions()
+
+
+def offline_scores(run: DemoRun) -> None:
+    """:func:`segment_online`'s offline side: the offline partition of the keyframes made
+    dense as the online one is, scored (after :func:`segment_log`)."""
+    assert run.grid is not None and run.offline is not None and run.truth is not None
+    offline_regions = dense_regions(run.grid, run.keyframes, run.offline, named=False)[0]
+    run.offline_spectral = _rounded(score(offline_regions.labels, run.truth).as_dict())
 
 
 def segment_plan(run: DemoRun) -> None:
@@ -252,21 +263,19 @@ def segment_online(run: DemoRun) -> None:
     """Segment the run online (the offline engine on the robot's neighbourhood, after the
     default seed); score it against the plan beside the offline result; draw the regions
     growing (GIF)."""
-    assert run.plan is not None and run.grid is not None
-    assert run.online is not None and run.offline is not None  # online_run, segment_log ran
-    online, offline, keyframes = run.online["labels"], run.offline, run.keyframes
-    truth = _truth_on(run.grid, run.plan)
+    assert run.grid is not None and run.truth is not None and run.offline is not None
+    assert run.online is not None  # online_run, segment_log and offline_scores ran
+    online, offline = run.online["labels"], run.offline
     # both partitions of the keyframes made dense the same way: the scores compare like for like
-    regions = dense_regions(run.grid, keyframes, online, named=False)[0]
-    offline_regions = dense_regions(run.grid, keyframes, offline, named=False)[0]
+    regions = dense_regions(run.grid, run.keyframes, online, named=False)[0]
     run.summary["segment_online"] = {
         "method": "windows",
         "seed_keyframes": run.online["seed_keyframes"],
         "regions": run.online["regions"],
         "offline_regions": len(np.unique(offline[offline > 0])),
         "ari_online_vs_offline": agreement(online, offline),
-        "spectral": _rounded(score(regions.labels, truth).as_dict()),
-        "offline_spectral": _rounded(score(offline_regions.labels, truth).as_dict()),
+        "spectral": _rounded(score(regions.labels, run.truth).as_dict()),
+        "offline_spectral": run.offline_spectral,
         "latency": run.online["latency"],
     }
 
@@ -286,15 +295,25 @@ STAGES: list[Callable[[DemoRun], None]] = [
 PARALLEL: list[list[Callable[[DemoRun], None]]] = [
     [online_run],
     [flat_paths],
-    [build_map, segment_log],
+    [build_map, segment_log, offline_scores],
     [segment_plan, hierarchical_paths],
 ]
 LAST: list[Callable[[DemoRun], None]] = [segment_online, plan_paths]
 #: The stage whose seconds a part's count towards.
-PART_OF = {"online_run": "segment_online", "flat_paths": "plan_paths"}
+PART_OF = {"online_run": "segment_online", "offline_scores": "segment_online"}
+PART_OF["flat_paths"] = "plan_paths"
 PART_OF["hierarchical_paths"] = "plan_paths"
 #: What a list of :data:`PARALLEL` gives back of the run it changed (beside the summary).
-RESULTS = ("grid", "offline", "online", "paths", "optimal", "prepare_s", "path_labels")
+RESULTS: tuple[str, ...] = (
+    "grid",
+    "truth",
+    "offline",
+    "offline_spectral",
+    "online",
+    "paths",
+    "optimal",
+)
+RESULTS += ("prepare_s", "path_labels")
 
 
 def _run_stages(run: DemoRun, stages: list[Callable[[DemoRun], None]]) -> dict[str, Any]:
