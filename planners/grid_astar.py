@@ -4,19 +4,18 @@ from __future__ import annotations
 
 import heapq
 import math
-import time
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import NDArray
 
 from planners.errors import NoPathError
-from planners.path import PlannedPath
-from planners.workspace import Workspace
+from planners.path import SearchPlanner
+from planners.workspace import Point, Workspace
 
 _SQRT2 = math.sqrt(2.0)
 
 
-class GridAStar:
+class GridAStar(SearchPlanner):
     """A* over free cells, 8-connected, with octile step costs and the octile heuristic.
 
     A diagonal step is allowed only when both cells it squeezes between are free, so every
@@ -40,32 +39,19 @@ class GridAStar:
         self._free = padded.tobytes()  # bytes: fast to index, not tracked by the GC
         self._padded_width = w + 2
 
-    def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:
-        """Shortest 8-connected grid path from ``start`` to ``goal``.
-
-        Raises
-        ------
-        InvalidQueryError
-            A start or goal a robot cannot stand on.
-        NoPathError
-            No grid path joins them.
-        """
-        clock = time.perf_counter()
-        space = self.space
-        s, g = space.check(start, "start"), space.check(goal, "goal")
-        pw = self._padded_width
-        (sr,), (sc,) = (np.atleast_1d(v) for v in space.grid.world_to_cell(s[0], s[1]))
-        (gr,), (gc,) = (np.atleast_1d(v) for v in space.grid.world_to_cell(g[0], g[1]))
+    def _search(self, start: Point, goal: Point) -> NDArray[np.float64]:
+        space, pw = self.space, self._padded_width
+        (sr,), (sc,) = (np.atleast_1d(v) for v in space.grid.world_to_cell(start[0], start[1]))
+        (gr,), (gc,) = (np.atleast_1d(v) for v in space.grid.world_to_cell(goal[0], goal[1]))
         source, target = (int(sr) + 1) * pw + int(sc) + 1, (int(gr) + 1) * pw + int(gc) + 1
-        cells = self._search(source, target, int(gr) + 1, int(gc) + 1)
+        cells = self._cells(source, target, int(gr) + 1, int(gc) + 1)
+        if len(cells) == 1:
+            return np.array([start, goal])
         rows, cols = np.divmod(np.asarray(cells), pw)
         xs, ys = space.grid.cell_to_world(rows - 1, cols - 1)
-        waypoints = np.vstack([s, np.column_stack([xs, ys])[1:-1], g])
-        if len(cells) == 1:
-            waypoints = np.array([s, g])
-        return PlannedPath(waypoints, self.name, seconds={"search": time.perf_counter() - clock})
+        return np.vstack([start, np.column_stack([xs, ys])[1:-1], goal])
 
-    def _search(self, source: int, target: int, goal_row: int, goal_col: int) -> list[int]:
+    def _cells(self, source: int, target: int, goal_row: int, goal_col: int) -> list[int]:
         free, pw = self._free, self._padded_width
         steps = (  # (offset, cost, the two cells a diagonal step squeezes between)
             (1, 1.0, ()),

@@ -11,15 +11,15 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import NDArray
 from skimage.graph import MCP_Geometric
 
 from planners.errors import NoPathError
-from planners.path import PlannedPath
-from planners.workspace import Workspace
+from planners.path import SearchPlanner
+from planners.workspace import Point, Workspace
 
 
-class GridMCP:
+class GridMCP(SearchPlanner):
     """Shortest 8-connected grid path with scikit-image's ``MCP_Geometric``.
 
     Parameters
@@ -45,25 +45,13 @@ class GridMCP:
         self._mcp = MCP_Geometric(np.where(space.free, 1.0, np.inf), fully_connected=True)
         self.build_seconds = time.perf_counter() - clock
 
-    def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:
-        """Shortest grid path from ``start`` to ``goal`` through cell centres.
-
-        Raises
-        ------
-        InvalidQueryError
-            A start or goal a robot cannot stand on.
-        NoPathError
-            No grid path joins them.
-        """
-        clock = time.perf_counter()
-        space = self.space
-        s, g = space.check(start, "start"), space.check(goal, "goal")
-        source = tuple(int(v) for v in space.grid.world_to_cell(*s))
-        target = tuple(int(v) for v in space.grid.world_to_cell(*g))
+    def _search(self, start: Point, goal: Point) -> NDArray[np.float64]:
+        grid = self.space.grid
+        source = tuple(int(v) for v in grid.world_to_cell(*start))
+        target = tuple(int(v) for v in grid.world_to_cell(*goal))
         costs, _ = self._mcp.find_costs([source], [target])
         if not np.isfinite(costs[target]):
-            raise NoPathError(f"no 8-connected grid path joins start {s} and goal {g}")
+            raise NoPathError(f"no 8-connected grid path joins start {start} and goal {goal}")
         rows, cols = np.array(self._mcp.traceback(target)).T
-        xs, ys = space.grid.cell_to_world(rows, cols)
-        waypoints = np.vstack([s, np.column_stack([xs, ys]), g])
-        return PlannedPath(waypoints, self.name, seconds={"search": time.perf_counter() - clock})
+        xs, ys = grid.cell_to_world(rows, cols)
+        return np.vstack([start, np.column_stack([xs, ys]), goal])

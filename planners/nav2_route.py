@@ -5,7 +5,8 @@ A route graph is a :class:`networkx.DiGraph`: nodes with ``x``, ``y``, ``frame``
 ``overridable``, ``line`` (the geometry, a tuple of ``(x, y)``) and ``metadata`` (and
 ``operations``). Two are made here: the building's graph of doors and regions
 (:func:`planners.route_graph.building_route_graph`, the one to give Nav2) and the hierarchical
-planner's internal portal graph (:func:`planner_route_graph`, for debugging the planner).
+planner's internal portal graph (:func:`planners.route_graph.planner_route_graph`, for
+debugging the planner).
 
 In the file every node is a ``Point`` feature with ``id``, ``frame`` and ``metadata``; every
 edge a ``MultiLineString`` feature with ``id``, ``startid``, ``endid``, ``cost``,
@@ -21,12 +22,9 @@ from pathlib import Path
 from typing import Any
 
 import networkx as nx
-import numpy as np
 
 from maps.files import check_output_file, write_text
-from maps.geometry import polyline_length
 from planners.errors import PlanningError
-from planners.hierarchical import HierarchicalPlanner
 
 
 class RouteGraphError(PlanningError, ValueError):
@@ -130,67 +128,4 @@ def read_nav2_route(path: str | Path) -> nx.DiGraph:
         if "operations" in props:
             attributes["operations"] = props["operations"]
         route.add_edge(props["startid"], props["endid"], **attributes)
-    return route
-
-
-def planner_route_graph(planner: HierarchicalPlanner) -> nx.DiGraph:
-    """The hierarchical planner's door graph over its near-convex submaps (every door open)
-    as a route graph: a ``portal`` node per door between submaps (one per metre of opening,
-    internal cuts of a region included), a ``region`` node per region, and an edge per
-    direction whose ``line`` is the shortest path inside the submap it crosses (not straight:
-    the route server would cut its corners; give it
-    :func:`~planners.route_graph.building_route_graph`).
-
-    Examples
-    --------
-    >>> from maps.grid import OccupancyGrid
-    >>> from planners.workspace import Workspace
-    >>> cells = np.zeros((40, 80), np.int8)
-    >>> cells[:, 39:41] = 100
-    >>> cells[18:26, 39:41] = 0
-    >>> labels = np.where(np.arange(80) < 40, 1, 2)[None].repeat(40, 0)
-    >>> planner = HierarchicalPlanner(
-    ...     Workspace(OccupancyGrid(cells, resolution=0.1), 0.1), labels, nx.Graph([(1, 2)])
-    ... )
-    >>> sorted({kind["kind"] for _, kind in planner_route_graph(planner).nodes(data="metadata")})
-    ['portal', 'region']
-    """
-    planner.prepare()
-    names = {r: str(planner.graph.nodes[r].get("name", r)) for r in planner.graph.nodes}
-    labels = {r: str(planner.graph.nodes[r].get("label", "")) for r in planner.graph.nodes}
-    route = nx.DiGraph(frame="map")
-
-    def add_node(node: int, point: Any, metadata: dict[str, Any]) -> None:
-        route.add_node(node, x=float(point[0]), y=float(point[1]), frame="map", metadata=metadata)
-
-    for index, door in enumerate(planner.doors):
-        regions = sorted({planner.region_of[door.a], planner.region_of[door.b]})
-        metadata = {"kind": "portal", "regions": regions, "door_width_m": door.width}
-        add_node(index, door.point, metadata | {"region_names": [names[r] for r in regions]})
-
-    def add_edges(a: int, b: int, line: Any, region: int) -> None:
-        points = tuple((float(x), float(y)) for x, y in line)
-        points = ((route.nodes[a]["x"], route.nodes[a]["y"]), *points[1:-1])
-        points += ((route.nodes[b]["x"], route.nodes[b]["y"]),)
-        cost = polyline_length(points)
-        about = {"region": region, "name": names[region], "label": labels[region]}
-        for start, end, ends in ((a, b, points), (b, a, points[::-1])):
-            route.add_edge(start, end, cost=cost, overridable=False, line=ends, metadata=about)
-
-    for (a, b), part in planner.door_edges().items():
-        add_edges(a, b, planner.leg(part, a, b), planner.region_of[part])
-    for region in sorted(planner.graph.nodes):
-        try:
-            point = planner.centre(region)
-        except PlanningError:
-            continue  # a region too narrow for the robot has no node
-        node = route.number_of_nodes()
-        add_node(node, point, {"kind": "region", "region": region, "name": names[region]})
-        route.nodes[node]["metadata"]["label"] = labels[region]
-        reach = planner.reach(point)
-        for door, via in zip(reach.doors.tolist(), reach.via.tolist(), strict=True):
-            line = np.vstack([[point], planner.path_in_part(reach.part, door, via)[::-1]])
-            add_edges(node, door, line, region)
-    for k, (a, b) in enumerate(sorted(route.edges)):
-        route.edges[a, b]["id"] = route.number_of_nodes() + k
     return route

@@ -1,7 +1,10 @@
-"""A planned path, and shortening a valid polyline without leaving the free space."""
+"""A planned path, the query of the search planners, and shortening a valid polyline without
+leaving the free space."""
 
 from __future__ import annotations
 
+import time
+from abc import ABC, abstractmethod
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -10,7 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from maps.geometry import polyline_length
-from planners.workspace import PointLike, Workspace
+from planners.workspace import Point, PointLike, Workspace
 
 
 @dataclass(frozen=True)
@@ -78,6 +81,35 @@ class PlannedPath:
         if self.headings is not None:
             found["poses"] = [[round(float(v), 4) for v in pose] for pose in self.poses]
         return found
+
+
+class SearchPlanner(ABC):
+    """A planner whose query is one search on its :attr:`space` (the grid and visibility
+    planners): :meth:`plan` checks the start and goal, runs :meth:`_search` and times it as
+    the path's ``search`` seconds."""
+
+    name: str
+    space: Workspace
+
+    def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:
+        """The path from ``start`` to ``goal``, as the class describes it.
+
+        Raises
+        ------
+        InvalidQueryError
+            A start or goal a robot cannot stand on.
+        NoPathError
+            No path joins them.
+        """
+        clock = time.perf_counter()
+        s, g = self.space.check(start, "start"), self.space.check(goal, "goal")
+        waypoints = self._search(s, g)
+        return PlannedPath(waypoints, self.name, seconds={"search": time.perf_counter() - clock})
+
+    @abstractmethod
+    def _search(self, start: Point, goal: Point) -> NDArray[np.float64]:
+        """The ``(n, 2)`` waypoints from ``start`` to ``goal`` (both valid), start and goal
+        included; raises :class:`~planners.errors.NoPathError` when none joins them."""
 
 
 def shortcut(space: Workspace, waypoints: ArrayLike) -> NDArray[np.intp]:

@@ -17,14 +17,14 @@ from scipy import sparse
 from scipy.sparse.csgraph import dijkstra
 
 from planners.errors import NoPathError
-from planners.path import PlannedPath
-from planners.workspace import Workspace, cell_beyond
+from planners.path import SearchPlanner
+from planners.workspace import Point, Workspace, cell_beyond
 
 #: Candidate pairs tested at once (bounds memory, not results).
 _CHUNK = 2_000_000
 
 
-class VisibilityGraph:
+class VisibilityGraph(SearchPlanner):
     """Exact Euclidean shortest paths in a :class:`~planners.workspace.Workspace`.
 
     Parameters
@@ -158,19 +158,8 @@ class VisibilityGraph:
             alive[chunk] = self.space.lattice_segments_free(a[chunk], b[chunk])
         return alive
 
-    def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:
-        """The shortest valid path from ``start`` to ``goal``.
-
-        Raises
-        ------
-        InvalidQueryError
-            A start or goal a robot cannot stand on.
-        NoPathError
-            Start and goal lie in different pieces of the free space.
-        """
-        clock = time.perf_counter()
-        space = self.space
-        s, g = space.check(start, "start"), space.check(goal, "goal")
+    def _search(self, start: Point, goal: Point) -> NDArray[np.float64]:
+        space, s, g = self.space, start, goal
         if space.component_at(s) != space.component_at(g):
             raise NoPathError(f"start {s} and goal {g} lie in different parts of the free space")
         size = self.graph.shape[0]
@@ -198,7 +187,7 @@ class VisibilityGraph:
         nodes = np.vstack([self.nodes, space.to_lattice([s, g])])
         waypoints = space.from_lattice(nodes[order[::-1]])
         waypoints[0], waypoints[-1] = s, g
-        return PlannedPath(waypoints, self.name, seconds={"search": time.perf_counter() - clock})
+        return waypoints
 
 
 def _convex_corners(free: NDArray[np.bool_]) -> tuple[NDArray[np.float64], NDArray[np.int8]]:

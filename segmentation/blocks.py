@@ -12,9 +12,8 @@ boundaries follow basin boundaries, which lie at doors and narrow passages.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,9 +24,6 @@ from maps.scan import Keyframe, poses_array
 from segmentation.base import Estimator
 from segmentation.errors import ParameterError
 from segmentation.spectral import SpectralSegmenter, at_most, kmeans
-
-#: ``map_blocks(function, items) -> results in item order``.
-BlockMap = Callable[[Callable[[Any], Any], Sequence[Any]], list[Any]]
 
 
 def keyframe_blocks(
@@ -97,10 +93,11 @@ class BlockSpectralSegmenter(Estimator):
         Block of each keyframe (from :func:`keyframe_blocks`).
     places
         Places per block (the most regions it can have).
-    map_blocks
-        ``map_blocks(function, items)`` runs ``function`` on every item and returns the
-        results in order: the blocks one after the other by default, or on a pool or a Dask
-        cluster (``topomap.cli.batch.dask_map(client)``); the labels are the same either way.
+    n_jobs
+        How many blocks are partitioned at once, with joblib as in scikit-learn: ``None``
+        one at a time (unless a ``joblib.parallel_config`` says otherwise), ``-1`` one per
+        core; inside ``joblib.parallel_config(backend="dask")`` the blocks run on the Dask
+        cluster of the current ``distributed.Client``. The labels are the same either way.
 
     Attributes
     ----------
@@ -115,9 +112,10 @@ class BlockSpectralSegmenter(Estimator):
     segmenter: SpectralSegmenter
     blocks: NDArray[np.int64]
     places: NDArray[np.int64]
-    map_blocks: BlockMap | None = field(default=None, repr=False)
+    n_jobs: int | None = None
 
     def _validate_params(self) -> None:
+        check_n_jobs(self.n_jobs)
         blocks = np.asarray(self.blocks)
         if blocks.ndim != 1 or not np.issubdtype(blocks.dtype, np.integer) or (blocks < 0).any():
             raise ParameterError("blocks must be one integer >= 0 per keyframe")
@@ -128,7 +126,7 @@ class BlockSpectralSegmenter(Estimator):
         self.segmenter._validate_params()
 
     def fit(self, keyframes: Sequence[Keyframe]) -> BlockSpectralSegmenter:
-        """Partition each block's keyframes (through :attr:`map_blocks`)."""
+        """Partition each block's keyframes (:attr:`n_jobs` at once)."""
         self._validate_params()
         if len(self.blocks) != len(keyframes):
             raise ParameterError(f"{len(self.blocks)} block ids for {len(keyframes)} keyframes")
@@ -140,7 +138,7 @@ class BlockSpectralSegmenter(Estimator):
             )
             for block, m in zip(np.unique(self.blocks), members, strict=True)
         ]
-        parts = (self.map_blocks or _in_turn)(fit_block, work)
+        parts = fit_blocks(work, self.n_jobs)
         labels = np.zeros(len(keyframes), np.int64)
         offset = 0
         for m, part in zip(members, parts, strict=True):
@@ -153,12 +151,44 @@ class BlockSpectralSegmenter(Estimator):
         return self
 
 
-def fit_block(work: tuple[SpectralSegmenter, list[Keyframe]]) -> SpectralSegmenter:
-    """One block's partition: ``segmenter.fit(keyframes)`` (a module-level function, so that
-    a process pool or a Dask cluster can run it)."""
-    segmenter, keyframes = work
-    return segmenter.fit(keyframes)
+def check_n_jobs(n_jobs: object) -> None:
+    """Raise :class:`~segmentation.errors.ParameterError` unless ``n_jobs`` is None or a
+    nonzero integer (joblib's values).
+
+    Examples
+    --------
+    >>> check_n_jobs(0)
+    Traceback (most recent call last):
+    ...
+    segmentation.errors.ParameterError: n_jobs must be None or a nonzero integer, got 0
+    """
+    if n_jobs is not None and not (
+        isinstance(n_jobs, int | np.integer) and not isinstance(n_jobs, bool) and n_jobs != 0
+    ):
+        raise ParameterError(f"n_jobs must be None or a nonzero integer, got {n_jobs!r}")
 
 
-def _in_turn(function: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
-    return [function(item) for item in items]
+def fit_blocks(
+    work: Sequence[tuple[SpectralSegmenter, list[Keyframe]]], n_jobs: int | None = None
+) -> list[SpectralSegmenter]:
+    """``segmenter.fit(keyframes)`` for each ``(segmenter, keyframes)`` of ``work``, in
+    order, ``n_jobs`` at once with :class:`joblib.Parallel` (imported only for two blocks or
+    more).
+
+    Examples
+    --------
+    >>> import maps
+    >>> from segmentation.virtual import virtual_keyframes
+    >>> keyframes = virtual_keyframes(maps.generate_floor_plan("flat", random_state=0).grid)
+    >>> work = [(SpectralSegmenter(random_state=0), keyframes[:n]) for n in (20, 30)]
+    >>> [len(part.labels_) for part in fit_blocks(work, n_jobs=1)]
+    [20, 30]
+    """
+    if len(work) < 2:
+        return [segmenter.fit(keyframes) for segmenter, keyframes in work]
+    from joblib import Parallel, delayed
+
+    fits = Parallel(n_jobs=n_jobs)(
+        delayed(segmenter.fit)(keyframes) for segmenter, keyframes in work
+    )
+    return list(fits)

@@ -45,6 +45,23 @@ def _keep_large(labels: NDArray[np.integer]) -> NDArray[np.int64]:
     return np.where(small[labels], 0, labels)
 
 
+def _numbered(labels: NDArray[np.int64]) -> tuple[NDArray[np.intp], NDArray[np.int64]]:
+    """``labels`` renumbered 1, 2, ... in ascending order (0 stays 0), and the pixel count of
+    each (``np.unique(..., return_inverse=True)`` by counting, not sorting 2 million pixels).
+
+    Examples
+    --------
+    >>> numbered, sizes = _numbered(np.array([[0, 7, 7], [3, 0, 7]]))
+    >>> numbered.tolist(), sizes.tolist()
+    ([[0, 2, 2], [1, 0, 2]], [1, 3])
+    """
+    counts = np.bincount(labels.ravel())
+    ids = np.flatnonzero(counts[1:]) + 1
+    number = np.zeros(len(counts), np.intp)
+    number[ids] = np.arange(1, len(ids) + 1)
+    return number[labels], counts[ids]
+
+
 def _mcc(tp: float, fp: float, fn: float, tn: float) -> float:
     denominator = math.sqrt((tp + fp) * (tp + fn) * (tn + fp) * (tn + fn))
     return (tp * tn - fp * fn) / denominator if denominator > 0 else 0.0
@@ -87,17 +104,12 @@ def score(segments: NDArray[np.integer], truth: NDArray[np.integer]) -> Scores:
         raise SegmentationError(
             f"segmentation shape {segments.shape} differs from ground truth {truth.shape}"
         )
-    seg, gt = _keep_large(segments), _keep_large(truth)
-    seg_ids, seg_index = np.unique(seg, return_inverse=True)
-    gt_ids, gt_index = np.unique(gt, return_inverse=True)
-    seg_index, gt_index = seg_index.reshape(seg.shape), gt_index.reshape(gt.shape)
-    seg_size = np.bincount(seg_index.ravel())[seg_ids > 0]
-    gt_size = np.bincount(gt_index.ravel())[gt_ids > 0]
+    seg, seg_size = _numbered(_keep_large(segments))
+    gt, gt_size = _numbered(_keep_large(truth))
     both = (seg > 0) & (gt > 0)
-    overlap = sparse.coo_matrix(
-        (np.ones(int(both.sum())), (seg_index[both], gt_index[both])),
-        shape=(len(seg_ids), len(gt_ids)),
-    ).toarray()[seg_ids > 0][:, gt_ids > 0]
+    n_gt = len(gt_size) + 1
+    pairs = np.bincount(seg[both] * n_gt + gt[both], minlength=(len(seg_size) + 1) * n_gt)
+    overlap = pairs.reshape(-1, n_gt)[1:, 1:].astype(float)
     n_seg, n_gt = overlap.shape
     if n_seg == 0 or n_gt == 0:
         return Scores(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, n_seg, n_gt)

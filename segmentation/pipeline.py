@@ -43,7 +43,7 @@ from maps.seeding import RandomState
 from maps.sim.laser import LaserModel
 from segmentation.affinity import PassageAffinity
 from segmentation.base import Estimator, clone
-from segmentation.blocks import BlockMap, BlockSpectralSegmenter, keyframe_blocks
+from segmentation.blocks import BlockSpectralSegmenter, check_n_jobs, keyframe_blocks
 from segmentation.conditioning import ConditionedMap, condition, drop_outside
 from segmentation.coverage import Coverage, cover
 from segmentation.errors import ParameterError, SegmentationError
@@ -154,9 +154,9 @@ class MapSegmenter(Estimator):
         The virtual laser.
     on_stage
         Called with each stage's name as it starts (progress for long maps).
-    map_blocks
-        How the blocks of a large map are run (see
-        :class:`~segmentation.blocks.BlockSpectralSegmenter`): in turn by default.
+    n_jobs
+        How many blocks of a large map are partitioned at once, with joblib (see
+        :class:`~segmentation.blocks.BlockSpectralSegmenter`): one at a time by default.
 
     Examples
     --------
@@ -181,7 +181,7 @@ class MapSegmenter(Estimator):
     block_places: int = 100
     laser: LaserModel = VIRTUAL_LASER
     on_stage: Callable[[str], None] | None = field(default=None, repr=False)
-    map_blocks: BlockMap | None = field(default=None, repr=False)
+    n_jobs: int | None = None
 
     def _validate_params(self) -> None:
         for name in ("place_depth", "spacing", "cell_size"):
@@ -192,6 +192,7 @@ class MapSegmenter(Estimator):
             raise ParameterError(f"method must be one of {', '.join(METHODS)}, got {self.method!r}")
         if not (isinstance(self.block_places, int) and self.block_places >= 2):
             raise ParameterError(f"block_places must be an integer >= 2, got {self.block_places!r}")
+        check_n_jobs(self.n_jobs)
         self.spectral._validate_params()
 
     def segment(
@@ -349,9 +350,7 @@ class MapSegmenter(Estimator):
         count = count_basins(space, places, self.min_area)
         if count > self.block_places:
             blocks, per_block = keyframe_blocks(space, places, keyframes, self.block_places)
-            return BlockSpectralSegmenter(spectral, blocks, per_block, self.map_blocks).fit(
-                keyframes
-            )
+            return BlockSpectralSegmenter(spectral, blocks, per_block, self.n_jobs).fit(keyframes)
         return at_most(spectral, min(len(keyframes), count)).fit(keyframes)
 
     def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:

@@ -11,27 +11,36 @@ from hypothesis.extra.numpy import arrays
 from maps.map_server import FREE, OCCUPIED, UNKNOWN, cells_from_image, read_image
 
 
+def cell_plain(grey, alpha, mode, negate, occupied_thresh, free_thresh):
+    """map_server's rule for one pixel of mean grey value ``grey`` (the arithmetic that the
+    table lookup replaced, written for one pixel as map_server's C++ loop does)."""
+    if negate:
+        grey = 255 - grey
+    if mode == "raw":
+        return grey if grey <= OCCUPIED else UNKNOWN
+    occ = (255 - grey) / 255.0
+    if occ > occupied_thresh:
+        return OCCUPIED
+    if occ < free_thresh:
+        return FREE
+    if mode == "scale" and alpha > 0:
+        return int(1 + 98 * (occ - free_thresh) / (occupied_thresh - free_thresh))
+    return UNKNOWN
+
+
 def cells_plain(image, *, mode, negate, occupied_thresh, free_thresh):
-    pixels = np.asarray(image)
+    pixels = np.asarray(image, int)
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
     channels = pixels.shape[2]
     has_alpha = channels in (2, 4)
     averaged = channels - 1 if has_alpha else channels
-    grey = pixels[:, :, :averaged].astype(np.int32).sum(axis=2) // averaged
-    alpha = pixels[:, :, -1] if has_alpha else np.full(grey.shape, 255)
-    if negate:
-        grey = 255 - grey
-    if mode == "raw":
-        return np.where(grey <= OCCUPIED, grey, UNKNOWN).astype(np.int8)
-    occ = (255 - grey) / 255.0
-    cells = np.full(grey.shape, UNKNOWN, np.int8)
-    cells[occ > occupied_thresh] = OCCUPIED
-    cells[occ < free_thresh] = FREE
-    if mode == "scale":
-        between = (occ <= occupied_thresh) & (occ >= free_thresh) & (alpha > 0)
-        ratio = (occ[between] - free_thresh) / (occupied_thresh - free_thresh)
-        cells[between] = (1 + 98 * ratio).astype(np.int8)
+    cells = np.zeros(pixels.shape[:2], np.int8)
+    for row, col in np.ndindex(cells.shape):
+        pixel = pixels[row, col]
+        grey = sum(pixel[:averaged]) // averaged
+        alpha = pixel[-1] if has_alpha else 255
+        cells[row, col] = cell_plain(grey, alpha, mode, negate, occupied_thresh, free_thresh)
     return cells
 
 

@@ -83,29 +83,21 @@ def test_paths_on_random_buildings_are_valid_and_near_optimal(seed):
 
 
 @pytest.mark.slow
-def test_office_paths_are_within_the_length_targets():
-    """On the generated office: median within 2 % of the exact shortest path, none over 8 %."""
-    plan = generate_floor_plan("office", random_state=0)
-    planner = TopoMap.from_grid(plan.grid, random_state=0).planner(0.2)
-    reference = VisibilityGraph(planner.space)
-    ratios = []
-    for start, goal in far_queries(planner.space, 12, random_state=1):
-        path = planner.plan(start, goal)
-        assert planner.space.collisions(path.waypoints) == 0
-        ratios.append(path.length / reference.plan(start, goal).length)
-    assert min(ratios) >= 1 - 1e-9
-    assert np.median(ratios) <= 1.02 and max(ratios) <= 1.08
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", ["lab_c_scan_furnitures", "Freiburg52_scan_furnitures"])
-def test_furnished_plans_are_within_the_length_targets(data_dir, name):
-    """Furnished ipa plans (clutter inside rooms): median within 2 %, none over 8 %."""
-    grid = OccupancyGrid.load(data_dir / "ipa" / f"{name}.yaml")
+@pytest.mark.parametrize(
+    ("name", "queries", "seed"),
+    [("office", 12, 1), ("lab_c_scan_furnitures", 15, 2), ("Freiburg52_scan_furnitures", 15, 2)],
+)
+def test_paths_are_within_the_length_targets(request, name, queries, seed):
+    """On the generated office and furnished ipa plans (clutter inside rooms): median within
+    2 % of the exact shortest path, none over 8 %."""
+    if name == "office":
+        grid = generate_floor_plan("office", random_state=0).grid
+    else:
+        grid = OccupancyGrid.load(request.getfixturevalue("data_dir") / "ipa" / f"{name}.yaml")
     planner = TopoMap.from_grid(grid, random_state=0).planner(0.2)
     reference = VisibilityGraph(planner.space)
     ratios = []
-    for start, goal in far_queries(planner.space, 15, random_state=2):
+    for start, goal in far_queries(planner.space, queries, random_state=seed):
         path = planner.plan(start, goal)
         assert planner.space.collisions(path.waypoints) == 0
         ratios.append(path.length / reference.plan(start, goal).length)

@@ -11,14 +11,8 @@ import pytest
 
 from maps.errors import OutputExistsError
 from maps.sim.floorplan import generate_floor_plan
-from planners.nav2_route import (
-    RouteGraphError,
-    planner_route_graph,
-    read_nav2_route,
-    route_geojson,
-    write_nav2_route,
-)
-from planners.route_graph import building_route_graph
+from planners.nav2_route import RouteGraphError, read_nav2_route, route_geojson, write_nav2_route
+from planners.route_graph import building_route_graph, planner_route_graph
 from topomap.cli.evaluate import floor_plans
 from topomap.topomap import TopoMap
 

@@ -25,3 +25,20 @@ def test_blocks_partition_keyframes_and_never_share_a_region():
         assert len(np.unique(blocks[labels == region])) == 1
     with pytest.raises(ValueError, match="block ids for"):
         model.fit(keyframes[:-1])
+
+
+def test_blocks_in_two_processes_equal_one_after_the_other():
+    from segmentation.base import clone
+
+    plan = generate_floor_plan("flat", random_state=2)
+    keyframes = virtual_keyframes(plan.grid, 0.8, random_state=0)
+    blocks, places = keyframe_blocks(plan.grid, basins(plan.grid), keyframes, places=3)
+    model = BlockSpectralSegmenter(SpectralSegmenter(random_state=0), blocks, places)
+    one = clone(model, n_jobs=1).fit(keyframes)
+    two = clone(model, n_jobs=2).fit(keyframes)
+    assert len(places) >= 2 and len(np.unique(one.labels_)) > len(places)
+    assert np.array_equal(two.labels_, one.labels_)
+    assert [s.n_regions_ for s in two.segmenters_] == [s.n_regions_ for s in one.segmenters_]
+    assert model.n_jobs is None and not hasattr(model, "labels_")  # clones were fitted
+    with pytest.raises(ValueError, match="n_jobs must be None or a nonzero integer, got 0"):
+        clone(model, n_jobs=0).fit(keyframes)

@@ -10,7 +10,7 @@ import pytest
 from maps.errors import FormatError, MapFileNotFoundError
 from maps.sim.floorplan import generate_floor_plan
 from tests.maps.bags import Robot, tf_bag
-from topomap.cli.batch import dask_client, dask_map, run_batch
+from topomap.cli.batch import dask_client, run_batch
 from topomap.cli.inputs import find_inputs
 from topomap.cli.main import main
 from topomap.topomap import TopoMap
@@ -114,7 +114,12 @@ def test_find_inputs_names_and_errors(tmp_path, plans):
 
 
 @pytest.mark.slow
-def test_parallel_blocks_equal_the_sequential_run(client):
+def test_blocks_on_the_dask_cluster_equal_the_sequential_run(client):
+    """joblib's Dask backend (the current ``distributed.Client``) runs the blocks on the
+    cluster's worker processes: the same labels as one block after the other."""
+    from distributed import get_task_stream
+    from joblib import parallel_config
+
     from segmentation.base import clone
     from segmentation.blocks import BlockSpectralSegmenter, keyframe_blocks
     from segmentation.refine import basins
@@ -126,7 +131,10 @@ def test_parallel_blocks_equal_the_sequential_run(client):
     blocks, places = keyframe_blocks(plan.grid, basins(plan.grid), keyframes, places=3)
     model = BlockSpectralSegmenter(SpectralSegmenter(random_state=0), blocks, places)
     sequential = clone(model).fit(keyframes)
-    parallel = clone(model, map_blocks=dask_map(client)).fit(keyframes)
+    with get_task_stream(client) as stream, parallel_config(backend="dask"):
+        parallel = clone(model, n_jobs=-1).fit(keyframes)
+    ran_on = {task["worker"] for task in stream.data}  # the blocks ran on the cluster
+    assert ran_on and ran_on <= set(client.scheduler_info()["workers"])
     assert len(places) >= 2
     assert np.array_equal(parallel.labels_, sequential.labels_)
     assert parallel.n_regions_ == sequential.n_regions_

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from topomap.cli.demo import CHAINS, STAGES, run_demo, summary_rows
+from topomap.cli.demo import LAST, PARALLEL, PART_OF, STAGES, run_demo, summary_rows
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Numbers that are times, not results; and flat RRTConnect's paths, since OMPL seeds once per
@@ -34,12 +34,15 @@ def test_side_by_side_stages_give_the_results_of_one_process(tmp_path):
         assert (tmp_path / folder / "paths.png").is_file()
 
 
-def test_every_stage_after_the_first_ones_is_in_one_chain():
-    chained = [stage for chain in CHAINS for stage in chain]
-    assert len(chained) == len(set(chained))
-    assert set(chained) <= set(STAGES)
-    first = [stage.__name__ for stage in STAGES if stage not in chained]
-    assert first == ["generate", "drive", "build_map"]
+def test_every_stage_after_the_first_ones_runs_once():
+    parallel = [stage.__name__ for stages in PARALLEL for stage in stages]
+    last = [stage.__name__ for stage in LAST]
+    assert len(parallel + last) == len(set(parallel + last))
+    stages = [stage.__name__ for stage in STAGES]
+    assert set(parallel + last) - set(PART_OF) <= set(stages)
+    assert set(PART_OF.values()) <= set(last)  # a stage whose parts ran apart ends here
+    first = [name for name in stages if name not in parallel + last]
+    assert first == ["generate", "drive"]
 
 
 @pytest.mark.slow

@@ -391,21 +391,3 @@ def run_batch(
     index.run["seconds"] = round(time.perf_counter() - start, 3)
     index.write()
     return [index.records[job.name] for job in jobs]
-
-
-def dask_map(client: Any) -> Callable[[Callable[[Any], Any], Sequence[Any]], list[Any]]:
-    """``map(function, items)`` on a Dask ``client``: each item sent to the cluster once (as
-    data, not inside the task graph), one task per item, results in item order.
-
-    Examples
-    --------
-    >>> with dask_client(workers=2) as client:  # doctest: +SKIP
-    ...     dask_map(client)(abs, [-1, -2])
-    [1, 2]
-    """
-
-    def run(function: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
-        data = client.scatter(list(items), hash=False)
-        return list(client.gather([client.submit(function, d, pure=False) for d in data]))
-
-    return run

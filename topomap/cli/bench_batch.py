@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from topomap.cli.batch import dask_client, dask_map, run_batch
+from topomap.cli.batch import dask_client, run_batch
 
 log = logging.getLogger(__name__)
 
@@ -82,6 +82,8 @@ def bench_campus_blocks(
     local cluster of each worker count (the same single-threaded workers, so only their
     number differs): seconds of the whole call and of its spectral stage, the speed-up over
     the first count, and whether the regions equal the first's."""
+    from joblib import parallel_config
+
     from maps.sim.floorplan import generate_floor_plan
     from segmentation.pipeline import MapSegmenter
     from segmentation.spectral import SpectralSegmenter
@@ -90,10 +92,8 @@ def bench_campus_blocks(
     records: list[dict[str, Any]] = []
     first = None
     for count in workers:
-        with dask_client(count) as client:
-            pipeline = MapSegmenter(
-                SpectralSegmenter(random_state=random_state), map_blocks=dask_map(client)
-            )
+        with dask_client(count), parallel_config(backend="dask"):
+            pipeline = MapSegmenter(SpectralSegmenter(random_state=random_state), n_jobs=-1)
             start = time.perf_counter()
             found = pipeline.segment(grid)
             seconds = time.perf_counter() - start

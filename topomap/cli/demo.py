@@ -8,12 +8,10 @@ from __future__ import annotations
 
 import json
 import logging
-import multiprocessing
 import re
 import time
 from collections import Counter
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,6 +29,7 @@ from planners.benchmark import far_queries
 from planners.flat import FlatPlanner
 from planners.path import PlannedPath
 from planners.visibility import VisibilityGraph
+from planners.workspace import Point, Workspace
 from segmentation.metrics import score
 from segmentation.pipeline import MapSegmenter
 from topomap.cli.drawing import draw_map, draw_paths, draw_regions
@@ -38,6 +37,12 @@ from topomap.cli.online import agreement, dense_regions, run_online, write_gif
 from topomap.topomap import TopoMap
 
 log = logging.getLogger(__name__)
+
+#: Far-apart queries planned; the disc robot's radius (m).
+QUERIES, ROBOT_RADIUS = 10, 0.2
+#: The summary's sections in order.
+SUMMARY_ORDER: tuple[str, ...] = ("building", "robot", "map", "segment_log", "segment_online")
+SUMMARY_ORDER += ("segment_plan", "plan")
 
 
 @dataclass
@@ -51,9 +56,16 @@ class DemoRun:
     route: Route | None = None
     keyframes: list[Keyframe] = field(default_factory=list)
     grid: OccupancyGrid | None = None
-    topo: TopoMap | None = None
     plan_topo: TopoMap | None = None
     summary: dict[str, Any] = field(default_factory=dict)
+    offline: NDArray[np.int64] | None = None  # region of each keyframe (segment_log)
+    truth: NDArray[np.int32] | None = None  # the plan's rooms on the built map
+    offline_spectral: dict[str, float | int] | None = None  # the offline keyframes' scores
+    online: dict[str, Any] | None = None  # what online_run found
+    paths: dict[str, list[PlannedPath]] = field(default_factory=dict)
+    optimal: list[float] = field(default_factory=list)  # the queries' shortest lengths
+    prepare_s: float = 0.0  # the hierarchical planner's preprocessing
+    path_labels: NDArray[np.int32] | None = None  # the hierarchical planner's submaps
 
 
 def generate(run: DemoRun) -> None:
@@ -155,9 +167,19 @@ def _rounded(scores: dict[str, float | int]) -> dict[str, float | int]:
 def segment_log(run: DemoRun) -> None:
     """Segment the robot's keyframes on the map built from them; score against the plan."""
     assert run.plan is not None and run.grid is not None
-    run.topo = TopoMap.from_keyframes(run.keyframes, run.grid, random_state=run.seed)
+    topo = TopoMap.from_keyframes(run.keyframes, run.grid, random_state=run.seed)
     doors = MapSegmenter(method="doors").segment(run.grid, run.keyframes, random_state=run.seed)
-    _segment(run, run.topo, "segment_log", _truth_on(run.grid, run.plan), doors.regions.labels)
+    run.truth = _truth_on(run.grid, run.plan)
+    _segment(run, topo, "segment_log", run.truth, doors.regions.labels)
+    run.offline = topo.keyframe_regions()
+
+
+def offline_scores(run: DemoRun) -> None:
+    """:func:`segment_online`'s offline side: the offline partition of the keyframes made
+    dense as the online one is, scored (after :func:`segment_log`)."""
+    assert run.grid is not None and run.offline is not None and run.truth is not None
+    offline_regions = dense_regions(run.grid, run.keyframes, run.offline, named=False)[0]
+    run.offline_spectral = _rounded(score(offline_regions.labels, run.truth).as_dict())
 
 
 def segment_plan(run: DemoRun) -> None:
@@ -168,30 +190,47 @@ def segment_plan(run: DemoRun) -> None:
     _segment(run, run.plan_topo, "segment_plan", run.plan.labels, doors.regions.labels)
 
 
-def plan_paths(run: DemoRun, queries: int = 10) -> None:
+def _queries(space: Workspace, run: DemoRun) -> list[tuple[Point, Point]]:
+    return list(far_queries(space, QUERIES, random_state=run.seed))
+
+
+def hierarchical_paths(run: DemoRun) -> None:
+    """:func:`plan_paths`' hierarchical queries (after :func:`segment_plan`)."""
+    assert run.plan_topo is not None
+    hierarchical = run.plan_topo.planner(ROBOT_RADIUS)
+    run.prepare_s = hierarchical.prepare()
+    paths = [hierarchical.plan(*q) for q in _queries(hierarchical.space, run)]
+    run.paths = {**run.paths, "hierarchical": paths}
+    run.path_labels = hierarchical.labels
+
+
+def flat_paths(run: DemoRun) -> None:
+    """:func:`plan_paths`' flat RRTConnect queries and their shortest lengths (on the plan
+    alone: the same robot space as the hierarchical planner's)."""
+    assert run.plan is not None
+    space = Workspace(run.plan.grid, ROBOT_RADIUS)
+    flat = FlatPlanner(space, "RRTConnect", random_state=run.seed)
+    reference = VisibilityGraph(space)
+    queries = _queries(space, run)
+    run.paths = {**run.paths, "flat_rrtconnect": [flat.plan(*q) for q in queries]}
+    run.optimal = [reference.plan(*q).length for q in queries]
+
+
+def plan_paths(run: DemoRun) -> None:
     """Plan far-apart queries on the segmented plan, hierarchically and with flat OMPL
     RRTConnect; draw the first pair of paths, report both planners' times side by side."""
-    assert run.plan_topo is not None
-    hierarchical = run.plan_topo.planner()
-    prepare = hierarchical.prepare()
-    flat = FlatPlanner(hierarchical.space, "RRTConnect", random_state=run.seed)
-    reference = VisibilityGraph(hierarchical.space)
-    results: dict[str, list[PlannedPath]] = {"hierarchical": [], "flat_rrtconnect": []}
-    optimal = []
-    for start, goal in far_queries(hierarchical.space, queries, random_state=run.seed):
-        results["hierarchical"].append(hierarchical.plan(start, goal))
-        results["flat_rrtconnect"].append(flat.plan(start, goal))
-        optimal.append(reference.plan(start, goal).length)
+    assert run.plan is not None and run.path_labels is not None
     draw_paths(
         run.out / "paths.png",
-        run.plan.grid if run.plan is not None else run.plan_topo.grid,
-        hierarchical.labels,
-        {name: paths[0] for name, paths in results.items()},
+        run.plan.grid,
+        run.path_labels,
+        {name: run.paths[name][0] for name in ("hierarchical", "flat_rrtconnect")},
         title="hierarchical against flat planning (first query)",
     )
-    summary: dict[str, Any] = {"queries": queries, "preprocessing_s": round(prepare, 3)}
-    for name, paths in results.items():
-        ratios = [p.length / best for p, best in zip(paths, optimal, strict=True)]
+    summary: dict[str, Any] = {"queries": QUERIES, "preprocessing_s": round(run.prepare_s, 3)}
+    for name in ("hierarchical", "flat_rrtconnect"):
+        paths = run.paths[name]
+        ratios = [p.length / best for p, best in zip(paths, run.optimal, strict=True)]
         summary[name] = {
             "median_ms": round(1000 * float(np.median([p.total_seconds for p in paths])), 2),
             "length_over_shortest_median": round(float(np.median(ratios)), 4),
@@ -202,35 +241,42 @@ def plan_paths(run: DemoRun, queries: int = 10) -> None:
     run.summary["plan"] = summary
 
 
+def online_run(run: DemoRun) -> None:
+    """:func:`segment_online`'s pass over the keyframes, drawing the regions growing (GIF)."""
+    folder = run.out / "segment_online"
+    found = run_online(
+        run.keyframes,
+        random_state=run.seed,
+        frames_every=max(1, len(run.keyframes) // 12),
+        frames_dir=folder / "frames",
+    )
+    write_gif(found.frames, folder / "regions.gif")
+    run.online = {
+        "labels": found.online.labels_,
+        "seed_keyframes": found.online.n_seed_,
+        "regions": found.online.n_regions_,
+        "latency": found.latency_ms(),
+    }
+
+
 def segment_online(run: DemoRun) -> None:
     """Segment the run online (the offline engine on the robot's neighbourhood, after the
     default seed); score it against the plan beside the offline result; draw the regions
     growing (GIF)."""
-    assert run.plan is not None and run.grid is not None
-    keyframes = run.keyframes
-    folder = run.out / "segment_online"
-    online = run_online(
-        keyframes,
-        random_state=run.seed,
-        frames_every=max(1, len(keyframes) // 12),
-        frames_dir=folder / "frames",
-    )
-    write_gif(online.frames, folder / "regions.gif")
-    assert run.topo is not None  # segment_log ran first: its regions are the offline result
-    offline = run.topo.keyframe_regions()
-    truth = _truth_on(run.grid, run.plan)
+    assert run.grid is not None and run.truth is not None and run.offline is not None
+    assert run.online is not None  # online_run, segment_log and offline_scores ran
+    online, offline = run.online["labels"], run.offline
     # both partitions of the keyframes made dense the same way: the scores compare like for like
-    regions = dense_regions(run.grid, keyframes, online.online.labels_, named=False)[0]
-    offline_regions = dense_regions(run.grid, keyframes, offline, named=False)[0]
+    regions = dense_regions(run.grid, run.keyframes, online, named=False)[0]
     run.summary["segment_online"] = {
         "method": "windows",
-        "seed_keyframes": online.online.n_seed_,
-        "regions": online.online.n_regions_,
+        "seed_keyframes": run.online["seed_keyframes"],
+        "regions": run.online["regions"],
         "offline_regions": len(np.unique(offline[offline > 0])),
-        "ari_online_vs_offline": agreement(online.online.labels_, offline),
-        "spectral": _rounded(score(regions.labels, truth).as_dict()),
-        "offline_spectral": _rounded(score(offline_regions.labels, truth).as_dict()),
-        "latency": online.latency_ms(),
+        "ari_online_vs_offline": agreement(online, offline),
+        "spectral": _rounded(score(regions.labels, run.truth).as_dict()),
+        "offline_spectral": run.offline_spectral,
+        "latency": run.online["latency"],
     }
 
 
@@ -243,27 +289,50 @@ STAGES: list[Callable[[DemoRun], None]] = [
     segment_plan,
     plan_paths,
 ]
-#: After ``generate``, ``drive`` and ``build_map``, these chains need nothing from each other:
-#: they run side by side in worker processes, the longest first.
-CHAINS: list[list[Callable[[DemoRun], None]]] = [
-    [segment_log, segment_online],
-    [segment_plan, plan_paths],
+#: After ``generate`` and ``drive``, these lists of stages and parts of stages need nothing
+#: from each other: they run side by side in worker processes, the longest first; then
+#: :data:`LAST` combines their results in this process.
+PARALLEL: list[list[Callable[[DemoRun], None]]] = [
+    [online_run],
+    [flat_paths],
+    [build_map, segment_log, offline_scores],
+    [segment_plan, hierarchical_paths],
 ]
+LAST: list[Callable[[DemoRun], None]] = [segment_online, plan_paths]
+#: The stage whose seconds a part's count towards.
+PART_OF = {"online_run": "segment_online", "offline_scores": "segment_online"}
+PART_OF["flat_paths"] = "plan_paths"
+PART_OF["hierarchical_paths"] = "plan_paths"
+#: What a list of :data:`PARALLEL` gives back of the run it changed (beside the summary).
+RESULTS: tuple[str, ...] = (
+    "grid",
+    "truth",
+    "offline",
+    "offline_spectral",
+    "online",
+    "paths",
+    "optimal",
+)
+RESULTS += ("prepare_s", "path_labels")
 
 
-def _run_chain(
-    run: DemoRun, chain: list[Callable[[DemoRun], None]]
-) -> tuple[dict[str, Any], dict[str, float]]:
-    """Run ``chain``'s stages in order; return what they added to the summary, and their
-    seconds."""
+def _run_stages(run: DemoRun, stages: list[Callable[[DemoRun], None]]) -> dict[str, Any]:
+    """Run ``stages`` in order; return what they added to the summary (``"summary"``), their
+    seconds by stage (``"seconds"``) and the :data:`RESULTS` they set."""
     known = set(run.summary)
+    before = {name: getattr(run, name) for name in RESULTS}
     seconds: dict[str, float] = {}
-    for stage in chain:
+    for stage in stages:
         start = time.perf_counter()
         stage(run)
-        seconds[stage.__name__] = round(time.perf_counter() - start, 3)
-        log.info("%s: %.2f s", stage.__name__, seconds[stage.__name__])
-    return {k: v for k, v in run.summary.items() if k not in known}, seconds
+        name = PART_OF.get(stage.__name__, stage.__name__)
+        seconds[name] = seconds.get(name, 0.0) + time.perf_counter() - start
+        log.info("%s: %.2f s", stage.__name__, time.perf_counter() - start)
+    results = {
+        name: getattr(run, name) for name in RESULTS if getattr(run, name) is not before[name]
+    }
+    added = {k: v for k, v in run.summary.items() if k not in known}
+    return {"summary": added, "seconds": seconds, **results}
 
 
 def run_demo(
@@ -276,12 +345,15 @@ def run_demo(
 ) -> dict[str, Any]:
     """Run every stage, write ``summary.json`` and the pictures into ``out``; return the summary.
 
-    The first three stages run in order, then the :data:`CHAINS` in ``jobs`` worker processes
-    (in this process, one after the other, when ``jobs`` is 1); the results are the same.
+    ``generate`` and ``drive`` run in order, then the :data:`PARALLEL` lists in ``jobs``
+    worker processes with joblib (in this process, one after the other, when ``jobs`` is 1;
+    the results are the same), then :data:`LAST`.
     ``on_stage`` is called as each stage starts, with its number, name and what it does.
-    ``summary["seconds"]`` holds each stage's seconds, ``summary["wall_seconds"]`` the whole
-    run's.
+    ``summary["seconds"]`` holds each stage's seconds (its parts' added up),
+    ``summary["wall_seconds"]`` the whole run's.
     """
+    from joblib import Parallel, delayed
+
     clock = time.perf_counter()
     run = DemoRun(Path(out), size=size, seed=seed)
     run.out.mkdir(parents=True, exist_ok=True)
@@ -291,29 +363,27 @@ def run_demo(
             doc = " ".join(re.split(r"[.;]\s", stage.__doc__ or "")[0].split()).rstrip(".")
             on_stage(f"[{STAGES.index(stage) + 1}/{len(STAGES)}] {stage.__name__}: {doc}")
 
-    first = [stage for stage in STAGES if not any(stage in chain for chain in CHAINS)]
     seconds: dict[str, float] = {}
+    first: list[Callable[[DemoRun], None]] = [generate, drive]
     for stage in first:
         announce(stage)
-        seconds.update(_run_chain(run, [stage])[1])
-    if jobs > 1:
-        context = multiprocessing.get_context("spawn")  # no fork of a process with threads
-        with ProcessPoolExecutor(min(jobs, len(CHAINS)), mp_context=context) as pool:
-            futures = [pool.submit(_run_chain, run, chain) for chain in CHAINS]
-            for chain in CHAINS:
-                for stage in chain:
-                    announce(stage)
-            done = [future.result() for future in futures]
-    else:
-        done = []
-        for chain in CHAINS:
-            for stage in chain:
-                announce(stage)
-            done.append(_run_chain(run, chain))
-    for added, chain_seconds in done:
-        run.summary.update(added)
-        seconds.update(chain_seconds)
-    run.summary["seconds"] = {stage.__name__: seconds[stage.__name__] for stage in STAGES}
+        seconds.update(_run_stages(run, [stage])["seconds"])
+    for stage in STAGES[2:]:
+        announce(stage)
+    tasks = (delayed(_run_stages)(run, stages) for stages in PARALLEL)
+    for done in Parallel(n_jobs=min(jobs, len(PARALLEL)))(tasks):
+        run.summary.update(done.pop("summary"))
+        for name, value in done.pop("seconds").items():
+            seconds[name] = seconds.get(name, 0.0) + value
+        run.paths.update(done.pop("paths", {}))
+        for name, value in done.items():
+            setattr(run, name, value)
+    for stage in LAST:
+        start = time.perf_counter()
+        stage(run)
+        seconds[stage.__name__] = seconds.get(stage.__name__, 0.0) + time.perf_counter() - start
+    run.summary = {**{k: run.summary[k] for k in SUMMARY_ORDER}, **run.summary}
+    run.summary["seconds"] = {stage.__name__: round(seconds[stage.__name__], 3) for stage in STAGES}
     run.summary["wall_seconds"] = round(time.perf_counter() - clock, 3)
     (run.out / "summary.json").write_text(json.dumps(run.summary, indent=2))
     return run.summary

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from sklearn.metrics import confusion_matrix, precision_recall_fscore_support
 
+from maps.grid import clearance_of
 from topomap.classifiers import PLACE_TYPES, ForestClassifier, RuleClassifier, rule_classifier
 from topomap.cli.drawing import _map_figure, _save
 from topomap.cli.label_sources import LabelledMap
@@ -265,7 +266,8 @@ def draw_labels(path: str | Path, labelled: LabelledMap, predicted: Sequence[str
     xmin, ymin, xmax, ymax = grid.bounds()
     ax.imshow(image, extent=(xmin, xmax, ymin, ymax), interpolation="nearest")
     for region, place, true in zip(ids, predicted, labelled.truth, strict=True):
-        x, y = labelled.regions.grid.cell_to_world(*_inside(labels == region))
+        depth = clearance_of(labels == region, 1.0)  # where the region's text goes
+        x, y = labelled.regions.grid.cell_to_world(*np.unravel_index(depth.argmax(), depth.shape))
         wrong = place != true
         ax.annotate(
             f"{region}: {place}" + (f" / {true}" if wrong else ""),
@@ -283,12 +285,3 @@ def draw_labels(path: str | Path, labelled: LabelledMap, predicted: Sequence[str
     errors = sum(p != t for p, t in zip(predicted, labelled.truth, strict=True))
     title = f"{labelled.map}: predicted (red: predicted / true), {errors} of {len(ids)} wrong"
     return _save(fig, ax, path, title)
-
-
-def _inside(mask: np.ndarray) -> tuple[int, int]:
-    """A cell of ``mask`` deepest inside it."""
-    import cv2
-
-    distance = cv2.distanceTransform(np.pad(mask, 1).astype(np.uint8), cv2.DIST_L2, 3)
-    row, col = np.unravel_index(int(distance.argmax()), distance.shape)
-    return int(row) - 1, int(col) - 1

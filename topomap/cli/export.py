@@ -18,8 +18,8 @@ def _point(topo: Any, planner: Any, end: tuple[float, ...] | int | str) -> Any:
 
 def run_export(args: argparse.Namespace) -> int:
     """Write every output asked for; all are checked before any work."""
-    from planners.nav2_route import planner_route_graph, write_nav2_route
-    from planners.route_graph import building_route_graph
+    from planners.nav2_route import write_nav2_route
+    from planners.route_graph import building_route_graph, planner_route_graph
     from topomap.cli.commands.common import load_map
     from topomap.rosbag_export import bag_files, write_rosbag
 

@@ -8,6 +8,7 @@ from topomap.cli.commands.common import (
     DISTANCE,
     RESOLUTION,
     add_bag_options,
+    add_output_options,
     add_segmenter_options,
     segmenter_options,
 )
@@ -20,10 +21,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
     batch = sub.add_parser("batch", help="segment many maps, logs and bags on a Dask cluster")
     batch.add_argument("inputs", nargs="+", help="map YAMLs, logs, bags, folders or globs")
-    batch.add_argument("--out", required=True, help="one folder per input, index.csv, summary.json")
+    add_output_options(
+        batch,
+        force="redo inputs already done",
+        where="one folder per input, index.csv, summary.json",
+    )
     batch.add_argument("--workers", type=worker_count, default=2, help="local worker processes")
     batch.add_argument("--scheduler", help="address of a running Dask scheduler (tcp://host:8786)")
-    batch.add_argument("--force", action="store_true", help="redo inputs already done")
     batch.add_argument(
         "--distance", type=DISTANCE, default=0.5, help="keyframe spacing in a log, m"
     )

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from topomap.cli.commands.common import (
     ONLINE_METHODS,
+    add_output_options,
     add_robot_options,
     refuse_existing,
     robot_spec,
@@ -22,21 +23,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     bench = sub.add_parser("bench", help="benchmarks: print a table, write results.json")
     bench_sub = bench.add_subparsers(dest="bench", required=True)
     sim = bench_sub.add_parser("sim", help="laser simulator speed")
-    sim.add_argument("--out", default="out/bench-sim")
-    sim.add_argument("--force", action="store_true", help="overwrite existing results")
+    add_output_options(sim, "out/bench-sim")
     sim.add_argument("--scans", type=int, nargs="+", default=[1_000, 10_000])
     sim.add_argument("--beams", type=int, nargs="+", default=[181, 361])
     sim.set_defaults(func=cmd_bench_sim)
     seg_bench = bench_sub.add_parser("segment", help="spectral partition speed against naive")
-    seg_bench.add_argument("--out", default="out/bench-segment")
-    seg_bench.add_argument("--force", action="store_true", help="overwrite existing results")
+    add_output_options(seg_bench, "out/bench-segment")
     seg_bench.add_argument("--sizes", type=int, nargs="+", default=[1_000, 2_000, 5_000, 10_000])
     seg_bench.add_argument("--naive-up-to", type=int, default=2_000)
     seg_bench.add_argument("--building", default="campus", choices=["flat", "office", "campus"])
     seg_bench.set_defaults(func=cmd_bench_segment)
     maps_bench = bench_sub.add_parser("maps", help="the whole segmentation over map sizes")
-    maps_bench.add_argument("--out", default="out/bench-maps")
-    maps_bench.add_argument("--force", action="store_true", help="overwrite existing results")
+    add_output_options(maps_bench, "out/bench-maps")
     maps_bench.add_argument(
         "--sizes", nargs="*", default=["flat", "office", "campus"], help="generated buildings"
     )
@@ -76,8 +74,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     online_bench.add_argument("--theta", type=float, default=0.5, help="in [0, 1]")
     online_bench.set_defaults(func=cmd_bench_online)
     plan_bench = bench_sub.add_parser("plan", help="hierarchical against flat planning")
-    plan_bench.add_argument("--out", default="out/bench-plan")
-    plan_bench.add_argument("--force", action="store_true", help="overwrite existing results")
+    add_output_options(plan_bench, "out/bench-plan")
     plan_bench.add_argument("--maps", help="also every map YAML in this folder")
     plan_bench.add_argument(
         "--sizes", nargs="*", default=["flat", "office", "campus"], help="generated buildings"
@@ -96,8 +93,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_robot_options(plan_bench)
     plan_bench.set_defaults(func=cmd_bench_plan)
     batch_bench = bench_sub.add_parser("batch", help="topomap batch: maps per minute, 1-2 workers")
-    batch_bench.add_argument("--out", default="out/bench-batch")
-    batch_bench.add_argument("--force", action="store_true", help="overwrite existing results")
+    add_output_options(batch_bench, "out/bench-batch")
     batch_bench.add_argument("--maps", type=int, default=24, help="generated buildings")
     batch_bench.add_argument("--size", default="flat", choices=["flat", "office"])
     batch_bench.add_argument("--workers", type=worker_count, nargs="+", default=[1, 2])
@@ -204,13 +200,11 @@ def cmd_bench_online(args: argparse.Namespace) -> int:
         columns = ["run", "method", "keyframes", "seed_keyframes", "offline_regions"]
         columns += ["online_regions", "ari", "churn", "mcc_offline", "mcc_online"]
         columns += ["median_ms", "p95_ms", "max_ms"]
-        rows = [{c: r.get(c, "-") for c in columns} for r in results["quality"]]
-        print(markdown_table(rows, columns))
+        print(markdown_table(results["quality"], columns))
     if "growing" in results:
         columns = ["map", "regions", "rose2_iou", "released_iou", "kept", "merged", "split"]
         columns += ["created", "removed", "rooms_unchanged", "ids_kept"]
-        rows = [{c: r.get(c, "-") for c in columns} for r in results["growing"]]
-        print(markdown_table(rows, columns))
+        print(markdown_table(results["growing"], columns))
         unchanged = sum(r.get("rooms_unchanged", 0) for r in results["growing"])
         kept = sum(r.get("ids_kept", 0) for r in results["growing"])
         print(f"ids kept where the room did not change: {kept} of {unchanged}")

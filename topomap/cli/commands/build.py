@@ -11,6 +11,7 @@ from topomap.cli.commands.common import (
     LENGTH,
     RESOLUTION,
     add_bag_options,
+    add_output_options,
     add_picture_option,
     read_keyframes,
     refuse_existing,
@@ -21,14 +22,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Add the command to the subcommands ``sub``."""
     build = sub.add_parser("map", help="build an occupancy map from a laser log or bag")
     build.add_argument("log", help="CARMEN log (.log, .gz) or ROS bag (.bag file, ROS 2 folder)")
-    build.add_argument("--out", required=True)
     build.add_argument("--resolution", type=RESOLUTION, default=0.05, help="metres per cell")
     build.add_argument("--distance", type=DISTANCE, default=0.5, help="keyframe spacing, metres")
     build.add_argument("--max-range", type=LENGTH, default=30.0, help="metres")
     build.add_argument("--scan-topic")
     build.add_argument("--pose-topic")
     add_bag_options(build, map_topic=False)
-    build.add_argument("--force", action="store_true", help="overwrite existing map files")
+    add_output_options(build, force="overwrite existing map files")
     add_picture_option(build, "map.png")
     build.set_defaults(func=cmd_map)
 

@@ -62,6 +62,19 @@ def add_bag_options(parser: argparse.ArgumentParser, *, map_topic: bool) -> None
         )
 
 
+def add_output_options(
+    parser: argparse.ArgumentParser,
+    out: str | None = None,
+    *,
+    where: str | None = None,
+    force: str = "overwrite existing results",
+) -> None:
+    """``--out`` (required unless ``out`` is its default; ``where``: its help) and
+    ``--force`` (``force``: its help)."""
+    parser.add_argument("--out", required=out is None, default=out, help=where)
+    parser.add_argument("--force", action="store_true", help=force)
+
+
 def add_picture_option(parser: argparse.ArgumentParser, picture: str) -> None:
     """``--no-picture``: skip drawing ``picture`` (matplotlib), for scripts and batches."""
     parser.add_argument("--no-picture", action="store_true", help=f"do not draw {picture} (faster)")

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from maps.files import write_text
 from topomap.cli.commands.common import (
+    add_output_options,
     add_segmenter_options,
     refuse_existing,
     segmenter_options,
@@ -25,8 +26,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     eval_seg.add_argument(
         "data", help="folder of map YAMLs with *_gt_labels.png, or of maps/ and gt/ (ROSE²)"
     )
-    eval_seg.add_argument("--out", default="out/eval-segment")
-    eval_seg.add_argument("--force", action="store_true", help="overwrite existing results")
+    add_output_options(eval_seg, "out/eval-segment")
     add_segmenter_options(eval_seg)
     eval_seg.set_defaults(func=cmd_eval_segment)
 
@@ -45,8 +45,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="DIR",
         help="rose2_partial.csv and carmen.json: the room types drawn by hand",
     )
-    eval_labels.add_argument("--out", default="out/eval-labels")
-    eval_labels.add_argument("--force", action="store_true", help="overwrite existing results")
+    add_output_options(eval_labels, "out/eval-labels")
     eval_labels.add_argument(
         "--save-model", metavar="SKOPS", help="write a forest trained on all labelled regions"
     )

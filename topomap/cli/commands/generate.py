@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from maps.files import OutputFolder, write_text
-from topomap.cli.commands.common import RESOLUTION, refuse_existing
+from topomap.cli.commands.common import RESOLUTION, add_output_options, refuse_existing
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -17,8 +17,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     gen.add_argument("--seed", type=int, default=0)
     gen.add_argument("--resolution", type=RESOLUTION, default=0.05)
     gen.add_argument("--furniture", type=float, default=0.0, help="blocks per 10 m^2")
-    gen.add_argument("--out", required=True)
-    gen.add_argument("--force", action="store_true", help="overwrite existing map files")
+    add_output_options(gen, force="overwrite existing map files")
     gen.set_defaults(func=cmd_generate)
 
 

@@ -12,6 +12,7 @@ from topomap.cli.commands.common import (
     DISTANCE,
     ONLINE_METHODS,
     add_bag_options,
+    add_output_options,
     add_picture_option,
     add_segmenter_options,
     read_as_bag,
@@ -33,12 +34,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     source = seg.add_mutually_exclusive_group(required=True)
     source.add_argument("map", nargs="?", help="map_server YAML")
     source.add_argument("--scans", help="CARMEN log or ROS bag instead of a map")
-    seg.add_argument("--out", required=True)
+    add_output_options(seg, force="overwrite existing files")
     seg.add_argument("--distance", type=DISTANCE, default=0.5, help="keyframe spacing in a log, m")
     seg.add_argument("--scan-topic")
     seg.add_argument("--pose-topic")
     add_bag_options(seg, map_topic=True)
-    seg.add_argument("--force", action="store_true", help="overwrite existing files")
     add_segmenter_options(seg)
     seg.add_argument(
         "--online", action="store_true", help="with --scans: assign keyframes as they come"

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import argparse
 
-from topomap.cli.commands.common import RADIUS
+from topomap.cli.commands.common import RADIUS, add_output_options
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Add the command to the subcommands ``sub``."""
     view = sub.add_parser("view", help="one self-contained HTML page of a map, for a browser")
     view.add_argument("regions", help="folder written by `topomap segment`")
-    view.add_argument("--out", required=True, help="OUT.html")
+    add_output_options(view, force="overwrite an existing file", where="OUT.html")
     view.add_argument("--robot-radius", type=RADIUS, default=0.2, help="metres")
     view.add_argument(
         "--max-paths",
@@ -19,7 +19,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=400,
         help="plan every pair of regions up to this many pairs, else neighbours' legs",
     )
-    view.add_argument("--force", action="store_true", help="overwrite an existing file")
     view.set_defaults(func=cmd_view)
 
 
