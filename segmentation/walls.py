@@ -33,6 +33,8 @@ FLANK = 1.0
 #: 0.3 m scored MCC 0.73 but cut the affinity graph apart; 0.5 m 0.71, 0.8 m 0.68; the ipa
 #: plans score the same with all three.
 HOLE = 0.5
+#: A channel's walls run on this far from a gap's ends, metres: a corridor, not an alcove.
+CHANNEL = 2.0
 #: The shortest wall line, metres.
 MIN_LENGTH = 2.5
 #: Walls lie along a building's few main directions; a line direction (within ``TOLERANCE``
@@ -103,7 +105,7 @@ def wall_gaps(
                 >= flank
                 and free[ys[i:j], xs[i:j]].mean() > 0.5
                 and not _through_channel(
-                    near, (xs[i - 1], ys[i - 1]), (xs[j], ys[j]), flank / resolution
+                    near, (xs[i - 1], ys[i - 1]), (xs[j], ys[j]), CHANNEL / resolution
                 )
             ):
                 _close(out, (xs[i - 1], ys[i - 1]), (xs[j], ys[j]), HOLE / resolution)
@@ -113,26 +115,28 @@ def wall_gaps(
 def _through_channel(
     near: NDArray[np.bool_], start: tuple[int, int], end: tuple[int, int], depth: float
 ) -> bool:
-    """Whether the gap from ``start`` to ``end`` (x, y cells) is the cross-section of a channel:
-    walls run on from both its ends, across the line, on both sides for ``depth`` cells (a
-    corridor crossing the line of the rooms' walls, not an opening in a wall)."""
+    """Whether the gap from ``start`` to ``end`` (x, y cells) is the mouth of a channel: walls
+    run on from both its ends, across the line, for ``depth`` cells on one side or both (a
+    corridor branching off or crossing the line of the rooms' walls, not an opening in a
+    wall)."""
     a, b = np.array(start, float), np.array(end, float)
     along = (b - a) / max(float(np.hypot(*(b - a))), 1e-9)
     normal = np.array([-along[1], along[0]])
     height, width = near.shape
     for side in (1.0, -1.0):
         tips = (
-            np.array([tip + side * t * depth * normal for tip in (a, b) for t in (0.5, 1.0)])
+            np.array(
+                [tip + side * t * depth * normal for tip in (a, b) for t in (0.25, 0.5, 0.75, 1.0)]
+            )
             .round()
             .astype(int)
         )
         inside = (
             (tips[:, 0] >= 0) & (tips[:, 0] < width) & (tips[:, 1] >= 0) & (tips[:, 1] < height)
         )
-        hits = near[tips[inside, 1], tips[inside, 0]].sum()
-        if hits < 3:  # an end runs free on this side: an opening in a wall
-            return False
-    return True
+        if near[tips[inside, 1], tips[inside, 0]].sum() >= 7:
+            return True
+    return False
 
 
 def _close(

@@ -74,3 +74,14 @@ def test_a_corridor_crossing_the_line_of_the_rooms_walls_is_not_cut():
     for rows in (np.s_[5:49], np.s_[66:115]):  # rooms above and below it, two by two,
         free[rows, 20:99] = free[rows, 101:180] = True  # their walls on one line across it
     assert not wall_gaps(~free, free, 0.1).any()
+
+
+def test_a_corridor_branching_off_stays_open_but_a_room_opening_of_its_width_is_closed():
+    free = np.zeros((120, 200), bool)  # 0.1 m cells
+    free[50:65, 5:195] = True  # a 1.5 m corridor
+    free[5:50, 40:55] = True  # a corridor of 1.5 m branching north from it, 4.5 m long
+    free[66:110, 120:180] = True  # a 6 x 4.4 m room south of it
+    free[65, 140:155] = True  # behind a 1.5 m opening
+    closed = wall_gaps(~free, free, 0.1)
+    assert not closed[40:60, 38:57].any()  # the branch's mouth
+    assert closed[64:67, 140:155].any()  # the room's opening
