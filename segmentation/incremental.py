@@ -36,14 +36,14 @@ from numpy.typing import NDArray
 
 from maps.mapping import MapBuilder
 from maps.scan import Keyframe
-from segmentation.arrivals import KeptSimilarities, OneToMany
+from segmentation.arrivals import KeptSimilarities, one_to_many
 from segmentation.base import check_lengths, clone
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.events import Event, OnlineEstimator
 from segmentation.growing import carry_ids
 from segmentation.online_regions import OnlineRegions
 from segmentation.pipeline import MapSegmenter, by_place
-from segmentation.similarity import NearestNeighbour, as_criterion
+from segmentation.similarity import ByFieldOfView, as_criterion
 
 log = logging.getLogger(__name__)
 
@@ -152,8 +152,7 @@ class IncrementalSegmenter(OnlineEstimator):
         self._fitted = False
         self.pipeline_ = clone(self.pipeline)
         self._criterion = as_criterion(self.pipeline_.spectral.criterion)
-        nearest = self._criterion
-        self._one = OneToMany(nearest) if isinstance(nearest, NearestNeighbour) else None
+        self._one = one_to_many(self._criterion)
         self._keyframes: list[Keyframe] = []
         self._n = 0
         self._index: dict[int, int] = {}
@@ -207,11 +206,14 @@ class IncrementalSegmenter(OnlineEstimator):
         if count == 0:
             return {}
         near = np.argpartition(distance, count - 1)[:count]
-        if self._one is not None:
+        keyframes = [keyframe, *(self._keyframes[i] for i in near.tolist())]
+        criterion = self._criterion
+        if isinstance(criterion, ByFieldOfView):
+            criterion = criterion.chosen(keyframes)
+        if self._one is not None and criterion == self._one.criterion:
             values = self._one.similarities(keyframe, near.tolist())
         else:
-            found = self._criterion.affinity([keyframe, *(self._keyframes[i] for i in near)])
-            values = found[0].toarray().ravel()[1:]
+            values = criterion.affinity(keyframes)[0].toarray().ravel()[1:]
         return {int(i): float(v) for i, v in zip(near, values, strict=True) if v > 0}
 
     def _add(self, keyframe: Keyframe, row: dict[int, float], region: int) -> None:
