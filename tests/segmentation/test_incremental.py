@@ -10,14 +10,15 @@ from sklearn.metrics import adjusted_rand_score
 
 import maps
 from maps.mapping import MapBuilder, grid_from_keyframes
-from segmentation.arrivals import OneToMany
+from segmentation.arrivals import OneToMany, one_to_many
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.events import OnlineStateError
 from segmentation.incremental import IncrementalSegmenter
 from segmentation.online import OnlineSegmenter
 from segmentation.pipeline import MapSegmenter
-from segmentation.similarity import NearestNeighbour
+from segmentation.similarity import ByFieldOfView, NearestNeighbour
 from segmentation.spectral import SpectralSegmenter
+from segmentation.views import SharedView
 from tests.segmentation.test_online import _empty_scan_keyframe, _recount
 
 
@@ -209,3 +210,15 @@ def test_a_bug_in_a_re_partition_is_raised_on_the_callers_thread(office_run, mon
     online.partial_fit(keyframes[70:90])  # starts a re-partition that fails beside them
     with pytest.raises(RuntimeError, match="a bug in the places"):
         online.flush()
+
+
+def test_auto_on_narrow_scans_is_compared_one_to_many_as_its_matrix_has_it(office_run):
+    keyframes = office_run[1][200:213]
+    one = one_to_many(ByFieldOfView())
+    assert one is not None and one.criterion == ByFieldOfView().chosen(keyframes)
+    for keyframe in keyframes[1:]:
+        one.keep(keyframe)
+    matrix = ByFieldOfView().affinity(keyframes).toarray()
+    assert np.allclose(one.similarities(keyframes[0], list(range(12))), matrix[0, 1:])
+    assert matrix[0, 1:].max() > 0.3
+    assert one_to_many(SharedView()) is None
