@@ -15,6 +15,8 @@ from maps.scan import Keyframe, transform_points
 
 #: Sub-pixel bits used when filling scan polygons with OpenCV.
 _SHIFT = 4
+#: Side of the tiles the counts of a :class:`MapBuilder` are kept in, cells.
+TILE = 256
 
 
 def grid_from_keyframes(
@@ -71,6 +73,9 @@ class MapBuilder:
     """The occupancy grid of :func:`grid_from_keyframes`, built keyframe by keyframe: the
     counts grow with the area seen, each keyframe touches only the cells it saw.
 
+    The counts are kept in tiles of :data:`TILE` cells made as scans reach them, so a map that
+    grows never copies what it holds (a copy of a large map's counts took 80 ms).
+
     Examples
     --------
     >>> from maps.scan import LaserScan
@@ -94,9 +99,11 @@ class MapBuilder:
         self.resolution = float(resolution)
         self.max_range = float(max_range)
         self.occupied_ratio = occupied_ratio
-        self._low = np.zeros(2)  # map point of the lower-left corner of the arrays
-        self._visits = np.zeros((0, 0), np.uint32)  # rows from the top, as the grid's
-        self._hits = np.zeros((0, 0), np.uint32)
+        self._low = np.zeros(2)  # map point of the lower-left corner of the extent
+        self._shape = (0, 0)  # rows (from the top, as the grid's) and columns of the extent
+        self._corner = np.zeros(2, np.int64)  # (row, column) of its top-left cell in the tiles
+        # (tile row, tile column) -> visits and hits of its cells
+        self._tiles: dict[tuple[int, int], NDArray[np.uint32]] = {}
 
     def end_points(self, frame: Keyframe) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """The beams' end points in the map frame and which of them count."""
@@ -119,8 +126,8 @@ class MapBuilder:
         """Grow the counts to cover map points ``low`` to ``high`` (by half again at least, so
         growing costs little over a run)."""
         res = self.resolution
-        height, width = self._visits.shape
-        if self._visits.size:
+        height, width = self._shape
+        if height:
             top = self._low + np.array([width, height]) * res
             if np.all(low >= self._low) and np.all(high <= top):
                 return
@@ -130,22 +137,54 @@ class MapBuilder:
         cols, rows = np.ceil((np.asarray(high) - low) / res).astype(int)
         check_map_size(int(rows), int(cols), what=f"map at {res:g} m per cell")
         low = np.asarray(low, float)
-        visits = np.zeros((rows, cols), np.uint32)
-        hits = np.zeros((rows, cols), np.uint32)
-        if self._visits.size:
+        if height:  # the old extent's top-left cell is (row, col) of the new one
             col = round((self._low[0] - low[0]) / res)
             row = rows - height - round((self._low[1] - low[1]) / res)
-            visits[row : row + height, col : col + width] = self._visits
-            hits[row : row + height, col : col + width] = self._hits
             low = np.array([self._low[0] - col * res, self._low[1] - (rows - height - row) * res])
-        self._low, self._visits, self._hits = low, visits, hits
+            self._corner = self._corner - (row, col)
+        self._low, self._shape = low, (int(rows), int(cols))
+
+    def _pieces(
+        self, row: int, col: int, height: int, width: int
+    ) -> list[tuple[tuple[int, int], tuple[slice, slice], tuple[slice, slice]]]:
+        """The tiles under the extent's cells ``row .. row + height``, ``col .. col + width``:
+        each tile's key, its part of them (in the tile) and where that part lies in them."""
+        top, left = int(self._corner[0]) + row, int(self._corner[1]) + col
+        found = []
+        for tile_row in range(top // TILE, (top + height - 1) // TILE + 1):
+            for tile_col in range(left // TILE, (left + width - 1) // TILE + 1):
+                r0, c0 = max(top, tile_row * TILE), max(left, tile_col * TILE)
+                r1 = min(top + height, (tile_row + 1) * TILE)
+                c1 = min(left + width, (tile_col + 1) * TILE)
+                in_tile = (
+                    slice(r0 - tile_row * TILE, r1 - tile_row * TILE),
+                    slice(c0 - tile_col * TILE, c1 - tile_col * TILE),
+                )
+                found.append(
+                    (
+                        (tile_row, tile_col),
+                        in_tile,
+                        (slice(r0 - top, r1 - top), slice(c0 - left, c1 - left)),
+                    )
+                )
+        return found
+
+    def _read(self, row: int, col: int, height: int, width: int) -> NDArray[np.uint32]:
+        """Visits and hits ``(2, height, width)`` of the extent's cells from ``(row, col)``."""
+        counts = np.zeros((2, max(height, 0), max(width, 0)), np.uint32)
+        if height > 0 and width > 0:
+            for key, in_tile, part in self._pieces(row, col, height, width):
+                tile = self._tiles.get(key)
+                if tile is not None:
+                    counts[:, part[0], part[1]] = tile[:, in_tile[0], in_tile[1]]
+        return counts
 
     def count(
         self, origin: NDArray[np.float64], points: NDArray[np.float64], keep: NDArray[np.bool_]
     ) -> None:
         """Count one scan from sensor ``origin`` with end ``points`` (``keep`` those that
         count); the counts must already cover them (:meth:`reserve`)."""
-        height, width = self._visits.shape
+        height, width = self._shape
         res, lo = self.resolution, self._low
 
         def to_pixels(xy: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -165,7 +204,6 @@ class MapBuilder:
         extent = np.vstack([outline, pixels[keep], sensor[None]])
         corner = np.maximum(np.floor(extent.min(axis=0)).astype(int), 0)
         far = np.minimum(np.ceil(extent.max(axis=0)).astype(int) + 1, (width, height))
-        window = (slice(corner[1], far[1]), slice(corner[0], far[0]))
         seen = np.zeros((far[1] - corner[1], far[0] - corner[0]), np.uint8)
         polygon = np.round(
             (np.vstack([sensor, outline]) - corner) * (1 << _SHIFT) - (1 << (_SHIFT - 1))
@@ -180,8 +218,13 @@ class MapBuilder:
             & (cells[:, 1] < seen.shape[0])
         )
         hit[cells[inside, 1], cells[inside, 0]] = 1
-        self._visits[window] += seen | hit
-        self._hits[window] += hit
+        seen |= hit
+        for key, in_tile, part in self._pieces(int(corner[1]), int(corner[0]), *seen.shape):
+            tile = self._tiles.get(key)
+            if tile is None:
+                tile = self._tiles[key] = np.zeros((2, TILE, TILE), np.uint32)
+            tile[0][in_tile] += seen[part]
+            tile[1][in_tile] += hit[part]
 
     def grid(
         self, low: NDArray[np.float64] | None = None, high: NDArray[np.float64] | None = None
@@ -189,7 +232,7 @@ class MapBuilder:
         """The occupancy grid of everything counted, or of the part between map points
         ``low`` and ``high``."""
         res = self.resolution
-        height, width = self._visits.shape
+        height, width = self._shape
         first_col, last_row = 0, height
         last_col, first_row = width, 0
         if low is not None and high is not None:
@@ -197,8 +240,7 @@ class MapBuilder:
             last_col = min(width, int(np.ceil((high[0] - self._low[0]) / res)))
             last_row = min(height, height - int(np.floor((low[1] - self._low[1]) / res)))
             first_row = max(0, height - int(np.ceil((high[1] - self._low[1]) / res)))
-        window = (slice(first_row, last_row), slice(first_col, last_col))
-        visits, hits = self._visits[window], self._hits[window]
+        visits, hits = self._read(first_row, first_col, last_row - first_row, last_col - first_col)
         cells = np.full(visits.shape, UNKNOWN, np.int8)
         seen_any = visits > 0
         ratio = np.divide(hits, visits, out=np.zeros(hits.shape), where=seen_any)

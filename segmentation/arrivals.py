@@ -11,7 +11,13 @@ from scipy import sparse
 
 from maps.scan import Keyframe
 from segmentation.closeness import Closeness
-from segmentation.similarity import NearestNeighbour, cell_keys, symmetric
+from segmentation.similarity import (
+    ByFieldOfView,
+    Criterion,
+    NearestNeighbour,
+    cell_keys,
+    symmetric,
+)
 
 
 class KeptSimilarities:
@@ -56,6 +62,7 @@ class OneToMany:
     """
 
     def __init__(self, criterion: NearestNeighbour) -> None:
+        self.criterion = criterion
         self.field = Closeness.of(criterion)
         self._cells: list[NDArray[np.int64]] = []
 
@@ -88,3 +95,21 @@ class OneToMany:
         np.maximum.at(field, spread, closeness)
         second = np.bincount(owner, weights=field[placed], minlength=len(theirs)) / sizes
         return (first + second) / (2 * self.field.tolerance)
+
+
+def one_to_many(criterion: Criterion) -> OneToMany | None:
+    """The :class:`OneToMany` of eq. 12 for a criterion that is, or may choose (``auto``,
+    :class:`~segmentation.similarity.ByFieldOfView`, for scans narrower than a full circle),
+    :class:`~segmentation.similarity.NearestNeighbour`; ``None`` for the others.
+
+    Examples
+    --------
+    >>> from segmentation.similarity import Hausdorff
+    >>> one_to_many(ByFieldOfView()).criterion
+    NearestNeighbour(tolerance=0.2, resolution=0.1)
+    >>> one_to_many(NearestNeighbour(0.3)).field.tolerance, one_to_many(Hausdorff())
+    (0.3, None)
+    """
+    if isinstance(criterion, ByFieldOfView):
+        return OneToMany(NearestNeighbour())
+    return OneToMany(criterion) if isinstance(criterion, NearestNeighbour) else None

@@ -97,6 +97,10 @@ class OnlineEstimator(Estimator):
     def _arrive(self, keyframe: Keyframe) -> int:
         raise NotImplementedError
 
+    def flush(self) -> None:
+        """Finish the work under way beside the arrivals (nothing to finish for an engine that
+        does all of it on arrival)."""
+
     @property
     def labels_(self) -> NDArray[np.int64]:
         """Region of every keyframe so far (a merged id is replaced)."""

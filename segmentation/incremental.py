@@ -28,22 +28,25 @@ the arrivals gives the regions now).
 from __future__ import annotations
 
 import logging
+import threading
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from maps.grid import OccupancyGrid
 from maps.mapping import MapBuilder
 from maps.scan import Keyframe
-from segmentation.arrivals import KeptSimilarities, OneToMany
+from segmentation.arrivals import KeptSimilarities, one_to_many
 from segmentation.base import check_lengths, clone
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.events import Event, OnlineEstimator
 from segmentation.growing import carry_ids
 from segmentation.online_regions import OnlineRegions
 from segmentation.pipeline import MapSegmenter, by_place
-from segmentation.similarity import NearestNeighbour, as_criterion
+from segmentation.similarity import ByFieldOfView, as_criterion
 
 log = logging.getLogger(__name__)
 
@@ -80,6 +83,10 @@ class IncrementalSegmenter(OnlineEstimator):
     churn_age
         A keyframe this many keyframes old counts in :attr:`late_changes_` when its region
         changes.
+    background
+        Run each re-partition in a worker thread beside the arrivals; its keyframes take
+        their new regions when the next one starts or at :meth:`flush` (the same keyframes
+        for the same run, so the same regions). ``False``: at once, on the caller's thread.
 
     Attributes
     ----------
@@ -91,6 +98,8 @@ class IncrementalSegmenter(OnlineEstimator):
     n_seed_ : int
     late_changes_ : ndarray of int
         Per keyframe, how often its region changed once it was ``churn_age`` keyframes old.
+    repartition_seconds_ : ndarray of float
+        CPU time of each re-partition taken so far.
 
     Examples
     --------
@@ -117,6 +126,7 @@ class IncrementalSegmenter(OnlineEstimator):
     max_gap: float = 10.0
     random_state: int = 0
     churn_age: int = 50
+    background: bool = True
     pipeline_: MapSegmenter = field(init=False, repr=False)
     events_: list[Event] = field(init=False, repr=False)
     n_seed_: int = field(init=False, repr=False)
@@ -150,10 +160,14 @@ class IncrementalSegmenter(OnlineEstimator):
         if len(keyframes) < 2:
             raise SegmentationError(f"{len(keyframes)} keyframe(s) cannot seed: give two or more")
         self._fitted = False
+        previous = getattr(self, "_pending", None)
+        if previous is not None:
+            previous.worker.join()  # a re-partition of the previous run: dropped
+        self._pending: _Pending | None = None
+        self._work: list[float] = []
         self.pipeline_ = clone(self.pipeline)
         self._criterion = as_criterion(self.pipeline_.spectral.criterion)
-        nearest = self._criterion
-        self._one = OneToMany(nearest) if isinstance(nearest, NearestNeighbour) else None
+        self._one = one_to_many(self._criterion)
         self._keyframes: list[Keyframe] = []
         self._n = 0
         self._index: dict[int, int] = {}
@@ -189,6 +203,13 @@ class IncrementalSegmenter(OnlineEstimator):
         """Number of live regions."""
         return len(np.unique(self.labels_))
 
+    @property
+    def repartition_seconds_(self) -> NDArray[np.float64]:
+        """CPU time of each re-partition taken so far (the seed's first), on the thread
+        that ran it."""
+        self._check_fitted()
+        return np.array(self._work)
+
     # ----------------------------------------------------------------------------- internals
     def _check(self, keyframe: Keyframe, index: int) -> NDArray[np.float64]:
         """The keyframe's distance to every earlier one, or a SegmentationError."""
@@ -207,11 +228,14 @@ class IncrementalSegmenter(OnlineEstimator):
         if count == 0:
             return {}
         near = np.argpartition(distance, count - 1)[:count]
-        if self._one is not None:
+        keyframes = [keyframe, *(self._keyframes[i] for i in near.tolist())]
+        criterion = self._criterion
+        if isinstance(criterion, ByFieldOfView):
+            criterion = criterion.chosen(keyframes)
+        if self._one is not None and criterion == self._one.criterion:
             values = self._one.similarities(keyframe, near.tolist())
         else:
-            found = self._criterion.affinity([keyframe, *(self._keyframes[i] for i in near)])
-            values = found[0].toarray().ravel()[1:]
+            values = criterion.affinity(keyframes)[0].toarray().ravel()[1:]
         return {int(i): float(v) for i, v in zip(near, values, strict=True) if v > 0}
 
     def _add(self, keyframe: Keyframe, row: dict[int, float], region: int) -> None:
@@ -262,24 +286,81 @@ class IncrementalSegmenter(OnlineEstimator):
 
     def _repartition(self, window: NDArray[np.int64], seeding: bool = False) -> None:
         """Partition the keyframes ``window`` (nearest to the robot first) and give the inner
-        ones the new regions under the ids they continue."""
+        ones the new regions under the ids they continue: at once when seeding or without
+        ``background``, else in a worker thread whose result :meth:`flush` takes."""
+        self.flush()
         keyframes = [self._keyframes[i] for i in window.tolist()]
         poses = self._poses[window]
         grid = self._map.grid(poses.min(axis=0) - self.margin, poses.max(axis=0) + self.margin)
+        kept = KeptSimilarities(self._rows, self._index)  # lists that only grow
+        if seeding or not self.background:
+            clock = time.thread_time()
+            found = self._partition(self.pipeline_, kept, keyframes, poses, grid)
+            self._work.append(time.thread_time() - clock)
+            self._carry(window, found, seeding)
+            return
+        pending = _Pending(window, self._n)
         pipeline = self.pipeline_
+
+        def work() -> None:
+            clock = time.thread_time()
+            try:
+                pending.found = self._partition(pipeline, kept, keyframes, poses, grid)
+            except BaseException as err:  # a bug: raised again on the caller's thread
+                pending.error = err
+            pending.seconds = time.thread_time() - clock
+
+        pending.worker = threading.Thread(target=work, name="repartition", daemon=True)
+        pending.worker.start()
+        self._pending = pending
+
+    def flush(self) -> None:
+        """Wait for the re-partition under way (if any) and give its keyframes their new
+        regions; :attr:`labels_` then holds every re-partition started so far."""
+        pending, self._pending = getattr(self, "_pending", None), None
+        if pending is None:
+            return
+        pending.worker.join()
+        if pending.error is not None:
+            raise pending.error
+        self._work.append(pending.seconds)
+        self._carry(pending.window, pending.found, seeding=False)
+        self._replay(pending.arrived)
+
+    def _replay(self, first: int) -> None:
+        """The keyframes from ``first`` on, which arrived while a re-partition ran, join
+        again in order the region of the earlier keyframe most like them: the regions they
+        would have joined had it been taken at once."""
+        labels = self._labels[: self._n].copy()
+        for index in range(first, self._n):
+            row = self._rows[index]
+            if row:  # a keyframe like none before it keeps the region it started
+                labels[index] = labels[max(row, key=row.__getitem__)]
+        self._apply(np.arange(first, self._n), labels[first:], [], seeding=False)
+
+    def _partition(
+        self,
+        pipeline: MapSegmenter,
+        kept: KeptSimilarities,
+        keyframes: list[Keyframe],
+        poses: NDArray[np.float64],
+        grid: OccupancyGrid,
+    ) -> NDArray[np.int64] | None:
+        """``pipeline``'s stages on ``grid`` (the online map around ``keyframes``, at
+        ``poses``, their similarities ``kept``): the cluster of each keyframe, or ``None`` when
+        too little is seen yet. Reads nothing a later keyframe changes: it may run beside the
+        arrivals."""
         try:
             _, space, places = pipeline.places(pipeline.condition(grid))
             spectral = replace(
                 pipeline.spectral,
-                criterion=KeptSimilarities(self._rows, self._index),
+                criterion=kept,
                 random_state=self.random_state,
             )
             fitted = pipeline.partition(space, places, keyframes, spectral)
         except SegmentationError as err:  # too little seen yet: keep the regions as they are
-            log.info("re-partition of %d keyframes skipped: %s", len(window), err)
-            if seeding:
-                self._labels[window] = self._new_id()
-            return
+            log.info("re-partition of %d keyframes skipped: %s", len(keyframes), err)
+            return None
         rows, cols = space.world_to_cell(poses[:, 0], poses[:, 1])
         voted = by_place(places, rows, cols, fitted.labels_)
         inside = space.contains(rows, cols)
@@ -287,6 +368,17 @@ class IncrementalSegmenter(OnlineEstimator):
         found[inside] = np.where(
             voted[rows[inside], cols[inside]] > 0, voted[rows[inside], cols[inside]], found[inside]
         )
+        return found.astype(np.int64)
+
+    def _carry(
+        self, window: NDArray[np.int64], found: NDArray[np.int64] | None, seeding: bool
+    ) -> None:
+        """The inner keyframes of ``window`` take the clusters ``found`` under the ids they
+        continue (the seed all of them; nothing found: the seed is one region)."""
+        if found is None:
+            if seeding:
+                self._labels[window] = self._new_id()
+            return
         inner = window if seeding else window[: max(1, round(self.inner * len(window)))]
         new = found[: len(inner)]
         old = np.zeros_like(new) if seeding else self._labels[inner]
@@ -325,3 +417,16 @@ class IncrementalSegmenter(OnlineEstimator):
             taken = labels[before == gone]
             survivor = int(np.bincount(taken).argmax()) if len(taken) else 0
             self.events_.append(Event("merged", index, survivor, absorbed=gone))
+
+
+@dataclass
+class _Pending:
+    """A re-partition under way: its window, the first keyframe that arrived beside it, its
+    worker, what it found (or raised) and its CPU time."""
+
+    window: NDArray[np.int64]
+    arrived: int
+    worker: threading.Thread = field(init=False)
+    found: NDArray[np.int64] | None = None
+    error: BaseException | None = None
+    seconds: float = 0.0

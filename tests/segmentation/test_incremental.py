@@ -10,14 +10,15 @@ from sklearn.metrics import adjusted_rand_score
 
 import maps
 from maps.mapping import MapBuilder, grid_from_keyframes
-from segmentation.arrivals import OneToMany
+from segmentation.arrivals import OneToMany, one_to_many
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.events import OnlineStateError
 from segmentation.incremental import IncrementalSegmenter
 from segmentation.online import OnlineSegmenter
 from segmentation.pipeline import MapSegmenter
-from segmentation.similarity import NearestNeighbour
+from segmentation.similarity import ByFieldOfView, NearestNeighbour
 from segmentation.spectral import SpectralSegmenter
+from segmentation.views import SharedView
 from tests.segmentation.test_online import _empty_scan_keyframe, _recount
 
 
@@ -174,3 +175,50 @@ def test_the_online_engines_are_estimators(office_run):
     online.fit(keyframes[:60])
     assert online.segmenter_.criterion == "hausdorff"
     assert type(online._criterion).__name__ == "Hausdorff"
+
+
+def test_a_re_partition_beside_the_arrivals_gives_the_regions_of_one_taken_at_once(office_run):
+    keyframes = office_run[1][:400]
+    found = {}
+    for background in (True, False):
+        online = IncrementalSegmenter(background=background).fit(keyframes[:70])
+        online.partial_fit(keyframes[70:])
+        online.flush()
+        found[background] = online
+        assert np.array_equal(replay(online), online.labels_)
+    # the same partition (ids of new regions are numbered when the re-partition is taken)
+    assert adjusted_rand_score(found[True].labels_, found[False].labels_) == 1.0
+    taken = found[True].repartition_seconds_
+    assert len(taken) == len(found[False].repartition_seconds_) > 5 and np.all(taken > 0)
+    # the re-partition under way is not in labels_ until flush takes it
+    online = IncrementalSegmenter().fit(keyframes[:70])
+    online.partial_fit(keyframes[70:101])  # 70 + 31 > 0.15 * 101 arrivals: one under way
+    assert online._pending is not None
+    before = len(online.repartition_seconds_)
+    online.flush()
+    assert online._pending is None and len(online.repartition_seconds_) == before + 1
+
+
+def test_a_bug_in_a_re_partition_is_raised_on_the_callers_thread(office_run, monkeypatch):
+    keyframes = office_run[1][:200]
+    online = IncrementalSegmenter().fit(keyframes[:70])
+
+    def broken(self, conditioned):
+        raise RuntimeError("a bug in the places")
+
+    monkeypatch.setattr(MapSegmenter, "places", broken)
+    online.partial_fit(keyframes[70:90])  # starts a re-partition that fails beside them
+    with pytest.raises(RuntimeError, match="a bug in the places"):
+        online.flush()
+
+
+def test_auto_on_narrow_scans_is_compared_one_to_many_as_its_matrix_has_it(office_run):
+    keyframes = office_run[1][200:213]
+    one = one_to_many(ByFieldOfView())
+    assert one is not None and one.criterion == ByFieldOfView().chosen(keyframes)
+    for keyframe in keyframes[1:]:
+        one.keep(keyframe)
+    matrix = ByFieldOfView().affinity(keyframes).toarray()
+    assert np.allclose(one.similarities(keyframes[0], list(range(12))), matrix[0, 1:])
+    assert matrix[0, 1:].max() > 0.3
+    assert one_to_many(SharedView()) is None

@@ -56,7 +56,9 @@ def bench_latency(
     progress: Progress = iter,
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Time every ``partial_fit`` (assignment and dense regions; wall clock, and the CPU time
-    of the thread, which a busy machine's preemptions do not inflate) along the first ``keyframes``
+    of the caller's thread, which a busy machine's preemptions do not inflate; the CPU time of
+    each re-partition, run beside them, and of the whole process per keyframe, all threads
+    included, apart) along the first ``keyframes``
     keyframes of a robot wandering through a generated ``building``, seeded on the first
     ``seed_keyframes``; per batch of ``batch`` keyframes, the latency and, up to
     ``offline_up_to`` keyframes, the time of re-running the offline partition on everything
@@ -74,6 +76,7 @@ def bench_latency(
     records: list[dict[str, Any]] = []
     every: list[float] = []
     every_cpu: list[float] = []
+    process, offline_cpu = time.process_time(), 0.0
     for first in progress(range(seed_keyframes, len(run), batch)):
         last = min(first + batch, len(run))
         seconds, cpu = [], []
@@ -86,9 +89,10 @@ def bench_latency(
         every_cpu += cpu
         offline = None
         if last <= offline_up_to:
-            clock = time.perf_counter()
+            clock, thread = time.perf_counter(), time.thread_time()
             MapSegmenter().segment(grid_from_keyframes(run[:last]), run[:last], random_state=seed)
             offline = round(time.perf_counter() - clock, 3)
+            offline_cpu += time.thread_time() - thread
         records.append(
             {
                 "first": first,
@@ -100,7 +104,12 @@ def bench_latency(
                 "regions": online.n_regions_,
             }
         )
+    online.flush()
+    process = time.process_time() - process - offline_cpu  # every thread of the online run
     rerun = [r for r in records if r["offline_rerun_s"] is not None]
+    work: list[float] = []
+    if isinstance(online, IncrementalSegmenter):
+        work = online.repartition_seconds_[1:].tolist()  # the seed's aside
     summary = {
         "method": method,
         "building": building,
@@ -110,6 +119,9 @@ def bench_latency(
         "regions": online.n_regions_,
         **latency_ms(every),
         **latency_ms(every_cpu, "cpu_"),
+        **(latency_ms(work, "repartition_cpu_") if work else {}),
+        "repartitions": len(work),
+        "process_cpu_per_keyframe_ms": round(1000 * process / len(every_cpu), 3),
         "online_total_s": round(sum(every), 3),
         "offline_reruns_up_to": rerun[-1]["keyframes_seen"] if rerun else 0,
         "offline_reruns_total_s": round(sum(r["offline_rerun_s"] for r in rerun), 3),

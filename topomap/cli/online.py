@@ -103,11 +103,13 @@ def latency_ms(seconds: Sequence[float], prefix: str = "") -> dict[str, float]:
 @dataclass
 class OnlineRun:
     """An online pass over a run: the segmenter, the time of every ``partial_fit`` after the
-    seed (seconds) and the pictures written."""
+    seed and of the final :meth:`~segmentation.events.OnlineEstimator.flush` (seconds) and
+    the pictures written."""
 
     online: IncrementalSegmenter | OnlineSegmenter
     seed_seconds: float
     seconds: list[float] = field(default_factory=list)
+    flush_seconds: float = 0.0
     frames: list[Path] = field(default_factory=list)
 
     def latency_ms(self) -> dict[str, float]:
@@ -167,6 +169,9 @@ def run_online(
         done = index + 1
         if frames_every and frames_dir is not None and (done - seed_keyframes) % frames_every == 0:
             run.frames.append(draw_online(frames_dir / f"frame_{done:06d}.png", online))
+    start = time.perf_counter()
+    online.flush()  # the last re-partition, under way beside the last arrivals
+    run.flush_seconds = time.perf_counter() - start
     return run
 
 
