@@ -22,13 +22,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import sparse
+from scipy import ndimage, sparse
 
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
 from segmentation.errors import ParameterError
 from segmentation.passages import bottleneck_openness, boundary_openness
 from segmentation.similarity import Criterion, PointsSimilarity, as_criterion
+
+#: A keyframe off every place but this close to one (metres) stands beside it: in a door
+#: frame, in a closed wall gap (:mod:`segmentation.walls`), beside furniture.
+BESIDE = 0.5
 
 
 @dataclass
@@ -83,12 +87,22 @@ class PassageAffinity:
         self.route_[0, :] = self.route_[:, 0] = 1.0  # a keyframe on no place: nothing between
 
     def keyframe_places(self, keyframes: Sequence[Keyframe]) -> NDArray[np.int64]:
-        """The place each keyframe stands in (0 if it stands on none)."""
+        """The place each keyframe stands in, or the nearest within :data:`BESIDE` metres (a
+        robot in a door frame or a closed wall gap stands beside the place it passes
+        through); 0 if none."""
         poses = poses_array(keyframes)
         rows, cols = self.grid.world_to_cell(poses[:, 0], poses[:, 1])
         inside = self.grid.contains(rows, cols)
         found = np.zeros(len(poses), np.int64)
         found[inside] = self.places[rows[inside], cols[inside]]
+        off = np.flatnonzero(found == 0)[inside[found == 0]]
+        if len(off):
+            distance, (near_rows, near_cols) = ndimage.distance_transform_edt(
+                self.places == 0, return_indices=True
+            )
+            r, c = rows[off], cols[off]
+            beside = distance[r, c] * self.grid.resolution <= BESIDE
+            found[off[beside]] = self.places[near_rows[r, c], near_cols[r, c]][beside]
         return found
 
     def affinity(self, keyframes: Sequence[Keyframe]) -> sparse.csr_matrix:

@@ -85,3 +85,21 @@ def test_a_corridor_branching_off_stays_open_but_a_room_opening_of_its_width_is_
     closed = wall_gaps(~free, free, 0.1)
     assert not closed[40:60, 38:57].any()  # the branch's mouth
     assert closed[64:67, 140:155].any()  # the room's opening
+
+
+def test_a_keyframe_in_a_closed_gap_stands_in_the_place_beside_it():
+    from maps.scan import Keyframe, LaserScan
+    from segmentation.affinity import PassageAffinity
+
+    free = np.zeros((60, 80), bool)
+    free[5:30, 5:75] = free[31:55, 5:75] = True  # two rooms, a 1.5 m gap in the wall between
+    free[30, 30:45] = True
+    closed = wall_gaps(~free, free, 0.1)
+    space = OccupancyGrid.from_masks(free & ~closed, 0.1)
+    places = np.where(space.free, 1 + (np.arange(60)[:, None] > 30), 0).astype(np.int32)
+    affinity = PassageAffinity(space, places, contrast=2.0)
+    scan = LaserScan(np.ones(4), 0.0, np.pi / 2)
+    row, col = np.argwhere(closed)[0]
+    x, y = space.cell_to_world(np.array([row]), np.array([col]))
+    found = affinity.keyframe_places([Keyframe((float(x[0]), float(y[0]), 0.0), scan)])
+    assert found[0] in (1, 2)
