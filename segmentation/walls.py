@@ -87,7 +87,7 @@ def wall_gaps(
     )
     if lines is None:
         return out.astype(bool)
-    lines = _main_directions(lines.reshape(-1, 4))
+    lines = _main_directions(np.asarray(lines, np.int32).reshape(-1, 4))
     near = cv2.dilate(surface.astype(np.uint8), square) > 0  # jagged walls
     for x0, y0, x1, y1 in lines.tolist():
         n = max(abs(x1 - x0), abs(y1 - y0)) + 1
@@ -163,5 +163,5 @@ def _main_directions(lines: NDArray[np.int32]) -> NDArray[np.int32]:
     angle = np.rint(np.degrees(np.arctan2(dy, dx))).astype(int) % 180
     length = np.hypot(dx, dy)
     per_degree = np.bincount(angle, length, 180)
-    around = sum(np.roll(per_degree, s) for s in range(-TOLERANCE, TOLERANCE + 1))
+    around = np.sum([np.roll(per_degree, s) for s in range(-TOLERANCE, TOLERANCE + 1)], axis=0)
     return lines[around[angle] >= SHARE * length.sum()]
