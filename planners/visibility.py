@@ -94,6 +94,43 @@ class VisibilityGraph:
             )
         self.build_seconds = time.perf_counter() - clock
 
+    def arrays(self) -> dict[str, NDArray]:
+        """What the graph is made of, to save: ``corners`` and ``sites`` (lattice), the
+        corners' ``blocked`` quadrants, the CSR ``data``, ``indices``, ``indptr`` of the
+        graph, the shortest ``dist`` and predecessors ``pred`` from each site, and
+        ``n_corner_edges``; :meth:`from_arrays` reads them back."""
+        size = len(self.nodes)
+        dist, pred = self._site_paths or (np.zeros((0, size)), np.zeros((0, size), np.int32))
+        csr = self.graph
+        return {
+            "corners": self.corners,
+            "blocked": self._blocked,
+            "sites": self.sites,
+            "data": csr.data,
+            "indices": csr.indices,
+            "indptr": csr.indptr,
+            "dist": dist,
+            "pred": pred.astype(np.int32),
+            "n_corner_edges": np.array(self.n_corner_edges),
+        }
+
+    @classmethod
+    def from_arrays(cls, space: Workspace, arrays: dict[str, NDArray]) -> VisibilityGraph:
+        """The graph :meth:`arrays` described, on ``space`` (the free space it was built in)."""
+        graph = cls.__new__(cls)
+        graph.space = space
+        graph.corners = np.asarray(arrays["corners"], np.float64)
+        graph._blocked = np.asarray(arrays["blocked"], np.int8)
+        graph.sites = np.asarray(arrays["sites"], np.float64)
+        graph.n_corner_edges = int(arrays["n_corner_edges"])
+        size = len(graph.corners) + len(graph.sites)
+        graph.graph = sparse.csr_matrix(
+            (arrays["data"], arrays["indices"], arrays["indptr"]), shape=(size, size)
+        )
+        graph._site_paths = (arrays["dist"], arrays["pred"]) if len(graph.sites) else None
+        graph.build_seconds = 0.0
+        return graph
+
     @property
     def nodes(self) -> NDArray[np.float64]:
         """Lattice coordinates of the graph's nodes: the corners, then the sites."""

@@ -8,7 +8,6 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from maps.grid import OccupancyGrid
 from segmentation.regions import boundary_pairs
@@ -56,6 +55,8 @@ def find_transitions(grid: OccupancyGrid, labels: NDArray[np.integer]) -> list[T
     Boundary cell pairs of the same two regions belong to one opening when they lie within
     1.5 cells of each other.
     """
+    from scipy.spatial import cKDTree  # imported here: a planner read back needs none
+
     ra, ca, rb, cb = boundary_pairs(labels)
     if len(ra) == 0:
         return []

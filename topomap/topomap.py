@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -36,6 +36,8 @@ if TYPE_CHECKING:
     from planners.region_route import RegionRoute
     from planners.robots import Footprint, Robot
 
+#: The disc robot's radius, metres, when none is given: the one whose planner is saved.
+DEFAULT_RADIUS = 0.2
 _PIPELINE = set(MapSegmenter().get_params(deep=False)) - {"spectral"}
 _SPECTRAL = set(SpectralSegmenter().get_params(deep=False))
 
@@ -104,6 +106,9 @@ class TopoMap:
     changes
         For a map made by :meth:`update`: what happened to each region (the events of
         :func:`segmentation.growing.carry_ids`).
+    source
+        For a map read back with :meth:`load`: the folder, where :meth:`planner` finds the
+        prepared door graphs saved with it.
     """
 
     grid: OccupancyGrid
@@ -115,6 +120,7 @@ class TopoMap:
     partition: SavedPartition | None = None
     next_id: int = 0
     changes: list[dict[str, Any]] = field(default_factory=list)
+    source: Path | None = field(default=None, compare=False)
     _planners: dict[float, HierarchicalPlanner] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -315,17 +321,13 @@ class TopoMap:
         """Rename a region (by id or name); a name already taken is refused, nothing changes."""
         rename(self.graph, region, name)
 
-    def planner(self, robot_radius: float = 0.2) -> HierarchicalPlanner:
+    def planner(self, robot_radius: float = DEFAULT_RADIUS) -> HierarchicalPlanner:
         """The hierarchical planner (:class:`~planners.hierarchical.HierarchicalPlanner`) on
-        this map for a disc robot of ``robot_radius`` metres, made once per radius and kept."""
-        from planners.hierarchical import HierarchicalPlanner
-        from planners.workspace import Workspace
-
+        this map for a disc robot of ``robot_radius`` metres, made once per radius and kept;
+        for a map read back with :meth:`load`, with the door graph saved with it when there
+        is one for this map, these regions and this radius (:func:`topomap.saving.planner`)."""
         if robot_radius not in self._planners:
-            space = Workspace(self.grid, robot_radius)
-            self._planners[robot_radius] = HierarchicalPlanner(
-                space, self.regions.labels, self.graph
-            )
+            self._planners[robot_radius] = saving.planner(self, robot_radius)
         return self._planners[robot_radius]
 
     def kinematic_planner(
@@ -407,10 +409,22 @@ class TopoMap:
         """Region of each keyframe's position (0 if it is not on a labelled cell)."""
         return self.found.keyframe_regions()
 
-    def save(self, out: str | Path, *, overwrite: bool = False) -> list[Path]:
+    def save(
+        self,
+        out: str | Path,
+        *,
+        overwrite: bool = False,
+        door_graphs: Iterable[float] | None = None,
+        progress: Callable[[list[int]], Iterable[int]] = iter,
+    ) -> list[Path]:
         """Write everything needed to go on with this map into folder ``out``
-        (:func:`topomap.saving.save`); read it back with :meth:`load`."""
-        return saving.save(self, out, overwrite=overwrite)
+        (:func:`topomap.saving.save`); read it back with :meth:`load`. The prepared planners
+        for the robot radii ``door_graphs`` are saved too (by default those of the
+        :meth:`planner` made so far, else :data:`DEFAULT_RADIUS`), prepared now if they were
+        not (the parts passed through ``progress``; :func:`topomap.saving.save_door_graph`
+        adds one later)."""
+        radii = (list(self._planners) or [DEFAULT_RADIUS]) if door_graphs is None else door_graphs
+        return saving.save(self, out, overwrite=overwrite, door_graphs=radii, progress=progress)
 
     @classmethod
     def load(cls, folder: str | Path) -> TopoMap:
@@ -425,6 +439,7 @@ class TopoMap:
             found.method,
             found.partition,
             found.next_id,
+            source=Path(folder),
         )
 
     def save_keyframes(self, path: str | Path, *, overwrite: bool = False) -> Path:
