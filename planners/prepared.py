@@ -111,8 +111,8 @@ def write_prepared(prepared: Prepared, path: str | Path, *, overwrite: bool = Fa
         "door_opening": np.array([which[d.opening] for d in layout.doors], np.int64),
         "opening_regions": np.array([(t.a, t.b) for t in openings], np.int64).reshape(-1, 2),
         "opening_geometry": np.array(
-            [(*t.start, *t.end, *t.centre, t.width) for t in openings], float
-        ).reshape(-1, 7),
+            [(*t.start, *t.end, *t.centre, t.width, t.clear_width) for t in openings], float
+        ).reshape(-1, 8),
         "edges": np.column_stack([door_graph.a, door_graph.b, door_graph.part]).astype(np.int64),
         "costs": door_graph.costs,
         "n_corner_edges": np.array([int(g["n_corner_edges"]) for g in graphs], np.int64),
@@ -184,7 +184,7 @@ def _prepared(arrays: dict[str, NDArray], space: Workspace) -> Prepared:
         raise ValueError(f"labels of shape {labels.shape}, parts of shape {parts.shape}")
     region_of = {k + 1: int(r) for k, r in enumerate(arrays["region_of"])}
     openings = [
-        Transition(int(a), int(b), (g[0], g[1]), (g[2], g[3]), (g[4], g[5]), g[6])
+        Transition(int(a), int(b), (g[0], g[1]), (g[2], g[3]), (g[4], g[5]), g[6], g[7])
         for (a, b), g in zip(
             arrays["opening_regions"], arrays["opening_geometry"].tolist(), strict=True
         )

@@ -64,8 +64,8 @@ SAVED = [
     "topomap.json",
 ]
 #: The version of the folder :func:`save` writes; :func:`load` reads it and every older one
-#: (1: no file digests).
-VERSION = 2
+#: (1: no file digests; 2: doors without their clear width).
+VERSION = 3
 
 
 @dataclass(frozen=True)

@@ -143,7 +143,7 @@ class TopoMap:
         """
         pipeline = _pipeline(pipeline, options)
         found = pipeline.segment(grid, random_state=random_state)
-        return cls._build(grid, found, pipeline.on_stage)
+        return cls._build(grid, found, pipeline)
 
     @classmethod
     def from_keyframes(
@@ -164,7 +164,7 @@ class TopoMap:
         grid = grid_from_keyframes(keyframes, resolution) if grid is None else grid
         mapped = time.perf_counter() - start
         found = pipeline.segment(grid, keyframes, random_state=random_state)
-        topo = cls._build(grid, found, pipeline.on_stage)
+        topo = cls._build(grid, found, pipeline)
         if built:
             topo.seconds = {"map": mapped, **topo.seconds}
         return topo
@@ -204,23 +204,20 @@ class TopoMap:
         regions = Regions(grid, carried.labels)
         same = found.spectral is found.regions
         found = replace(found, regions=regions, spectral=regions if same else found.spectral)
-        topo = self._build(grid, found, pipeline.on_stage)
+        topo = self._build(grid, found, pipeline)
         topo.next_id, topo.changes = carried.next_id, carried.events
         carry_names(topo.graph, self.graph)
         return topo
 
     @classmethod
-    def _build(
-        cls,
-        grid: OccupancyGrid,
-        found: Segmentation,
-        on_stage: Callable[[str], None] | None = None,
-    ) -> TopoMap:
+    def _build(cls, grid: OccupancyGrid, found: Segmentation, pipeline: MapSegmenter) -> TopoMap:
         seconds = dict(found.seconds)
-        stage = on_stage or (lambda name: None)
+        stage = pipeline.on_stage or (lambda name: None)
         stage("graph")
         start = time.perf_counter()
-        graph = region_graph(found.regions, found.keyframe_regions())
+        # doors are where the robot the map is segmented for crosses (its planner's free space)
+        width = 2 * pipeline.robot_radius
+        graph = region_graph(found.regions, found.keyframe_regions(), min_width=width)
         seconds["graph"] = time.perf_counter() - start
         next_id = max(found.regions.ids, default=0) + 1
         topo = cls(grid, found.regions, graph, found, seconds, found.method, next_id=next_id)
@@ -359,12 +356,21 @@ class TopoMap:
             )
         return self._kinematic[key]
 
-    def route(self, source: int | str, target: int | str) -> RegionRoute:
-        """The regions and doors from ``source`` to ``target`` (region ids or names): a
-        topological route, no geometry (:func:`planners.region_route.region_route`)."""
+    def route(
+        self,
+        source: int | str,
+        target: int | str,
+        *,
+        robot_radius: float = DEFAULT_RADIUS,
+        closed: Iterable[tuple[int, int]] = (),
+    ) -> RegionRoute:
+        """The regions and doors from ``source`` to ``target`` (region ids or names) for a
+        disc of ``robot_radius`` metres (through doors wider than it), not through the doors
+        between the ``closed`` region pairs: a topological route, no geometry
+        (:func:`planners.region_route.region_route`)."""
         from planners.region_route import region_route
 
-        return region_route(self.graph, source, target)
+        return region_route(self.graph, source, target, closed=closed, min_width=2 * robot_radius)
 
     def to_nav2_route(self, robot_radius: float = 0.2) -> dict[str, Any]:
         """The building's route graph for a disc of ``robot_radius`` metres as a nav2_route
@@ -429,18 +435,7 @@ class TopoMap:
     @classmethod
     def load(cls, folder: str | Path) -> TopoMap:
         """Read a folder written by :meth:`save` (:func:`topomap.saving.load`)."""
-        found = saving.load(folder)
-        return cls(
-            found.grid,
-            found.regions,
-            found.graph,
-            None,
-            found.seconds,
-            found.method,
-            found.partition,
-            found.next_id,
-            source=Path(folder),
-        )
+        return cls(**vars(saving.load(folder)), source=Path(folder))
 
     def save_keyframes(self, path: str | Path, *, overwrite: bool = False) -> Path:
         """Write ``scan_index,x,y,theta,region``, one row per keyframe."""
