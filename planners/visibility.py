@@ -22,6 +22,8 @@ from planners.workspace import Workspace, cell_beyond
 
 #: Candidate pairs tested at once (bounds memory, not results).
 _CHUNK = 2_000_000
+#: Sample points of the straight-sight pre-test taken at once (bounds memory, not results).
+_SAMPLES = 1_000_000
 
 
 class VisibilityGraph:
@@ -177,18 +179,21 @@ class VisibilityGraph:
         """Exact straight-sight test of lattice segments, cheap samples first."""
         alive = np.ones(len(a), bool)
         d = b - a
-        sampled = np.all(d != 0, axis=1)  # motions along grid lines go to the exact test
-        longest = float(np.abs(d).max(initial=1.0))
+        length = np.abs(d).max(axis=1, initial=0.0)
+        # motions along grid lines go to the exact test; the others are sampled, level by
+        # level, while their own samples are more than 2 cells apart
+        idx = np.flatnonzero(np.all(d != 0, axis=1))
         level = 1
-        while longest / 2**level > 2 and alive.any():  # samples until 2 cells apart
-            idx = np.flatnonzero(alive & sampled)
-            for frac in np.arange(1, 2**level, 2) / 2**level:
-                p = a[idx] + frac * d[idx]
+        while len(idx := idx[alive[idx] & (length[idx] > 2 ** (level + 1))]):
+            fracs = np.arange(1, 2**level, 2) / 2**level
+            for some in np.array_split(idx, max(1, len(idx) * len(fracs) // _SAMPLES)):
+                p = a[some, None] + fracs[:, None] * d[some, None]
+                step = np.broadcast_to(d[some, None], p.shape)
                 ok = self.space.cells_free(
-                    cell_beyond(p[:, 0], d[idx, 0]), cell_beyond(p[:, 1], d[idx, 1])
+                    cell_beyond(p[..., 0].ravel(), step[..., 0].ravel()),
+                    cell_beyond(p[..., 1].ravel(), step[..., 1].ravel()),
                 )
-                alive[idx[~ok]] = False
-                idx = idx[ok]
+                alive[some] = ok.reshape(len(some), len(fracs)).all(axis=1)
             level += 1
         idx = np.flatnonzero(alive)
         for chunk in np.array_split(idx, max(1, len(idx) // 20_000)):
