@@ -67,10 +67,7 @@ class Prepared:
             Saying which.
         """
         if self.robot_radius != space.robot_radius:
-            raise StaleDoorGraphError(
-                f"the door graph was prepared for a robot radius of {self.robot_radius!r} m, "
-                f"not {space.robot_radius!r} m"
-            )
+            raise _other_robot(self.robot_radius, space)
         if np.shape(labels) != self.layout.labels.shape or self.key != door_graph_key(
             space, labels
         ):
@@ -155,10 +152,7 @@ def read_prepared(path: str | Path, space: Workspace) -> Prepared:
         )
     radius = _scalar(arrays, "robot_radius")
     if radius != space.robot_radius:
-        raise StaleDoorGraphError(
-            f"{path}: the door graph was prepared for a robot radius of {radius!r} m, "
-            f"not {space.robot_radius!r} m"
-        )
+        raise _other_robot(radius, space, f"{path}: ")
     shape = arrays["labels"].shape if "labels" in arrays else None
     if shape != space.grid.shape:
         raise StaleDoorGraphError(
@@ -169,6 +163,14 @@ def read_prepared(path: str | Path, space: Workspace) -> Prepared:
         return _prepared(arrays, space)
     except (KeyError, ValueError, IndexError, TypeError) as err:
         raise DoorGraphFileError(f"{path}: a damaged door graph file: {err!r}") from None
+
+
+def _other_robot(radius: object, space: Workspace, where: str = "") -> StaleDoorGraphError:
+    """The error for a door graph prepared for a robot of ``radius`` metres, not ``space``'s."""
+    return StaleDoorGraphError(
+        f"{where}the door graph was prepared for a robot radius of {radius!r} m, "
+        f"not {space.robot_radius!r} m"
+    )
 
 
 def _scalar(arrays: dict[str, NDArray], name: str) -> object:
