@@ -66,10 +66,15 @@ def find_doors(
     xa, ya = space.grid.cell_to_world(ra, ca)
     xb, yb = space.grid.cell_to_world(rb, cb)
     middles = np.column_stack([(xa + xb) / 2, (ya + yb) / 2])
-    pair_a, pair_b = labels[ra, ca], labels[rb, cb]
+    # the pairs of each two labels found by one sort, not by a pass over all per opening
+    base = int(labels.max(initial=0)) + 1
+    key = labels[ra, ca].astype(np.int64) * base + labels[rb, cb]
+    order = np.argsort(key, kind="stable")
+    key, middles = key[order], middles[order]
     doors = []
     for opening in openings:
-        here = middles[(pair_a == opening.a) & (pair_b == opening.b)]
+        wanted = opening.a * base + opening.b
+        here = middles[np.searchsorted(key, wanted) : np.searchsorted(key, wanted, "right")]
         gap = np.hypot(*(here - np.asarray(opening.centre)).T)
         points = here[gap <= opening.width / 2 + space.grid.resolution]
         if not len(points):

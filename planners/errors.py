@@ -21,3 +21,13 @@ class InvalidQueryError(PlanningError, ValueError):
 
 class NoPathError(PlanningError):
     """No collision-free path joins start and goal (disconnected, or every door closed)."""
+
+
+class StaleDoorGraphError(PlanningError, ValueError):
+    """A prepared door graph made for another map, other regions or another robot radius
+    than the planner it is given to (:mod:`planners.prepared`)."""
+
+
+class DoorGraphFileError(PlanningError, ValueError):
+    """A saved door graph file that cannot be read: not one, damaged, or written by a newer
+    topomap (:func:`planners.prepared.read_prepared`)."""

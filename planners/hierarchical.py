@@ -3,14 +3,15 @@
 Regions are first cut into near-convex parts (:mod:`planners.submaps`), the submaps; every
 opening between two parts where the robot fits gets doors (one per metre of opening).
 :meth:`HierarchicalPlanner.prepare` builds, once per map, the exact visibility graph of every
-submap with its doors as extra nodes (:class:`~planners.visibility.VisibilityGraph`), so the
-shortest door-to-door paths inside each part are known: together they are one sparse door
-graph. A query joins start and goal to the doors of their own parts (the corners and doors
-they see, plus the precomputed distances from there), runs Dijkstra over the door graph
-(``scipy.sparse.csgraph``, compiled), stitches the legs and tightens the result: skippable
-points are dropped and each door crossing slides along its door line (string pulling through
-the portals, :func:`planners.path.tighten`). Closing or opening a door only removes or
-restores its edges in the door graph; nothing precomputed changes.
+submap with its doors as extra nodes (:mod:`planners.door_graph`), so the shortest
+door-to-door paths inside each part are known: together they are one sparse door graph, which
+can be saved with the regions and read back (:mod:`planners.prepared`). A query joins start
+and goal to the doors of their own parts (the corners and doors they see, plus the
+precomputed distances from there), runs Dijkstra over the door graph (``scipy.sparse.csgraph``,
+compiled), stitches the legs and tightens the result: skippable points are dropped and each
+door crossing slides along its door line (string pulling through the portals,
+:func:`planners.path.tighten`). Closing or opening a door only removes or restores its edges
+in the door graph; nothing precomputed changes.
 """
 
 from __future__ import annotations
@@ -29,20 +30,23 @@ from scipy.sparse.csgraph import dijkstra
 
 from maps.geometry import polyline_length
 from maps.grid import OccupancyGrid
-from planners.doors import find_doors
-from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
+from planners.door_graph import (
+    DoorGraph,
+    Progress,
+    build_door_graph,
+    door_graph_key,
+    part_space,
+    plan_layout,
+)
+from planners.errors import InvalidQueryError, NoPathError
 from planners.path import PlannedPath, shortcut, tighten
-from planners.submaps import convex_parts
-from planners.visibility import VisibilityGraph
+from planners.prepared import Prepared
 from planners.workspace import Point, Workspace, sample_polyline
 from segmentation.names import find_region
-from segmentation.transitions import find_transitions
 
 log = logging.getLogger(__name__)
 
 Goal = ArrayLike | int | str
-#: Metres a submap reaches beyond its part, so legs can pass the doorways they end in.
-SUBMAP_MARGIN = 0.5
 #: Moves the final tightening tries per point and pass (the full move, then its halves).
 TIGHTEN_TRIES = 2
 
@@ -71,6 +75,17 @@ class HierarchicalPlanner:
     graph
         The region adjacency graph (:func:`segmentation.graph.region_graph`): its nodes are
         the region ids, its edges the doors that can be closed.
+    prepared
+        The submaps and door graph made before for this map, these labels and this robot
+        (:meth:`prepared`, read back with :func:`planners.prepared.read_prepared`); checked,
+        not trusted (:attr:`restored` says it was given).
+
+    Raises
+    ------
+    PlannerParameterError
+        Labels of another shape than the map, or that give no region to a free cell.
+    StaleDoorGraphError
+        ``prepared`` was made from another map, other labels or another robot radius.
 
     Examples
     --------
@@ -89,24 +104,25 @@ class HierarchicalPlanner:
 
     name = "hierarchical"
 
-    def __init__(self, space: Workspace, labels: NDArray[np.integer], graph: nx.Graph) -> None:
+    def __init__(
+        self,
+        space: Workspace,
+        labels: NDArray[np.integer],
+        graph: nx.Graph,
+        *,
+        prepared: Prepared | None = None,
+    ) -> None:
         clock = time.perf_counter()
-        labels = np.asarray(labels)
-        if labels.shape != space.grid.shape:
-            raise PlannerParameterError(
-                f"labels have shape {labels.shape}, the map {space.grid.shape}"
-            )
-        self.space, self.graph = space, graph
-        self.labels = fill_unlabelled(labels, space.grid.free)
-        # cut where the robot's free space (not the map's) is concave: thin walls count
-        self.parts, self.region_of = convex_parts(np.where(space.free, self.labels, 0))
-        if space.free.any() and not self.region_of:
-            raise PlannerParameterError("the labels give no region to any free cell of the map")
-        self.doors = find_doors(space, self.parts, find_transitions(space.grid, self.parts))
-        self._doors_of: dict[int, list[int]] = {part: [] for part in self.region_of}
-        for index, door in enumerate(self.doors):
-            self._doors_of[door.a].append(index)
-            self._doors_of[door.b].append(index)
+        self.space, self.graph, self._given = space, graph, labels
+        if prepared is None:
+            layout, self._door_graph = plan_layout(space, labels), None
+        else:
+            prepared.check(space, labels)
+            layout, self._door_graph = prepared.layout, prepared.door_graph
+        self._layout, self.restored = layout, prepared is not None
+        self.labels, self.parts = layout.labels, layout.parts
+        self.region_of, self.doors = layout.region_of, layout.doors
+        self._doors_of = layout.doors_of()
         self._door_regions = np.array(
             [sorted((self.region_of[d.a], self.region_of[d.b])) for d in self.doors], np.int64
         ).reshape(-1, 2)
@@ -114,55 +130,41 @@ class HierarchicalPlanner:
         self._region_boxes = ndimage.find_objects(self.labels)
         self._closed: set[tuple[int, int]] = set()
         self._centres: dict[int, Point] = {}
-        self._part_graphs: dict[int, VisibilityGraph] = {}
-        self._edges: tuple[NDArray[np.intp], ...] = ()
-        self._costs = np.zeros(0)
         self._matrices: dict[frozenset[tuple[int, int]], sparse.csr_matrix] = {}
         self.build_seconds = time.perf_counter() - clock
         self.prepare_seconds: float | None = None
+        if self._door_graph is not None:
+            self._use(self._door_graph)
 
-    def prepare(self) -> float:
+    def prepare(self, progress: Progress = iter) -> float:
         """Build the door graph now rather than at the first query: every submap's visibility
-        graph with its doors, and the shortest door-to-door distance inside each part.
-        Returns the seconds taken (preprocessing, like the segmentation)."""
-        if self.prepare_seconds is not None:
-            return self.prepare_seconds
-        clock = time.perf_counter()
-        self.space.precompute()
-        a, b, cost, part_of = [], [], [], []
-        for part, doors in self._doors_of.items():
-            sub = self._crop(self.parts, self._part_boxes, part)
-            sites = np.array([self.doors[d].point for d in doors]).reshape(-1, 2)
-            graph = self._part_graphs[part] = VisibilityGraph(sub, sites)
-            n = len(graph.corners)
-            k, m = np.triu_indices(len(doors), 1)
-            dist = graph.site_distances()[k, n + m]
-            found = np.isfinite(dist)
-            ids = np.asarray(doors, np.intp)
-            a.append(ids[k[found]])
-            b.append(ids[m[found]])
-            cost.append(dist[found])
-            part_of.append(np.full(found.sum(), part))
-        a_, b_, cost_, part_ = (np.concatenate([*x, []]) for x in (a, b, cost, part_of))
-        order = np.lexsort((cost_, b_, a_))  # the cheapest part for every door pair
-        first = np.ones(len(order), bool)
-        first[1:] = (np.diff(a_[order]) != 0) | (np.diff(b_[order]) != 0)
-        keep = order[first]
-        self._edges = (a_[keep].astype(np.intp), b_[keep].astype(np.intp))
-        self._costs = np.maximum(cost_[keep], 1e-9)
+        graph with its doors, and the shortest door-to-door distance inside each part
+        (:func:`~planners.door_graph.build_door_graph`, the parts passed through
+        ``progress``). Returns the seconds building it took (preprocessing, like the
+        segmentation; for a door graph read back, the seconds it took when it was built)."""
+        if self._door_graph is None:
+            self._use(build_door_graph(self.space, self._layout, progress))
+        assert self.prepare_seconds is not None
+        return self.prepare_seconds
+
+    def prepared(self, progress: Progress = iter) -> Prepared:
+        """The prepared door graph (:meth:`prepare`) and what it was made from, to save with
+        the regions (:func:`planners.prepared.write_prepared`)."""
+        self.prepare(progress)
+        assert self._door_graph is not None
+        key = door_graph_key(self.space, self._given)
+        return Prepared(key, self.space.robot_radius, self._layout, self._door_graph)
+
+    def _use(self, door_graph: DoorGraph) -> None:
+        self._door_graph = door_graph
+        self._part_graphs = door_graph.part_graphs
+        self._edges = (door_graph.a, door_graph.b)
+        self._costs = door_graph.costs
         self._edge_part = {
             (int(i), int(j)): int(p)
-            for i, j, p in zip(a_[keep], b_[keep], part_[keep], strict=True)
+            for i, j, p in zip(door_graph.a, door_graph.b, door_graph.part, strict=True)
         }
-        self.prepare_seconds = time.perf_counter() - clock
-        log.info(
-            "door graph: %d parts, %d doors, %d edges in %.2f s",
-            len(self.region_of),
-            len(self.doors),
-            len(keep),
-            self.prepare_seconds,
-        )
-        return self.prepare_seconds
+        self.prepare_seconds = door_graph.seconds
 
     # ------------------------------------------------------------------ queries on the map
     def region_at(self, x: float, y: float) -> int:
@@ -191,9 +193,9 @@ class HierarchicalPlanner:
         return self.space.check(end, what)
 
     def region_space(self, region: int) -> Workspace:
-        """The free space of ``region`` and :data:`SUBMAP_MARGIN` around it (so paths can
-        pass the doorways at its edge)."""
-        return self._crop(self.labels, self._region_boxes, region)
+        """The free space of ``region`` and :data:`~planners.door_graph.SUBMAP_MARGIN` around
+        it (so paths can pass the doorways at its edge)."""
+        return part_space(self.space, self.labels, self._region_boxes, region)
 
     # ------------------------------------------------------------------ doors
     def close_door(self, a: int, b: int) -> None:
@@ -411,16 +413,6 @@ class HierarchicalPlanner:
         row, col = self.space.grid.world_to_cell(*point)
         return int(self.parts[row, col])
 
-    def _crop(self, labels: NDArray[np.int32], boxes: list, index: int) -> Workspace:
-        """Workspace of the cells labelled ``index`` and a margin around them."""
-        box = boxes[index - 1]
-        h, w = labels.shape
-        m = max(1, round(SUBMAP_MARGIN / self.space.grid.resolution))
-        rows = slice(max(box[0].start - m, 0), min(box[0].stop + m, h))
-        cols = slice(max(box[1].start - m, 0), min(box[1].stop + m, w))
-        inside = ndimage.binary_dilation(labels[rows, cols] == index, iterations=m)
-        return self.space.crop(rows, cols, inside)
-
 
 def regions_along(
     grid: OccupancyGrid, labels: NDArray[np.integer], waypoints: ArrayLike
@@ -432,13 +424,3 @@ def regions_along(
     found = found[found > 0]
     keep = np.concatenate([[len(found) > 0], found[1:] != found[:-1]])
     return tuple(int(r) for r in found[keep[: len(found)]])
-
-
-def fill_unlabelled(labels: NDArray[np.integer], free: NDArray[np.bool_]) -> NDArray[np.int32]:
-    """Labels where free cells in no region take the label of the nearest labelled cell."""
-    labels = labels.astype(np.int32)
-    missing = free & (labels == 0)
-    if missing.any() and (labels > 0).any():
-        _, (rows, cols) = ndimage.distance_transform_edt(labels == 0, return_indices=True)
-        labels = np.where(missing, labels[rows, cols], labels).astype(np.int32)
-    return labels  # type: ignore[return-value]

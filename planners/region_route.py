@@ -63,7 +63,9 @@ def region_route(
     closed
         Region pairs whose doors are closed.
     min_width
-        Metres a door must be wide for the robot (a narrower opening is no door).
+        Metres the robot is wide: a door must be wider (its
+        :attr:`~segmentation.transitions.Transition.passable` width, from the clearance
+        where it was measured).
 
     Raises
     ------
@@ -113,10 +115,10 @@ def region_routes(
     shut = {(min(u, v), max(u, v)) for u, v in closed}
 
     def usable(u: int, v: int) -> Transition | None:
-        doors = [d for d in graph.edges[u, v].get("doors") or () if d.width >= min_width]
+        doors = [d for d in graph.edges[u, v].get("doors") or () if d.passable > min_width]
         if (min(u, v), max(u, v)) in shut or not doors:
             return None
-        return max(doors, key=lambda door: door.width)
+        return max(doors, key=lambda door: door.passable)
 
     def weight(u: int, v: int, data: dict) -> float | None:
         door = usable(u, v)

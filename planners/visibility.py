@@ -22,6 +22,8 @@ from planners.workspace import Point, Workspace, cell_beyond
 
 #: Candidate pairs tested at once (bounds memory, not results).
 _CHUNK = 2_000_000
+#: Sample points of the straight-sight pre-test taken at once (bounds memory, not results).
+_SAMPLES = 1_000_000
 
 
 class VisibilityGraph(SearchPlanner):
@@ -94,6 +96,43 @@ class VisibilityGraph(SearchPlanner):
             )
         self.build_seconds = time.perf_counter() - clock
 
+    def arrays(self) -> dict[str, NDArray]:
+        """What the graph is made of, to save: ``corners`` and ``sites`` (lattice), the
+        corners' ``blocked`` quadrants, the CSR ``data``, ``indices``, ``indptr`` of the
+        graph, the shortest ``dist`` and predecessors ``pred`` from each site, and
+        ``n_corner_edges``; :meth:`from_arrays` reads them back."""
+        size = len(self.nodes)
+        dist, pred = self._site_paths or (np.zeros((0, size)), np.zeros((0, size), np.int32))
+        csr = self.graph
+        return {
+            "corners": self.corners,
+            "blocked": self._blocked,
+            "sites": self.sites,
+            "data": csr.data,
+            "indices": csr.indices,
+            "indptr": csr.indptr,
+            "dist": dist,
+            "pred": pred.astype(np.int32),
+            "n_corner_edges": np.array(self.n_corner_edges),
+        }
+
+    @classmethod
+    def from_arrays(cls, space: Workspace, arrays: dict[str, NDArray]) -> VisibilityGraph:
+        """The graph :meth:`arrays` described, on ``space`` (the free space it was built in)."""
+        graph = cls.__new__(cls)
+        graph.space = space
+        graph.corners = np.asarray(arrays["corners"], np.float64)
+        graph._blocked = np.asarray(arrays["blocked"], np.int8)
+        graph.sites = np.asarray(arrays["sites"], np.float64)
+        graph.n_corner_edges = int(arrays["n_corner_edges"])
+        size = len(graph.corners) + len(graph.sites)
+        graph.graph = sparse.csr_matrix(
+            (arrays["data"], arrays["indices"], arrays["indptr"]), shape=(size, size)
+        )
+        graph._site_paths = (arrays["dist"], arrays["pred"]) if len(graph.sites) else None
+        graph.build_seconds = 0.0
+        return graph
+
     @property
     def nodes(self) -> NDArray[np.float64]:
         """Lattice coordinates of the graph's nodes: the corners, then the sites."""
@@ -140,18 +179,21 @@ class VisibilityGraph(SearchPlanner):
         """Exact straight-sight test of lattice segments, cheap samples first."""
         alive = np.ones(len(a), bool)
         d = b - a
-        sampled = np.all(d != 0, axis=1)  # motions along grid lines go to the exact test
-        longest = float(np.abs(d).max(initial=1.0))
+        length = np.abs(d).max(axis=1, initial=0.0)
+        # motions along grid lines go to the exact test; the others are sampled, level by
+        # level, while their own samples are more than 2 cells apart
+        idx = np.flatnonzero(np.all(d != 0, axis=1))
         level = 1
-        while longest / 2**level > 2 and alive.any():  # samples until 2 cells apart
-            idx = np.flatnonzero(alive & sampled)
-            for frac in np.arange(1, 2**level, 2) / 2**level:
-                p = a[idx] + frac * d[idx]
+        while len(idx := idx[alive[idx] & (length[idx] > 2 ** (level + 1))]):
+            fracs = np.arange(1, 2**level, 2) / 2**level
+            for some in np.array_split(idx, max(1, len(idx) * len(fracs) // _SAMPLES)):
+                p = a[some, None] + fracs[:, None] * d[some, None]
+                step = np.broadcast_to(d[some, None], p.shape)
                 ok = self.space.cells_free(
-                    cell_beyond(p[:, 0], d[idx, 0]), cell_beyond(p[:, 1], d[idx, 1])
+                    cell_beyond(p[..., 0].ravel(), step[..., 0].ravel()),
+                    cell_beyond(p[..., 1].ravel(), step[..., 1].ravel()),
                 )
-                alive[idx[~ok]] = False
-                idx = idx[ok]
+                alive[some] = ok.reshape(len(some), len(fracs)).all(axis=1)
             level += 1
         idx = np.flatnonzero(alive)
         for chunk in np.array_split(idx, max(1, len(idx) // 20_000)):

@@ -1,13 +1,15 @@
 """Writing and reading regions and the region graph: label PNG, GeoJSON, GraphML, node-link JSON.
 
 Geometry is in map-frame metres. GraphML holds only scalars, so (as OSMnx does) polygons are
-WKT strings and an edge's doors a JSON list of ``[x1, y1, x2, y2, cx, cy, width]``; node-link
-JSON uses the same encoding. Every reader returns an object equal to the one written.
+WKT strings and an edge's doors a JSON list of ``[x1, y1, x2, y2, cx, cy, width, clear_width]``
+(files before the clear width: seven numbers, read as not measured); node-link JSON uses the
+same encoding. Every reader returns an object equal to the one written.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -29,14 +31,20 @@ FRAME_NOTE = "map frame (REP-103), metres"
 
 
 def _door_list(doors: tuple[Transition, ...]) -> str:
-    return json.dumps([[*t.start, *t.end, *t.centre, t.width] for t in doors])
+    rows = []
+    for t in doors:
+        measured = [t.clear_width] if math.isfinite(t.clear_width) else []  # inf: not measured
+        rows.append([*t.start, *t.end, *t.centre, t.width, *measured])
+    return json.dumps(rows)
 
 
 def _doors(text: str, a: int, b: int) -> tuple[Transition, ...]:
-    return tuple(
-        Transition(a, b, (x1, y1), (x2, y2), (cx, cy), width)
-        for x1, y1, x2, y2, cx, cy, width in json.loads(text)
-    )
+    found = []
+    for x1, y1, x2, y2, cx, cy, *widths in json.loads(text):
+        if len(widths) not in (1, 2):
+            raise ValueError(f"a door of {6 + len(widths)} numbers, not 7 or 8")
+        found.append(Transition(a, b, (x1, y1), (x2, y2), (cx, cy), *widths))
+    return tuple(found)
 
 
 def _encoded(graph: nx.Graph) -> nx.Graph:

@@ -12,8 +12,14 @@ from segmentation.transitions import Transition, find_transitions
 from segmentation.virtual import most_open_cells
 
 
-def region_graph(regions: Regions, keyframe_regions: NDArray[np.integer] | None = None) -> nx.Graph:
-    """Build the region adjacency graph of ``regions``.
+def region_graph(
+    regions: Regions,
+    keyframe_regions: NDArray[np.integer] | None = None,
+    *,
+    min_width: float = 0.0,
+) -> nx.Graph:
+    """Build the region adjacency graph of ``regions``: an edge where a robot ``min_width``
+    metres wide crosses from one region to the other.
 
     Parameters
     ----------
@@ -21,6 +27,11 @@ def region_graph(regions: Regions, keyframe_regions: NDArray[np.integer] | None 
         The segmentation.
     keyframe_regions
         Region id of each keyframe (0 = none), to count keyframes per region.
+    min_width
+        Metres: openings whose :attr:`~segmentation.transitions.Transition.passable` width
+        is not more than this are no doors (by default, only those no robot crosses: gaps of
+        no free cell pair). :class:`~topomap.topomap.TopoMap` passes twice the radius of the
+        robot the map is segmented for, which is what its planner's free space keeps.
 
     Returns
     -------
@@ -30,7 +41,8 @@ def region_graph(regions: Regions, keyframe_regions: NDArray[np.integer] | None 
         from walls, furniture and unknown space, so a robot can stand there) and
         ``keyframes``.
         Edge ``(a, b)`` with ``doors``: a tuple of :class:`Transition`, widest first, and
-        ``width``, the widest door's width. Graph attributes: ``resolution``, ``origin``.
+        ``width``, the widest door's width; two regions that only touch through narrower
+        gaps have no edge. Graph attributes: ``resolution``, ``origin``.
 
     Examples
     --------
@@ -69,6 +81,8 @@ def region_graph(regions: Regions, keyframe_regions: NDArray[np.integer] | None 
         )
     doors: dict[tuple[int, int], list[Transition]] = {}
     for transition in find_transitions(regions.grid, regions.labels):
+        if not transition.passable > min_width:
+            continue
         doors.setdefault((transition.a, transition.b), []).append(transition)
     for (a, b), found_doors in doors.items():
         found_doors.sort(key=lambda t: -t.width)

@@ -12,8 +12,6 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 from shapely import affinity
 from shapely.geometry.base import BaseGeometry
-from skimage.measure import label as connected_pieces
-from skimage.segmentation import watershed
 
 from maps.grid import OccupancyGrid
 from segmentation.errors import SegmentationError
@@ -138,6 +136,8 @@ def dense_labels(
         ``labels`` of the grid's shape: 0 for non-free cells, ``1..N`` for the regions, each one
         connected (4-neighbour) piece of free space.
     """
+    from skimage.segmentation import watershed  # imported here: reading regions needs none
+
     free = grid.free
     if not free.any():
         raise SegmentationError("the map has no free cell to segment")
@@ -154,6 +154,8 @@ def pieces(grid: OccupancyGrid, labels: NDArray[np.integer], min_area: float) ->
     """Regions made connected: free cells without a label get one per connected piece, each
     label is split into its 4-connected pieces, and pieces under ``min_area`` square metres
     merge into a neighbour."""
+    from skimage.measure import label as connected_pieces  # as in dense_labels
+
     free = grid.free
     unreached, _ = ndimage.label(free & (labels == 0))
     labels = np.where(unreached > 0, unreached + labels.max(), np.where(free, labels, 0))

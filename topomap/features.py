@@ -18,7 +18,6 @@ import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
-from skimage.morphology import disk, skeletonize
 
 from maps.grid import clearance_of
 from segmentation.regions import Regions
@@ -106,6 +105,8 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
 
 def _shape(mask: NDArray[np.bool_], res: float) -> dict[str, float]:
     """The shape columns of one region's mask (cells of ``res`` metres)."""
+    from skimage.morphology import disk  # imported here: planning on saved regions needs none
+
     gap = max(1, round(FURNITURE_GAP_M / res))
     filled = _fill_small_holes(np.pad(mask, 2 * gap + 1), int(FURNITURE_HOLE_M2 / res**2))
     kernel = disk(gap).astype(np.uint8)
@@ -211,6 +212,8 @@ def medial_axis(mask: NDArray[np.bool_], distance: NDArray[np.float64]) -> NDArr
     >>> medial_axis(mask, ndimage.distance_transform_edt(mask)).sum(axis=0).tolist()[5:15]
     [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]
     """
+    from skimage.morphology import skeletonize  # as in _shape
+
     axis = skeletonize(mask)
     for _ in range(2):  # cutting spurs can leave a new, shorter one at a former branch point
         neighbours = _axis_neighbours(axis)

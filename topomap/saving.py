@@ -2,11 +2,17 @@
 
 :func:`save` writes ``map.yaml`` + ``map.pgm`` (map_server), ``regions.png`` (16-bit labels)
 and beside it ``regions_colour.png`` (the same regions in colour, for people),
-``graph.graphml`` and ``graph.json`` (labels and names included), ``regions.geojson`` and last
-``topomap.json``: the format and its :data:`VERSION`, seconds, what conditioning dropped, the
-fitted partition and the SHA-256 of every other file. :func:`load` reads data only (nothing in
-the files is executed) and refuses a folder that is not whole, was changed since, or was
-written by a newer topomap.
+``graph.graphml`` and ``graph.json`` (labels and names included), ``regions.geojson``, the
+prepared planner for a disc robot (``door_graph_rR.npz`` per robot radius ``R``:
+:mod:`planners.prepared`) and last ``topomap.json``: the format and its :data:`VERSION`,
+seconds, what conditioning dropped, the fitted partition and the SHA-256 of every other file
+but the door graphs. :func:`load` reads data only (nothing in the files is executed) and
+refuses a folder that is not whole, was changed since, or was written by a newer topomap.
+
+A door graph is a cache, checked rather than listed: it holds the digest of the map, labels
+and robot it was made for, so :func:`planner` reuses it only for them (another one is
+rebuilt, with a warning in the log), and a later run may add one for another radius
+(:func:`save_door_graph`).
 """
 
 from __future__ import annotations
@@ -15,8 +21,9 @@ import csv
 import hashlib
 import io
 import json
+import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -42,7 +49,10 @@ from segmentation.export import (
 from segmentation.regions import Regions
 
 if TYPE_CHECKING:
+    from planners.hierarchical import HierarchicalPlanner
     from topomap.topomap import TopoMap
+
+log = logging.getLogger(__name__)
 
 #: The files :func:`save` writes besides the map's YAML and image; ``topomap.json`` last.
 SAVED = [
@@ -54,8 +64,8 @@ SAVED = [
     "topomap.json",
 ]
 #: The version of the folder :func:`save` writes; :func:`load` reads it and every older one
-#: (1: no file digests).
-VERSION = 2
+#: (1: no file digests; 2: doors without their clear width).
+VERSION = 3
 
 
 @dataclass(frozen=True)
@@ -82,17 +92,30 @@ class Saved:
     next_id: int
 
 
-def save(topo: TopoMap, out: str | Path, *, overwrite: bool = False) -> list[Path]:
+def save(
+    topo: TopoMap,
+    out: str | Path,
+    *,
+    overwrite: bool = False,
+    door_graphs: Iterable[float] = (),
+    progress: Callable[[list[int]], Iterable[int]] = iter,
+) -> list[Path]:
     """Write ``topo`` into folder ``out`` (see the module docstring); returns the paths.
+    ``door_graphs``: the robot radii whose prepared planners are saved too (prepared now if
+    they were not, the parts passed through ``progress``).
 
     Raises
     ------
     OutputExistsError
         A file exists and ``overwrite`` is false; nothing is written then.
     """
-    out = Path(out)
+    out, door_graphs = Path(out), list(door_graphs)
     names = [*SAVED, "map.yaml", "map.pgm"]
-    with OutputFolder(out, names, overwrite=overwrite, last="topomap.json") as work:
+    caches = [door_graph_name(radius) for radius in door_graphs]
+    folder = OutputFolder(out, [*names, *caches], overwrite=overwrite, last="topomap.json")
+    with folder as work:
+        for radius, name in zip(door_graphs, caches, strict=True):
+            _write_door_graph(topo, radius, work / name, progress)
         topo.grid.save(work / "map.yaml")
         write_label_image(topo.regions.labels, work / "regions.png")
         write_colour_image(topo.regions.labels, work / "regions_colour.png")
@@ -118,7 +141,66 @@ def save(topo: TopoMap, out: str | Path, *, overwrite: bool = False) -> list[Pat
                 "silhouette_by_k": {str(k): v for k, v in fitted.silhouette_by_k_.items()},
             }
         write_text(work / "topomap.json", json.dumps(about, indent=2))
-    return [out / name for name in ("map.yaml", "map.pgm", *SAVED)]
+    return [out / name for name in ("map.yaml", "map.pgm", *caches, *SAVED)]
+
+
+def door_graph_name(robot_radius: float) -> str:
+    """The file name of the door graph saved for a disc robot of ``robot_radius`` metres.
+
+    Examples
+    --------
+    >>> door_graph_name(0.2)
+    'door_graph_r0.2.npz'
+    """
+    return f"door_graph_r{float(robot_radius)!r}.npz"
+
+
+def planner(topo: TopoMap, robot_radius: float) -> HierarchicalPlanner:
+    """The hierarchical planner of ``topo`` for a disc of ``robot_radius`` metres: with the
+    door graph saved in the folder ``topo`` was read from (:attr:`TopoMap.source`) when there
+    is one for this radius and it was made for this map and these regions; otherwise (none,
+    stale, damaged, or of another version: a warning in the log) one to prepare anew."""
+    from planners.errors import DoorGraphFileError, StaleDoorGraphError
+    from planners.hierarchical import HierarchicalPlanner
+    from planners.prepared import read_prepared
+    from planners.workspace import Workspace
+
+    space = Workspace(topo.grid, robot_radius)
+    labels, graph = topo.regions.labels, topo.graph
+    path = None if topo.source is None else topo.source / door_graph_name(robot_radius)
+    if path is not None and path.is_file():
+        try:
+            prepared = read_prepared(path, space)
+            return HierarchicalPlanner(space, labels, graph, prepared=prepared)
+        except (DoorGraphFileError, StaleDoorGraphError) as err:
+            where = "" if str(path) in str(err) else f"{path}: "
+            log.warning("%s%s; preparing the planner again", where, err)
+    return HierarchicalPlanner(space, labels, graph)
+
+
+def save_door_graph(
+    topo: TopoMap, robot_radius: float, progress: Callable[[list[int]], Iterable[int]] = iter
+) -> Path:
+    """Add (or replace) the door graph for ``robot_radius`` in the folder ``topo`` was read
+    from, prepared now if it was not; returns its path.
+
+    Raises
+    ------
+    ExportFormatError
+        ``topo`` was not read from a folder.
+    """
+    if topo.source is None:
+        raise ExportFormatError("this map was not read from a folder: save it with TopoMap.save")
+    path = topo.source / door_graph_name(robot_radius)
+    return _write_door_graph(topo, robot_radius, path, progress)
+
+
+def _write_door_graph(
+    topo: TopoMap, robot_radius: float, path: Path, progress: Callable[[list[int]], Iterable[int]]
+) -> Path:
+    from planners.prepared import write_prepared
+
+    return write_prepared(topo.planner(robot_radius).prepared(progress), path, overwrite=True)
 
 
 def load(folder: str | Path) -> Saved:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -36,6 +36,8 @@ if TYPE_CHECKING:
     from planners.region_route import RegionRoute
     from planners.robots import Footprint, Robot
 
+#: The disc robot's radius, metres, when none is given: the one whose planner is saved.
+DEFAULT_RADIUS = 0.2
 _PIPELINE = set(MapSegmenter().get_params(deep=False)) - {"spectral"}
 _SPECTRAL = set(SpectralSegmenter().get_params(deep=False))
 
@@ -104,6 +106,9 @@ class TopoMap:
     changes
         For a map made by :meth:`update`: what happened to each region (the events of
         :func:`segmentation.growing.carry_ids`).
+    source
+        For a map read back with :meth:`load`: the folder, where :meth:`planner` finds the
+        prepared door graphs saved with it.
     """
 
     grid: OccupancyGrid
@@ -115,6 +120,7 @@ class TopoMap:
     partition: SavedPartition | None = None
     next_id: int = 0
     changes: list[dict[str, Any]] = field(default_factory=list)
+    source: Path | None = field(default=None, compare=False)
     _planners: dict[float, HierarchicalPlanner] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -137,7 +143,7 @@ class TopoMap:
         """
         pipeline = _pipeline(pipeline, options)
         found = pipeline.segment(grid, random_state=random_state)
-        return cls._build(grid, found, pipeline.on_stage)
+        return cls._build(grid, found, pipeline)
 
     @classmethod
     def from_keyframes(
@@ -158,7 +164,7 @@ class TopoMap:
         grid = grid_from_keyframes(keyframes, resolution) if grid is None else grid
         mapped = time.perf_counter() - start
         found = pipeline.segment(grid, keyframes, random_state=random_state)
-        topo = cls._build(grid, found, pipeline.on_stage)
+        topo = cls._build(grid, found, pipeline)
         if built:
             topo.seconds = {"map": mapped, **topo.seconds}
         return topo
@@ -198,23 +204,20 @@ class TopoMap:
         regions = Regions(grid, carried.labels)
         same = found.spectral is found.regions
         found = replace(found, regions=regions, spectral=regions if same else found.spectral)
-        topo = self._build(grid, found, pipeline.on_stage)
+        topo = self._build(grid, found, pipeline)
         topo.next_id, topo.changes = carried.next_id, carried.events
         carry_names(topo.graph, self.graph)
         return topo
 
     @classmethod
-    def _build(
-        cls,
-        grid: OccupancyGrid,
-        found: Segmentation,
-        on_stage: Callable[[str], None] | None = None,
-    ) -> TopoMap:
+    def _build(cls, grid: OccupancyGrid, found: Segmentation, pipeline: MapSegmenter) -> TopoMap:
         seconds = dict(found.seconds)
-        stage = on_stage or (lambda name: None)
+        stage = pipeline.on_stage or (lambda name: None)
         stage("graph")
         start = time.perf_counter()
-        graph = region_graph(found.regions, found.keyframe_regions())
+        # doors are where the robot the map is segmented for crosses (its planner's free space)
+        width = 2 * pipeline.robot_radius
+        graph = region_graph(found.regions, found.keyframe_regions(), min_width=width)
         seconds["graph"] = time.perf_counter() - start
         next_id = max(found.regions.ids, default=0) + 1
         topo = cls(grid, found.regions, graph, found, seconds, found.method, next_id=next_id)
@@ -315,17 +318,13 @@ class TopoMap:
         """Rename a region (by id or name); a name already taken is refused, nothing changes."""
         rename(self.graph, region, name)
 
-    def planner(self, robot_radius: float = 0.2) -> HierarchicalPlanner:
+    def planner(self, robot_radius: float = DEFAULT_RADIUS) -> HierarchicalPlanner:
         """The hierarchical planner (:class:`~planners.hierarchical.HierarchicalPlanner`) on
-        this map for a disc robot of ``robot_radius`` metres, made once per radius and kept."""
-        from planners.hierarchical import HierarchicalPlanner
-        from planners.workspace import Workspace
-
+        this map for a disc robot of ``robot_radius`` metres, made once per radius and kept;
+        for a map read back with :meth:`load`, with the door graph saved with it when there
+        is one for this map, these regions and this radius (:func:`topomap.saving.planner`)."""
         if robot_radius not in self._planners:
-            space = Workspace(self.grid, robot_radius)
-            self._planners[robot_radius] = HierarchicalPlanner(
-                space, self.regions.labels, self.graph
-            )
+            self._planners[robot_radius] = saving.planner(self, robot_radius)
         return self._planners[robot_radius]
 
     def kinematic_planner(
@@ -357,12 +356,21 @@ class TopoMap:
             )
         return self._kinematic[key]
 
-    def route(self, source: int | str, target: int | str) -> RegionRoute:
-        """The regions and doors from ``source`` to ``target`` (region ids or names): a
-        topological route, no geometry (:func:`planners.region_route.region_route`)."""
+    def route(
+        self,
+        source: int | str,
+        target: int | str,
+        *,
+        robot_radius: float = DEFAULT_RADIUS,
+        closed: Iterable[tuple[int, int]] = (),
+    ) -> RegionRoute:
+        """The regions and doors from ``source`` to ``target`` (region ids or names) for a
+        disc of ``robot_radius`` metres (through doors wider than it), not through the doors
+        between the ``closed`` region pairs: a topological route, no geometry
+        (:func:`planners.region_route.region_route`)."""
         from planners.region_route import region_route
 
-        return region_route(self.graph, source, target)
+        return region_route(self.graph, source, target, closed=closed, min_width=2 * robot_radius)
 
     def to_nav2_route(self, robot_radius: float = 0.2) -> dict[str, Any]:
         """The building's route graph for a disc of ``robot_radius`` metres as a nav2_route
@@ -407,25 +415,27 @@ class TopoMap:
         """Region of each keyframe's position (0 if it is not on a labelled cell)."""
         return self.found.keyframe_regions()
 
-    def save(self, out: str | Path, *, overwrite: bool = False) -> list[Path]:
+    def save(
+        self,
+        out: str | Path,
+        *,
+        overwrite: bool = False,
+        door_graphs: Iterable[float] | None = None,
+        progress: Callable[[list[int]], Iterable[int]] = iter,
+    ) -> list[Path]:
         """Write everything needed to go on with this map into folder ``out``
-        (:func:`topomap.saving.save`); read it back with :meth:`load`."""
-        return saving.save(self, out, overwrite=overwrite)
+        (:func:`topomap.saving.save`); read it back with :meth:`load`. The prepared planners
+        for the robot radii ``door_graphs`` are saved too (by default those of the
+        :meth:`planner` made so far, else :data:`DEFAULT_RADIUS`), prepared now if they were
+        not (the parts passed through ``progress``; :func:`topomap.saving.save_door_graph`
+        adds one later)."""
+        radii = (list(self._planners) or [DEFAULT_RADIUS]) if door_graphs is None else door_graphs
+        return saving.save(self, out, overwrite=overwrite, door_graphs=radii, progress=progress)
 
     @classmethod
     def load(cls, folder: str | Path) -> TopoMap:
         """Read a folder written by :meth:`save` (:func:`topomap.saving.load`)."""
-        found = saving.load(folder)
-        return cls(
-            found.grid,
-            found.regions,
-            found.graph,
-            None,
-            found.seconds,
-            found.method,
-            found.partition,
-            found.next_id,
-        )
+        return cls(**vars(saving.load(folder)), source=Path(folder))
 
     def save_keyframes(self, path: str | Path, *, overwrite: bool = False) -> Path:
         """Write ``scan_index,x,y,theta,region``, one row per keyframe."""

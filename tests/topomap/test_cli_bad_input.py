@@ -294,13 +294,13 @@ def test_output_exists_error_is_a_file_exists_error():
 
 
 def test_a_folder_of_a_newer_or_unknown_version_is_refused(tmp_path, saved):
-    for version in (3, "2", 0, True):
+    for version in (4, "3", 0, True):
         folder = _copy(saved, tmp_path / f"v{version}")
         about = json.loads((folder / "topomap.json").read_text())
-        assert about["version"] == 2
+        assert about["version"] == 3
         about["version"] = version
         (folder / "topomap.json").write_text(json.dumps(about))
-        with pytest.raises(ExportFormatError, match=rf"field 'version' is {version!r}; .* 1 to 2"):
+        with pytest.raises(ExportFormatError, match=rf"field 'version' is {version!r}; .* 1 to 3"):
             TopoMap.load(folder)
 
 

@@ -43,9 +43,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    from planners.flat import FlatPlanner
     from planners.robots import Disc, parse_robot
-    from topomap.cli.drawing import draw_paths
     from topomap.labels import find_region
 
     if args.draw is not None:
@@ -61,20 +59,48 @@ def cmd_plan(args: argparse.Namespace) -> int:
     start, goal = (e if isinstance(e, tuple) else find_region(topo.graph, e) for e in (start, goal))
     if isinstance(robot, Disc):
         planner: Any = topo.planner(robot.radius)
-        flat: Any = FlatPlanner(planner.space) if args.compare else None
+        if not planner.restored:
+            _prepare(args, topo, planner)
     else:
-        from planners.kinematic import FlatKinematicPlanner
-
         planner = topo.kinematic_planner(robot)
-        flat = FlatKinematicPlanner(planner.cspace) if args.compare else None
     path = planner.plan(start, goal)
     result = path.to_dict()
     result["region_names"] = [topo.graph.nodes[r].get("name", str(r)) for r in path.regions]
     if args.draw is not None:
+        from topomap.cli.drawing import draw_paths
+
         paths = {"hierarchical": path}
-        if flat is not None:
-            ends = path.poses if path.headings is not None else path.waypoints
-            paths["flat RRTConnect"] = flat.plan(ends[0], ends[-1])
+        if args.compare:
+            paths["flat RRTConnect"] = _flat(planner, path)
         draw_paths(args.draw, topo.grid, planner.labels, paths, title=Path(args.map).name)
     print(json.dumps(result))
     return 0
+
+
+def _prepare(args: argparse.Namespace, topo: Any, planner: Any) -> None:
+    """Prepare the disc robot's planner with a progress bar and, for regions read from a
+    folder, keep it there for the next runs (:func:`topomap.saving.save_door_graph`)."""
+    from topomap.saving import save_door_graph
+
+    radius = planner.space.robot_radius
+    args.progress.stage(f"preparing the planner for a {radius:g} m robot")
+    planner.prepare(lambda parts: args.progress(parts, "submaps"))
+    if topo.source is None:
+        return
+    try:
+        kept = save_door_graph(topo, radius)
+    except OSError as err:
+        args.progress.line(f"the prepared planner is not kept in {topo.source}: {err}")
+    else:
+        args.progress.line(f"kept the prepared planner in {kept} for the next runs")
+
+
+def _flat(planner: Any, path: Any) -> Any:
+    """Flat RRTConnect's path between the ends of ``path`` in ``planner``'s space."""
+    if path.headings is None:
+        from planners.flat import FlatPlanner
+
+        return FlatPlanner(planner.space).plan(path.waypoints[0], path.waypoints[-1])
+    from planners.kinematic import FlatKinematicPlanner
+
+    return FlatKinematicPlanner(planner.cspace).plan(path.poses[0], path.poses[-1])

@@ -71,14 +71,15 @@ def cmd_segment(args: argparse.Namespace) -> int:
     from maps.grid import OccupancyGrid
     from maps.scan import select_keyframes
     from topomap.cli.drawing import draw_regions
-    from topomap.saving import SAVED
+    from topomap.saving import SAVED, door_graph_name
     from topomap.topomap import TopoMap
 
     out = Path(args.out)
     if args.online:
         return _segment_online(args, out)
     pictures = [] if args.no_picture else ["segmentation.png"]
-    written_names = [*SAVED, "map.yaml", "map.pgm", *pictures, "summary.json"]
+    door_graph = door_graph_name(args.robot_radius)  # the planner for the robot segmented for
+    written_names = [*SAVED, "map.yaml", "map.pgm", door_graph, *pictures, "summary.json"]
     if args.scans is not None:
         written_names.append("keyframes.csv")
     if args.previous is not None:
@@ -113,7 +114,12 @@ def cmd_segment(args: argparse.Namespace) -> int:
         source = args.map
     folder = OutputFolder(out, written_names, overwrite=args.force, how="--force", last=SAVED[-1])
     with folder as work:  # every file appears at once; an interrupted run leaves none
-        written = topo.save(work)
+        args.progress.stage(f"preparing the planner for a {args.robot_radius:g} m robot")
+        written = topo.save(
+            work,
+            door_graphs=[args.robot_radius],
+            progress=lambda parts: args.progress(parts, "submaps"),
+        )
         if args.scans is not None:
             written.append(topo.save_keyframes(work / "keyframes.csv"))
         count = topo.graph.number_of_nodes()

@@ -1,0 +1,85 @@
+"""The planner saved with the regions: `TopoMap.save` and `topomap segment` write it,
+`TopoMap.load` and `topomap plan --regions` reuse it, and a stale one is rebuilt with a
+message, never used."""
+
+import json
+import logging
+import shutil
+
+import numpy as np
+
+from maps.sim.floorplan import generate_floor_plan
+from topomap.cli.main import main
+from topomap.saving import door_graph_name
+from topomap.topomap import TopoMap
+
+
+def _path(out):
+    """The path of `topomap plan`'s output, without its timings."""
+    found = json.loads(out)
+    return found["waypoints"], found["regions"]
+
+
+def _saved(folder, seed=4):
+    topo = TopoMap.from_grid(generate_floor_plan("office", random_state=seed).grid, random_state=0)
+    topo.save(folder)
+    return topo
+
+
+def test_save_writes_the_planner_and_load_reuses_it(tmp_path):
+    topo = _saved(tmp_path / "saved")
+    assert (tmp_path / "saved" / "door_graph_r0.2.npz").is_file()
+    again = TopoMap.load(tmp_path / "saved")
+    planner = again.planner(0.2)
+    assert planner.restored
+    assert not again.planner(0.3).restored  # none saved for this robot: built
+    expected = topo.planner(0.2).plan(1, max(topo.graph.nodes))
+    found = planner.plan(1, max(topo.graph.nodes))
+    assert np.array_equal(found.waypoints, expected.waypoints)
+    # the saved door graph is a cache: not listed among the files whose digests are checked
+    about = json.loads((tmp_path / "saved" / "topomap.json").read_text())
+    assert door_graph_name(0.2) not in about["files"]
+
+
+def test_a_door_graph_of_other_regions_is_rebuilt_with_a_warning(tmp_path, caplog):
+    _saved(tmp_path / "a", seed=4)
+    other = _saved(tmp_path / "b", seed=5)
+    name = door_graph_name(0.2)
+    shutil.copy(tmp_path / "a" / name, tmp_path / "b" / name)  # another map's planner
+    with caplog.at_level(logging.WARNING, logger="topomap.saving"):
+        planner = TopoMap.load(tmp_path / "b").planner(0.2)
+    assert not planner.restored
+    assert (
+        "another map or other regions" in caplog.text
+        and "preparing the planner again" in caplog.text
+    )
+    goal = max(other.graph.nodes)
+    assert planner.plan(1, goal).regions[-1] == goal
+
+
+def test_plan_reuses_the_planner_segment_saved_and_keeps_a_new_one(tmp_path, capsys, caplog):
+    assert main(["generate", "--size", "flat", "--seed", "3", "--out", str(tmp_path / "g")]) == 0
+    yaml = str(tmp_path / "g" / "map.yaml")
+    seg = tmp_path / "seg"
+    assert main(["segment", yaml, "--out", str(seg), "--no-picture"]) == 0
+    assert (seg / door_graph_name(0.2)).is_file()
+    capsys.readouterr()
+    plan = ["plan", yaml, "--regions", str(seg), "--start", "1", "--goal", "2"]
+    assert main(plan) == 0
+    first = capsys.readouterr()
+    assert "preparing the planner" not in first.err  # reused, not rebuilt
+    assert main([*plan, "--robot-radius", "0.25"]) == 0
+    built = capsys.readouterr()
+    assert "preparing the planner for a 0.25 m robot" in built.err
+    assert f"kept the prepared planner in {seg / door_graph_name(0.25)}" in built.err
+    assert main([*plan, "--robot-radius", "0.25"]) == 0
+    again = capsys.readouterr()
+    assert "preparing the planner" not in again.err
+    assert _path(again.out) == _path(built.out)
+    # a damaged door graph: a warning, the planner prepared again and kept
+    (seg / door_graph_name(0.25)).write_bytes(b"damaged")
+    with caplog.at_level(logging.WARNING, logger="topomap.saving"):
+        assert main([*plan, "--robot-radius", "0.25"]) == 0
+    repaired = capsys.readouterr()
+    assert "not a door graph file" in caplog.text and "kept the prepared planner" in repaired.err
+    assert _path(repaired.out) == _path(built.out)
