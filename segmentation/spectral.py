@@ -190,9 +190,8 @@ def kmeans(
         if np.array_equal(new, labels):
             break
         labels = new
-        member = np.zeros((n, k))
-        member[np.arange(n), labels] = weight
-        counts, sums = member.sum(axis=0), member.T @ points
+        member = sparse.csr_matrix((weight, (labels, np.arange(n))), shape=(k, n))
+        counts, sums = np.bincount(labels, weight, k), member @ points
         filled = counts > 0  # an emptied cluster keeps its centre
         centres[filled] = sums[filled] / counts[filled, None]
     return labels
