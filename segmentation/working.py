@@ -14,7 +14,6 @@ import math
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from skimage.segmentation import watershed
 
 from maps.grid import OccupancyGrid
 
@@ -61,15 +60,19 @@ AROUND = [(-1, 0), (1, 0), (0, -1), (0, 1)]
 def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) -> NDArray[np.int32]:
     """Fine labels for the cells of ``keep`` from coarse ``labels`` (see the module docstring).
 
-    Cells next to labelled ones take the largest label around them, a ring at a time; the few
-    left further away take the label that reaches them first through the kept cells (never
-    across a wall); cells no label reaches stay 0.
+    Cells next to labelled ones take the largest label around them, a ring at a time, until no
+    ring grows: every kept cell takes the label that reaches it first through the kept cells
+    (never across a wall); cells no label reaches stay 0. Each ring looks only at the cells
+    beside the last one, so the cost follows the cells filled, not the map.
 
     Examples
     --------
     >>> keep = np.ones((3, 4), bool)
     >>> unpool(np.array([[1, 2], [0, 0]]), 2, keep).tolist()
     [[1, 1, 2, 2], [1, 1, 2, 2], [1, 1, 2, 2]]
+    >>> keep[:, 1] = False  # a wall: the cells behind it take the label from their side
+    >>> unpool(np.array([[1, 0], [0, 0]]), 2, keep).tolist()
+    [[1, 0, 0, 0], [1, 0, 0, 0], [1, 0, 0, 0]]
     """
     height, width = keep.shape
     coarse = np.ascontiguousarray(labels, np.int32)
@@ -78,16 +81,20 @@ def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) ->
     fine = fine[:height, :width]
     fine[~keep] = 0
     missing = keep & (fine == 0)
-    for _ in range(factor):  # most gaps are a coarse cell wide: grow labels into them
-        rows, cols = np.nonzero(missing)
-        if len(rows) == 0:
-            return fine
+    rows, cols = np.nonzero(missing)
+    while len(rows):
         grown = np.zeros(len(rows), np.int32)
         for dr, dc in AROUND:
             r, c = np.clip(rows + dr, 0, height - 1), np.clip(cols + dc, 0, width - 1)
             grown = np.maximum(grown, fine[r, c])
+        rows, cols, grown = rows[grown > 0], cols[grown > 0], grown[grown > 0]
         fine[rows, cols] = grown
-        missing[rows, cols] = grown == 0
-    if missing.any() and (fine > 0).any():  # further away: flood through the kept cells only
-        fine = watershed(np.zeros(fine.shape, np.uint8), fine, mask=keep).astype(np.int32)
+        missing[rows, cols] = False
+        beside = [
+            (np.clip(rows + dr, 0, height - 1), np.clip(cols + dc, 0, width - 1))
+            for dr, dc in AROUND
+        ]
+        r, c = np.concatenate([b[0] for b in beside]), np.concatenate([b[1] for b in beside])
+        ahead = missing[r, c]
+        rows, cols = np.divmod(np.unique(r[ahead].astype(np.int64) * width + c[ahead]), width)
     return fine

@@ -241,3 +241,35 @@ def test_obstacles_closer_than_the_robot_group_at_any_resolution():
     cells[30, 1:59:2] = OCCUPIED  # a dotted wall, 0.1 m gaps, a 0.3 m robot cannot pass
     clutter = find_clutter(OccupancyGrid(cells, 0.1), robot_radius=0.15)
     assert not clutter[30].any()
+
+
+@given(arrays(bool, st.tuples(st.integers(1, 20), st.integers(1, 20))), st.integers(1, 4))
+def test_unpooled_cells_take_a_label_of_the_nearest_labelled_cells(fine_mask, factor):
+    from collections import deque
+
+    grid = OccupancyGrid.from_masks(fine_mask, 0.05)
+    coarse = pool(fine_mask, grid, factor)
+    labels = np.where(coarse.free, np.arange(coarse.free.size).reshape(coarse.shape) + 1, 0)
+    fine = unpool(labels, factor, fine_mask)
+    seeds = blocks(coarse.free, factor, fine_mask.shape)
+    # an independent breadth-first search from every seeded cell: distance and labels there
+    height, width = fine_mask.shape
+    distance = np.full(fine_mask.shape, -1)
+    reach: dict[tuple[int, int], set[int]] = {}
+    queue = deque()
+    for r, c in zip(*np.nonzero(seeds)):
+        distance[r, c] = 0
+        reach[(r, c)] = {int(labels[r // factor, c // factor])}
+        queue.append((r, c))
+    while queue:
+        r, c = queue.popleft()
+        for nr, nc in ((r - 1, c), (r + 1, c), (r, c - 1), (r, c + 1)):
+            if 0 <= nr < height and 0 <= nc < width and fine_mask[nr, nc]:
+                if distance[nr, nc] == -1:
+                    distance[nr, nc] = distance[r, c] + 1
+                    queue.append((nr, nc))
+                if distance[nr, nc] == distance[r, c] + 1:
+                    reach.setdefault((nr, nc), set()).update(reach[(r, c)])
+    for (r, c), found in reach.items():
+        if not seeds[r, c]:
+            assert int(fine[r, c]) in found
