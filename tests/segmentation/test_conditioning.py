@@ -257,7 +257,7 @@ def test_unpooled_cells_take_a_label_of_the_nearest_labelled_cells(fine_mask, fa
     distance = np.full(fine_mask.shape, -1)
     reach: dict[tuple[int, int], set[int]] = {}
     queue = deque()
-    for r, c in zip(*np.nonzero(seeds)):
+    for r, c in np.argwhere(seeds):
         distance[r, c] = 0
         reach[(r, c)] = {int(labels[r // factor, c // factor])}
         queue.append((r, c))
