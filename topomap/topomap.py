@@ -426,10 +426,9 @@ class TopoMap:
         """Write everything needed to go on with this map into folder ``out``
         (:func:`topomap.saving.save`); read it back with :meth:`load`. The prepared planners
         for the robot radii ``door_graphs`` are saved too (by default those of the
-        :meth:`planner` made so far, else :data:`DEFAULT_RADIUS`), prepared now if they were
-        not (the parts passed through ``progress``; :func:`topomap.saving.save_door_graph`
-        adds one later)."""
-        radii = (list(self._planners) or [DEFAULT_RADIUS]) if door_graphs is None else door_graphs
+        :meth:`planner` made so far), prepared now if they were not (the parts passed
+        through ``progress``; :func:`topomap.saving.save_door_graph` adds one later)."""
+        radii = list(self._planners) if door_graphs is None else door_graphs
         return saving.save(self, out, overwrite=overwrite, door_graphs=radii, progress=progress)
 
     @classmethod

@@ -1,6 +1,6 @@
-"""The planner saved with the regions: `TopoMap.save` and `topomap segment` write it,
-`TopoMap.load` and `topomap plan --regions` reuse it, and a stale one is rebuilt with a
-message, never used."""
+"""The planner saved with the regions: `TopoMap.save` writes those made, the first
+`topomap plan --regions` keeps the one it prepared, `TopoMap.load` and later calls reuse it,
+and a stale one is rebuilt with a message, never used."""
 
 import json
 import logging
@@ -22,6 +22,7 @@ def _path(out):
 
 def _saved(folder, seed=4):
     topo = TopoMap.from_grid(generate_floor_plan("office", random_state=seed).grid, random_state=0)
+    topo.planner(0.2)  # a planner made: saved with the regions
     topo.save(folder)
     return topo
 
@@ -57,17 +58,21 @@ def test_a_door_graph_of_other_regions_is_rebuilt_with_a_warning(tmp_path, caplo
     assert planner.plan(1, goal).regions[-1] == goal
 
 
-def test_plan_reuses_the_planner_segment_saved_and_keeps_a_new_one(tmp_path, capsys, caplog):
+def test_plan_keeps_the_planner_it_prepared_and_reuses_it(tmp_path, capsys, caplog):
     assert main(["generate", "--size", "flat", "--seed", "3", "--out", str(tmp_path / "g")]) == 0
     yaml = str(tmp_path / "g" / "map.yaml")
     seg = tmp_path / "seg"
     assert main(["segment", yaml, "--out", str(seg), "--no-picture"]) == 0
-    assert (seg / door_graph_name(0.2)).is_file()
+    assert not (seg / door_graph_name(0.2)).exists()  # segmenting stays fast
     capsys.readouterr()
     plan = ["plan", yaml, "--regions", str(seg), "--start", "1", "--goal", "2"]
     assert main(plan) == 0
     first = capsys.readouterr()
-    assert "preparing the planner" not in first.err  # reused, not rebuilt
+    assert f"kept the prepared planner in {seg / door_graph_name(0.2)}" in first.err
+    assert main(plan) == 0
+    second = capsys.readouterr()
+    assert "preparing the planner" not in second.err  # reused, not rebuilt
+    assert _path(second.out) == _path(first.out)
     assert main([*plan, "--robot-radius", "0.25"]) == 0
     built = capsys.readouterr()
     assert "preparing the planner for a 0.25 m robot" in built.err

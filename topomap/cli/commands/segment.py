@@ -71,15 +71,15 @@ def cmd_segment(args: argparse.Namespace) -> int:
     from maps.grid import OccupancyGrid
     from maps.scan import select_keyframes
     from topomap.cli.drawing import draw_regions
-    from topomap.saving import SAVED, door_graph_name
+    from topomap.saving import SAVED
     from topomap.topomap import TopoMap
 
     out = Path(args.out)
     if args.online:
         return _segment_online(args, out)
     pictures = [] if args.no_picture else ["segmentation.png"]
-    door_graph = door_graph_name(args.robot_radius)  # the planner for the robot segmented for
-    written_names = [*SAVED, "map.yaml", "map.pgm", door_graph, *pictures, "summary.json"]
+    # the planner is prepared by the first `topomap plan --regions` and kept there
+    written_names = [*SAVED, "map.yaml", "map.pgm", *pictures, "summary.json"]
     if args.scans is not None:
         written_names.append("keyframes.csv")
     if args.previous is not None:
@@ -114,12 +114,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
         source = args.map
     folder = OutputFolder(out, written_names, overwrite=args.force, how="--force", last=SAVED[-1])
     with folder as work:  # every file appears at once; an interrupted run leaves none
-        args.progress.stage(f"preparing the planner for a {args.robot_radius:g} m robot")
-        written = topo.save(
-            work,
-            door_graphs=[args.robot_radius],
-            progress=lambda parts: args.progress(parts, "submaps"),
-        )
+        written = topo.save(work, door_graphs=[])
         if args.scans is not None:
             written.append(topo.save_keyframes(work / "keyframes.csv"))
         count = topo.graph.number_of_nodes()
