@@ -115,28 +115,43 @@ def wall_gaps(
 def _through_channel(
     near: NDArray[np.bool_], start: tuple[int, int], end: tuple[int, int], depth: float
 ) -> bool:
-    """Whether the gap from ``start`` to ``end`` (x, y cells) is the mouth of a channel: walls
-    run on from both its ends, across the line, for ``depth`` cells on one side or both (a
-    corridor branching off or crossing the line of the rooms' walls, not an opening in a
-    wall)."""
+    """Whether the gap from ``start`` to ``end`` (x, y cells) is where corridors meet: walls
+    run on from both its ends, across the line, for ``depth`` cells on one side (a channel)
+    and the other side is a channel too (a corridor crossing the line of the rooms' walls) or
+    no deeper than twice the gap (a corridor branching off another: a T junction). A channel
+    opening into a deep space (a passage leaving a hall) is closed like any gap."""
     a, b = np.array(start, float), np.array(end, float)
-    along = (b - a) / max(float(np.hypot(*(b - a))), 1e-9)
+    span = max(float(np.hypot(*(b - a))), 1e-9)
+    along = (b - a) / span
     normal = np.array([-along[1], along[0]])
+    channel = [_walls_run_on(near, a, b, side * normal, depth) for side in (1.0, -1.0)]
+    if all(channel):
+        return True
+    if not any(channel):
+        return False
+    across = -normal if channel[0] else normal  # from the gap, away from the channel
+    steps = (a + b) / 2 + np.arange(1, round(2 * span) + 1)[:, None] * across
+    return bool(_hits(near, steps).any())
+
+
+def _walls_run_on(
+    near: NDArray[np.bool_], a: NDArray, b: NDArray, direction: NDArray, depth: float
+) -> bool:
+    """Whether walls run on from both ``a`` and ``b`` along ``direction`` for ``depth`` cells."""
+    tips = [tip + t * depth * direction for tip in (a, b) for t in (0.25, 0.5, 0.75, 1.0)]
+    return int(_hits(near, np.array(tips)).sum()) >= 7
+
+
+def _hits(near: NDArray[np.bool_], points: NDArray) -> NDArray[np.bool_]:
+    """``near`` at the (x, y) ``points``, False outside the grid."""
+    cells = np.rint(points).astype(int)
     height, width = near.shape
-    for side in (1.0, -1.0):
-        tips = (
-            np.array(
-                [tip + side * t * depth * normal for tip in (a, b) for t in (0.25, 0.5, 0.75, 1.0)]
-            )
-            .round()
-            .astype(int)
-        )
-        inside = (
-            (tips[:, 0] >= 0) & (tips[:, 0] < width) & (tips[:, 1] >= 0) & (tips[:, 1] < height)
-        )
-        if near[tips[inside, 1], tips[inside, 0]].sum() >= 7:
-            return True
-    return False
+    inside = (
+        (cells[:, 0] >= 0) & (cells[:, 0] < width) & (cells[:, 1] >= 0) & (cells[:, 1] < height)
+    )
+    found = np.zeros(len(cells), bool)
+    found[inside] = near[cells[inside, 1], cells[inside, 0]]
+    return found
 
 
 def _close(

@@ -103,3 +103,12 @@ def test_a_keyframe_in_a_closed_gap_stands_in_the_place_beside_it():
     x, y = space.cell_to_world(np.array([row]), np.array([col]))
     found = affinity.keyframe_places([Keyframe((float(x[0]), float(y[0]), 0.0), scan)])
     assert found[0] in (1, 2)
+
+
+def test_a_passage_leaving_a_hall_through_its_wall_is_closed():
+    free = np.zeros((160, 200), bool)  # 0.1 m cells
+    free[10:100, 10:190] = True  # an 18 x 9 m hall
+    free[101:150, 90:100] = True  # a 1 m passage leaving it south, 5 m long
+    free[100, 90:100] = True
+    closed = wall_gaps(~free, free, 0.1)
+    assert closed[99:102, 90:100].any()
