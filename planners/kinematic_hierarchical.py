@@ -329,9 +329,9 @@ class KinematicHierarchicalPlanner:
             seconds["planning"] += time.perf_counter() - clock
             if not smooth:
                 return direct
-            poses, spent_smoothing = self._whole.smooth(direct, simplify=False)  # resampled
+            resampled, spent_smoothing = self._whole.smooth(direct, simplify=False)
             seconds["simplification"] += spent_smoothing
-            return poses
+            return resampled
         clock = time.perf_counter()
         ompl = self._submaps(route, ids)
         goals = [pose for pose in (goal if isinstance(goal, list) else [goal]) if ompl.admits(pose)]
