@@ -99,14 +99,35 @@ class KinematicOMPL:
         poses, seconds["simplification"] = self.smooth(vertices, simplify)
         return poses, seconds
 
+    def direct(self, start: Pose, goal: Pose | list[Pose]) -> NDArray[np.float64] | None:
+        """The vertices ``(2, 3)`` of the motion from ``start`` (a valid pose) straight to
+        the goal (a pose, or of a list of poses the one nearest by the state space's
+        distance) when it is valid (OMPL's motion validator: the goal valid and in bounds,
+        the states between checked at the motion step), else None. For a car the motion is
+        its shortest path between the two poses in free space, so a valid one is the best
+        path there is. Only the nearest goal is tried: a farther one reached directly may be
+        a detour (a turn about to cross a door backwards) that a planner would not take."""
+        a = self._state(start)
+        goals = [(pose, self._state(pose)) for pose in (goal if isinstance(goal, list) else [goal])]
+        pose, b = min(goals, key=lambda item: self._space.distance(a, item[1]))
+        if self._si.checkMotion(a, b):
+            return np.array([start, pose], float)
+        return None
+
     def search(
-        self, start: Pose, goal: Pose | list[Pose], time_limit: float
+        self, start: Pose, goal: Pose | list[Pose], time_limit: float, direct: bool = True
     ) -> tuple[NDArray[np.float64] | None, dict[str, float]]:
         """The planner's solution from ``start`` to ``goal`` (as for :meth:`solve`) as its
         vertices ``(n, 3)`` after OMPL's ``reduceVertices`` (the vertices it can skip), or
         None; and the seconds of planning. Every planner stops at its first exact
-        solution."""
+        solution. A motion straight from ``start`` to a goal (the state space's own curve:
+        a line, a Dubins or Reeds-Shepp path) is tried first when ``direct``: when it is
+        valid it is the solution, with no planner run."""
         clock = time.perf_counter()
+        if direct:
+            found = self.direct(start, goal)
+            if found is not None:
+                return found, {"planning": time.perf_counter() - clock}
         goals = (
             [self._state(pose) for pose in goal] if isinstance(goal, list) else self._state(goal)
         )

@@ -321,13 +321,27 @@ class KinematicHierarchicalPlanner:
         clock = time.perf_counter()
         if clock >= until:
             return None
+        # the motion straight to a goal first, on the whole map: when valid it needs no
+        # submap set-up and no planner (most legs between the door poses of near-convex
+        # submaps), and it is the shortest leg between the two poses
+        direct = self._whole.direct(start, goal) if self._whole.admits(start) else None
+        if direct is not None:
+            seconds["planning"] += time.perf_counter() - clock
+            if not smooth:
+                return direct
+            resampled, spent_smoothing = self._whole.smooth(direct, simplify=False)
+            seconds["simplification"] += spent_smoothing
+            return resampled
+        clock = time.perf_counter()
         ompl = self._submaps(route, ids)
         goals = [pose for pose in (goal if isinstance(goal, list) else [goal]) if ompl.admits(pose)]
         seconds["submaps"] += time.perf_counter() - clock
         if not (goals and ompl.admits(start)):
             log.debug("the ends %s, %s are not valid in submaps %s", start, goal, ids)
             return None
-        poses, spent = ompl.search(start, goals, max(until - time.perf_counter(), 1e-3))
+        poses, spent = ompl.search(
+            start, goals, max(until - time.perf_counter(), 1e-3), direct=False
+        )
         for key, value in spent.items():
             seconds[key] += value
         if poses is None or not smooth:

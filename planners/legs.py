@@ -33,40 +33,74 @@ class Crossing:
     after: int
 
 
+def passage_axis(cspace: HeadingCSpace, x: float, y: float, yaw: float) -> float:
+    """The axis a footprint passes ``(x, y)`` along: ``yaw`` when it or its opposite is a
+    valid heading there, else the middle of the valid headings there taken as axes (a narrow
+    passage admits the headings around its axis and their opposites), the valid heading
+    nearest it; ``yaw`` when none is valid.
+
+    A door's portal is the opening of a disc's free space: across a narrow gap it may be a
+    cell or two long, lying along the passage rather than across it, so its normal can point
+    into the gap's walls."""
+    yaws = cspace.free_headings(x, y)
+    if len(yaws) == 0 or cspace.valid(x, y, yaw) or cspace.valid(x, y, yaw + math.pi):
+        return yaw
+    middle = 0.5 * math.atan2(np.sin(2 * yaws).mean(), np.cos(2 * yaws).mean())
+    apart = np.abs(np.angle(np.exp(2j * (yaws - middle))))  # axial distance, doubled
+    return float(yaws[np.argmin(apart)])
+
+
 def crossing_heading(
     crossing: Crossing, labels: NDArray[np.integer], cspace: HeadingCSpace
 ) -> float:
-    """Heading across ``crossing`` (normal to its portal) pointing from ``before`` into
-    ``after``: the side of the portal whose cells, out to the footprint's circumradius, are
-    more often labelled ``after`` (and less often ``before``) wins."""
+    """Heading across ``crossing`` pointing from ``before`` into ``after``: normal to its
+    portal, or along the passage the footprint fits there (:func:`passage_axis`) when no
+    heading on that normal is valid and the passage leads from ``before`` on one side into
+    ``after`` on the other; of the two ways, the side whose cells, out to the footprint's
+    circumradius, are more often labelled ``after`` (and less often ``before``) wins."""
     (ax, ay), (bx, by) = crossing.portal
     normal = np.array([ay - by, bx - ax], float)
     if not np.hypot(*normal) > 0:  # a one-cell portal: across the line to the point
         normal = np.array([1.0, 0.0])
     normal /= np.hypot(*normal)
     grid = cspace.grid
+    row, col = grid.world_to_cell(*crossing.point)
+    x, y = (float(v) for v in grid.cell_to_world(row, col))
+    yaw = math.atan2(normal[1], normal[0])
+    ahead, behind = _sides(crossing, labels, cspace, yaw)
+    axis = passage_axis(cspace, x, y, yaw)
+    if axis != yaw:
+        along = _sides(crossing, labels, cspace, axis)
+        if along[0] * along[1] < 0:  # before on one side, after on the other
+            yaw, (ahead, behind) = axis, along
+    return yaw if ahead - behind >= 0 else math.remainder(yaw + math.pi, math.tau)
+
+
+def _sides(
+    crossing: Crossing, labels: NDArray[np.integer], cspace: HeadingCSpace, yaw: float
+) -> tuple[int, int]:
+    """Cells labelled ``after`` less those labelled ``before`` out to the footprint's
+    circumradius from ``crossing.point``, ahead along ``yaw`` and behind."""
+    grid = cspace.grid
     steps = np.arange(1, max(2, math.ceil(cspace.robot.circumradius / grid.resolution)) + 1)
-    offsets = np.concatenate([steps, -steps])[:, None] * grid.resolution * normal
-    points = np.asarray(crossing.point) + offsets
+    offsets = np.concatenate([steps, -steps])[:, None] * grid.resolution
+    points = np.asarray(crossing.point) + offsets * np.array([math.cos(yaw), math.sin(yaw)])
     rows, cols = grid.world_to_cell(points[:, 0], points[:, 1])
     h, w = labels.shape
     inside = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
     found = np.zeros(len(points), np.int64)
     found[inside] = labels[rows[inside], cols[inside]]
-    side = np.where(np.arange(len(points)) < len(steps), 1, -1)
-    vote = int(np.sum(side * ((found == crossing.after).astype(int) - (found == crossing.before))))
-    if vote < 0:
-        normal = -normal
-    return math.atan2(normal[1], normal[0])
+    score = (found == crossing.after).astype(int) - (found == crossing.before)
+    return int(score[: len(steps)].sum()), int(score[len(steps) :].sum())
 
 
 def door_poses(
     crossing: Crossing, labels: NDArray[np.integer], cspace: HeadingCSpace
 ) -> list[Pose]:
     """The valid poses across ``crossing``: on its point (the middle of its cell), heading
-    across it (see :func:`crossing_heading`), and the opposite heading when the robot reverses
-    or turns in place (:attr:`planners.robots.Footprint.reverses`). Empty when none is
-    valid."""
+    across it or along the passage there (see :func:`crossing_heading`), and the opposite
+    heading when the robot reverses or turns in place
+    (:attr:`planners.robots.Footprint.reverses`). Empty when none is valid."""
     yaw = crossing_heading(crossing, labels, cspace)
     yaws = [yaw, math.remainder(yaw + math.pi, math.tau)] if cspace.robot.reverses else [yaw]
     # the middle of the point's cell: an opening's point lies on a cell edge, where crops

@@ -153,3 +153,39 @@ def test_the_best_flat_planner_is_the_fastest_then_the_surest():
     ]
     assert best_flat(rows) == "flat_prm"
     assert best_flat(rows[:1]) is None
+
+
+def test_a_portal_along_a_narrow_passage_gets_poses_along_the_passage():
+    """A door's portal may be a cell or two lying along a narrow gap (the opening of a disc's
+    free space): its normal points into the gap's walls, where the car has no valid pose. The
+    door pose heads along the passage instead (before: no pose, so the legs on both sides
+    merged into one hard query through the gap)."""
+    planner = _planner(CAR, door=0.85)  # the 0.9 x 0.6 m car fits only lengthwise
+    door = _door(planner)
+    x, y = door.point
+    along = Crossing(door.point, ((x - 0.025, y), (x + 0.025, y)), 1, 2)  # normal: north
+    poses = door_poses(along, planner.labels, planner.cspace)
+    assert len(poses) == 2
+    assert math.cos(poses[0][2]) == pytest.approx(1.0, abs=0.02)  # east, from room 1 into 2
+    assert math.cos(poses[1][2]) == pytest.approx(-1.0, abs=0.02)
+    assert all(planner.cspace.valid(*pose) for pose in poses)
+    backwards = Crossing(door.point, along.portal, 2, 1)
+    assert math.cos(door_poses(backwards, planner.labels, planner.cspace)[0][2]) < -0.99
+
+
+@pytest.mark.parametrize("spec", [CAR, "rect:0.9x0.6"])
+def test_a_leg_the_robot_drives_straight_needs_no_planner(spec):
+    """A leg whose start and door pose the state space's own curve joins validly (a
+    Reeds-Shepp path, a line) is that curve: no confined set-up, no OMPL search, poses still
+    at most 5 cm apart; through a wall the motion is refused and OMPL plans."""
+    planner = _planner(spec)
+    start, goal = (1.5, 2.0, 0.0), (6.5, 1.5, 0.0)
+    path = planner.plan(start, goal)
+    _continuous_and_clear(path, planner.cspace, start, goal)
+    assert path.regions == (1, 2)
+    assert not planner._kept  # no submap's OMPL set-up was made
+    whole = planner._whole
+    assert whole.direct((1.0, 2.0, 0.0), [(3.0, 2.0, 0.0)]).shape == (2, 3)
+    assert whole.direct((1.0, 2.0, 0.0), (7.0, 1.0, 0.0)) is None  # the wall is in the way
+    vertices, _ = whole.search((1.0, 2.0, 0.0), (3.0, 2.0, math.pi), 1.0)
+    assert vertices is not None and len(vertices) == 2  # the direct motion (a car: a cusp)
