@@ -95,7 +95,7 @@ class PassageAffinity:
         inside = self.grid.contains(rows, cols)
         found = np.zeros(len(poses), np.int64)
         found[inside] = self.places[rows[inside], cols[inside]]
-        off = np.flatnonzero(found == 0)[inside[found == 0]]
+        off = np.flatnonzero(inside & (found == 0))
         if len(off):
             distance, (near_rows, near_cols) = ndimage.distance_transform_edt(
                 self.places == 0, return_indices=True

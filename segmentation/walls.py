@@ -9,7 +9,7 @@ says where the edge is. :func:`wall_gaps` finds such gaps (the walls' lines by a
 Hough transform, kept along the building's main directions) and returns the free cells that
 close them but for a hole in the middle; the places are then found with these cells as wall,
 so a gap is a passage narrower than a door: the places end there, and the partition decides
-whether to cut there.
+whether to cut there. Gaps where corridors meet (a crossing, a T junction) stay open.
 
 Every length is in metres: a gap at most as wide as double doors (``gap``), walls at least
 ``flank`` long on both sides of it, lines at least ``min_length`` long.
@@ -23,8 +23,10 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-#: The widest gap closed: double doors, metres (the coverage's widest door too).
-GAP = 2.0
+from segmentation.coverage import DOOR_WIDTH
+
+#: The widest gap closed: double doors, metres (the coverage's widest door).
+GAP = DOOR_WIDTH
 #: The wall on each side of a gap, metres: a room's wall, not a door frame or a cabinet.
 FLANK = 1.0
 #: The hole left in the middle of a closed gap, metres: narrower than a door, wide enough for
@@ -98,17 +100,16 @@ def wall_gaps(
         ends = np.r_[starts[1:], n]
         for run in np.flatnonzero(~on[starts[1:-1]]) + 1:  # gaps with wall on both sides
             i, j = starts[run], ends[run]
+            wall_ends = (xs[i - 1], ys[i - 1]), (xs[j], ys[j])
             if (
                 HOLE + 2 * resolution < (j - i) * resolution <= gap  # a narrower gap is a door
                 and min(ends[run - 1] - starts[run - 1], ends[run + 1] - starts[run + 1])
                 * resolution
                 >= flank
                 and free[ys[i:j], xs[i:j]].mean() > 0.5
-                and not _through_channel(
-                    near, (xs[i - 1], ys[i - 1]), (xs[j], ys[j]), CHANNEL / resolution
-                )
+                and not _through_channel(near, *wall_ends, CHANNEL / resolution)
             ):
-                _close(out, (xs[i - 1], ys[i - 1]), (xs[j], ys[j]), HOLE / resolution)
+                _close(out, *wall_ends, HOLE / resolution)
     return out.astype(bool) & free
 
 
