@@ -6,7 +6,6 @@ import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.grid import clearance_of
 from segmentation.regions import Regions
 from segmentation.transitions import Transition, find_transitions
 from segmentation.virtual import most_open_cells
@@ -62,7 +61,7 @@ def region_graph(
     on_free = np.where(grid.free, regions.labels, 0)
     ids = np.flatnonzero(np.bincount(on_free.ravel()))  # the ids on free cells, ascending
     ids = ids[ids > 0]
-    rows, cols = most_open_cells(clearance_of(grid.free, grid.resolution), on_free, ids)
+    rows, cols = most_open_cells(grid.free_clearance(), on_free, ids)
     xs, ys = grid.cell_to_world(rows, cols)
     open_point = {
         int(r): (float(x), float(y)) for r, x, y in zip(on_free[rows, cols], xs, ys, strict=True)

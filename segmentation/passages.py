@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.grid import OccupancyGrid, clearance_of
+from maps.grid import OccupancyGrid
 from segmentation.regions import boundary_pairs
 
 
@@ -34,7 +34,7 @@ def boundary_openness(
     >>> a.tolist(), b.tolist(), openness.round(2).tolist()
     ([1], [2], [0.25])
     """
-    clearance = clearance_of(grid.free, grid.resolution)
+    clearance = grid.free_clearance()
     count = int(places.max(initial=0)) + 1
     peak = np.zeros(count)
     inside = places > 0

@@ -16,7 +16,7 @@ from scipy import ndimage, sparse
 from scipy.sparse.csgraph import connected_components
 from skimage.segmentation import watershed
 
-from maps.grid import OccupancyGrid, clearance_of
+from maps.grid import OccupancyGrid
 from segmentation.errors import ParameterError
 from segmentation.regions import boundary_pairs, consecutive
 
@@ -40,7 +40,7 @@ def basins(grid: OccupancyGrid, depth: float = 0.3) -> NDArray[np.int32]:
     (2, True)
     """
     free = grid.free
-    clearance = clearance_of(free, grid.resolution)
+    clearance = grid.free_clearance()
     peaks = (clearance == cv2.dilate(clearance, np.ones((3, 3), np.uint8))) & free
     markers, _ = ndimage.label(peaks, structure=np.ones((3, 3)))
     seeds = watershed(-clearance, markers, mask=free, connectivity=1).astype(np.int32)
@@ -116,7 +116,7 @@ def merge_open_boundaries(
     if int(labels.max(initial=0)) < 2:
         return labels
     basin = basins(grid) if basin is None else basin
-    clearance = clearance_of(grid.free, grid.resolution)
+    clearance = grid.free_clearance()
     peak = np.zeros(int(basin.max(initial=0)) + 1)
     inside = basin > 0
     np.maximum.at(peak, basin[inside], clearance[inside].astype(np.float64))

@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 
-from maps.grid import OccupancyGrid, clearance_of
+from maps.grid import OccupancyGrid
 from segmentation.regions import boundary_pairs
 
 
@@ -92,7 +92,7 @@ def find_transitions(grid: OccupancyGrid, labels: NDArray[np.integer]) -> list[T
     links = links[same]
     graph = sparse.coo_matrix((np.ones(len(links)), (links[:, 0], links[:, 1])), (len(a), len(a)))
     _, piece = connected_components(graph, directed=False)
-    clearance = clearance_of(grid.free, grid.resolution)
+    clearance = grid.free_clearance()
     crossing = np.minimum(clearance[ra, ca], clearance[rb, cb])
     x, y = grid.cell_to_world(rows, cols)
     found: list[Transition] = []

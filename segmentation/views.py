@@ -27,7 +27,8 @@ SHIFT = 4
 
 def view_cells(keyframe: Keyframe, resolution: float, reach: float) -> NDArray[np.int64]:
     """``(m, 2)`` cells ``(i, j)`` (x and y over ``resolution``, floored) inside the scan's
-    polygon: the sensor and every beam's end, cut at ``reach`` metres.
+    polygon: the sensor and every beam's end, cut at ``reach`` metres; in row order, by ``j``
+    and then ``i``.
 
     Examples
     --------
@@ -84,18 +85,28 @@ class SharedView:
                 raise ParameterError(f"{name} must be a finite number > 0, got {value!r}")
 
     def affinity(self, keyframes: Sequence[Keyframe]) -> sparse.csr_matrix:
-        """Overlaps of all pairs, from one sparse product of the views' cell incidences."""
+        """Overlaps of all pairs, from one sparse product of the views' cell incidences.
+
+        A view's cells come from :func:`view_cells` in row order (by ``j``, then ``i``), so
+        their index on the grid of all views' bounding box is ascending and unique in each
+        view: the incidence matrix is built as CSR directly, with no sort of all cells (unless
+        the box is mostly cells no view saw).
+        """
         n = len(keyframes)
         views = [view_cells(k, self.resolution, self.reach) for k in keyframes]
-        owner = np.repeat(np.arange(n), [len(v) for v in views])
+        sizes = np.array([len(v) for v in views], np.int64)
         cells = np.concatenate(views) if n else np.zeros((0, 2), np.int64)
-        key = (cells[:, 0] << 32) + (cells[:, 1] & 0xFFFFFFFF)
-        _, column = np.unique(key, return_inverse=True)
-        incidence = sparse.csr_matrix(
-            (np.ones(len(owner)), (owner, column)), shape=(n, int(column.max(initial=-1)) + 1)
-        )
+        low = cells.min(axis=0) if len(cells) else np.zeros(2, np.int64)
+        span = cells.max(axis=0) - low + 1 if len(cells) else np.ones(2, np.int64)
+        column = (cells[:, 1] - low[1]) * span[0] + (cells[:, 0] - low[0])
+        width = int(span[0] * span[1])
+        if width > 4 * len(column):  # views far apart: number only the cells seen, in order
+            _, column = np.unique(column, return_inverse=True)
+            width = int(column.max(initial=-1)) + 1
+        indptr = np.concatenate([[0], np.cumsum(sizes)])
+        incidence = sparse.csr_matrix((np.ones(len(column)), column, indptr), shape=(n, width))
         shared = (incidence @ incidence.T).tocoo()
-        size = np.sqrt(np.maximum(np.bincount(owner, minlength=n), 1).astype(float))
+        size = np.sqrt(np.maximum(sizes, 1).astype(float))
         off = shared.row != shared.col
         values = shared.data[off] / (size[shared.row[off]] * size[shared.col[off]])
         return sparse.csr_matrix(

@@ -1,15 +1,20 @@
 """Faster implementations give exactly what the plain ones they replaced gave (random inputs)."""
 
+import math
+
 import numpy as np
 import pytest
 import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from scipy import sparse
 from shapely import affinity
 
 from maps.grid import OccupancyGrid
+from maps.scan import Keyframe, LaserScan
 from segmentation.regions import Regions
+from segmentation.views import SharedView, view_cells
 from segmentation.virtual import most_open_cells
 
 label_images = arrays(
@@ -94,3 +99,52 @@ def test_polygons_equal_the_union_of_row_runs(labels, resolution, yaw):
 def test_ids_are_the_labels_present(labels):
     grid = OccupancyGrid(np.zeros(labels.shape, np.int8), 0.1)
     assert Regions(grid, labels).ids == [int(v) for v in np.unique(labels) if v > 0]
+
+
+def shared_view_plain(view, keyframes):
+    """The overlaps with the views' cells numbered by ``np.unique`` of all of them, which
+    :meth:`~segmentation.views.SharedView.affinity` replaced (by their index on the views'
+    bounding box)."""
+    n = len(keyframes)
+    views = [view_cells(k, view.resolution, view.reach) for k in keyframes]
+    owner = np.repeat(np.arange(n), [len(v) for v in views])
+    cells = np.concatenate(views) if n else np.zeros((0, 2), np.int64)
+    key = (cells[:, 0] << 32) + (cells[:, 1] & 0xFFFFFFFF)
+    _, column = np.unique(key, return_inverse=True)
+    incidence = sparse.csr_matrix(
+        (np.ones(len(owner)), (owner, column)), shape=(n, int(column.max(initial=-1)) + 1)
+    )
+    shared = (incidence @ incidence.T).tocoo()
+    size = np.sqrt(np.maximum(np.bincount(owner, minlength=n), 1).astype(float))
+    off = shared.row != shared.col
+    values = shared.data[off] / (size[shared.row[off]] * size[shared.col[off]])
+    return sparse.csr_matrix(
+        (np.minimum(values, 1.0), (shared.row[off], shared.col[off])), shape=(n, n)
+    )
+
+
+poses = st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-math.pi, math.pi))
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    st.lists(
+        st.tuples(poses, st.lists(st.floats(0.05, 12.0), min_size=3, max_size=40)), max_size=8
+    ),
+    st.sampled_from([1.0, 30.0]),  # views overlapping, or far apart (cells numbered by unique)
+    st.sampled_from([0.1, 0.2, 0.5]),
+    st.sampled_from([2.0, 10.0]),
+)
+def test_shared_view_equals_the_plain_one(frames, spread, resolution, reach):
+    keyframes = [
+        Keyframe(
+            (x * spread, y * spread, yaw),
+            LaserScan(np.array(ranges), -math.pi, 2 * math.pi / len(ranges), 0.0, 10.0),
+        )
+        for (x, y, yaw), ranges in frames
+    ]
+    view = SharedView(resolution, reach)
+    found, plain = view.affinity(keyframes), shared_view_plain(view, keyframes)
+    assert found.shape == plain.shape
+    for name in ("indptr", "indices", "data"):
+        assert np.array_equal(getattr(found, name), getattr(plain, name))
