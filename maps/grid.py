@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -226,13 +226,14 @@ class OccupancyGrid:
 
     @property
     def free(self) -> NDArray[np.bool_]:
-        """Boolean mask of free cells (occupancy 0..49), rows as in the image."""
-        return (self.cells >= FREE) & (self.cells < OCCUPIED_FROM)
+        """Boolean mask of free cells (occupancy 0..49), rows as in the image; cached,
+        read-only."""
+        return self._derive("free", lambda: (self.cells >= FREE) & (self.cells < OCCUPIED_FROM))
 
     @property
     def occupied(self) -> NDArray[np.bool_]:
-        """Boolean mask of occupied cells (occupancy 50..100)."""
-        return self.cells >= OCCUPIED_FROM
+        """Boolean mask of occupied cells (occupancy 50..100); cached, read-only."""
+        return self._derive("occupied", lambda: self.cells >= OCCUPIED_FROM)
 
     @property
     def unknown(self) -> NDArray[np.bool_]:
@@ -325,11 +326,9 @@ class OccupancyGrid:
         >>> grid.clearance()[1]
         array([0.1, 0.2, 0.2, 0.2, 0.1])
         """
-        if "clearance" not in self._derived:
-            dist = self._cell_clearance().astype(np.float64) * self.resolution
-            dist.setflags(write=False)
-            self._derived["clearance"] = dist
-        return self._derived["clearance"]  # type: ignore[return-value]
+        return self._derive(
+            "clearance", lambda: self.free_distance().astype(np.float64) * self.resolution
+        )
 
     def free_clearance(self) -> NDArray[np.float32]:
         """``clearance_of(self.free, self.resolution)``, cached (read-only): the
@@ -342,20 +341,22 @@ class OccupancyGrid:
         >>> bool(np.array_equal(grid.free_clearance(), clearance_of(grid.free, 0.5)))
         True
         """
-        if "free_clearance" not in self._derived:
-            dist = self._cell_clearance() * np.float32(self.resolution)
-            dist.setflags(write=False)
-            self._derived["free_clearance"] = dist
-        return self._derived["free_clearance"]  # type: ignore[return-value]
+        return self._derive(
+            "free_clearance", lambda: self.free_distance() * np.float32(self.resolution)
+        )
 
-    def _cell_clearance(self) -> NDArray[np.float32]:
-        """``clearance_of(self.free, 1.0)``, in cells, cached: what :meth:`clearance` and
-        :meth:`free_clearance` are made of."""
-        if "cell_clearance" not in self._derived:
-            dist = clearance_of(self.free, 1.0)
-            dist.setflags(write=False)
-            self._derived["cell_clearance"] = dist
-        return self._derived["cell_clearance"]  # type: ignore[return-value]
+    def free_distance(self) -> NDArray[np.float32]:
+        """``clearance_of(self.free, 1.0)``, cached (read-only): the clearance in cells, what
+        :meth:`clearance` and :meth:`free_clearance` are made of."""
+        return self._derive("free_distance", lambda: clearance_of(self.free, 1.0))
+
+    def _derive(self, name: str, make: Callable[[], NDArray[Any]]) -> NDArray[Any]:
+        """``make()``, computed once per grid (the grid is immutable) and kept read-only."""
+        if name not in self._derived:
+            value = make()
+            value.setflags(write=False)
+            self._derived[name] = value
+        return self._derived[name]
 
     def inflate(self, radius: float) -> OccupancyGrid:
         """A grid where free cells closer than ``radius`` metres to a non-free cell are occupied.

@@ -154,7 +154,9 @@ def condition(
     clutter = find_clutter(grid, robot_radius, clutter_size)
     open_space = free | clutter
     radius = robot_radius / grid.resolution
-    centres = clearance_of(open_space, 1.0) > radius
+    # with no clutter the open space is the free space, whose distance the grid keeps
+    distance = clearance_of(open_space, 1.0) if clutter.any() else grid.free_distance()
+    centres = distance > radius
     opened = open_space & cv2.dilate(centres.astype(np.uint8), _disc(radius)).astype(bool)
     _, pieces, stats, _ = cv2.connectedComponentsWithStats(opened.astype(np.uint8), connectivity=8)
     large = stats[:, cv2.CC_STAT_AREA] * grid.resolution**2 >= min_area

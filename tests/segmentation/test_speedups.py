@@ -148,3 +148,25 @@ def test_shared_view_equals_the_plain_one(frames, spread, resolution, reach):
     assert found.shape == plain.shape
     for name in ("indptr", "indices", "data"):
         assert np.array_equal(getattr(found, name), getattr(plain, name))
+
+
+def test_the_free_cells_distance_transform_is_computed_once_per_grid(monkeypatch):
+    # the graph, the openings, the passages and the basins share OccupancyGrid.free_clearance
+    import cv2
+
+    from maps.sim.floorplan import generate_floor_plan
+    from topomap.topomap import TopoMap
+
+    grid = generate_floor_plan("flat", random_state=0).grid
+    seen = []
+    transform = cv2.distanceTransform
+
+    def counted(image, *args):
+        seen.append(image.copy())
+        return transform(image, *args)
+
+    monkeypatch.setattr(cv2, "distanceTransform", counted)
+    topo = TopoMap.from_grid(grid)
+    for space in (grid.free, topo.regions.grid.free):
+        padded = np.pad(space, 1).astype(np.uint8)
+        assert sum(np.array_equal(image, padded) for image in seen) == 1

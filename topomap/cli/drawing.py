@@ -33,12 +33,11 @@ def map_image(
     unknown grey, and the regions of ``labels`` over it in colour (opacity ``alpha``; RGBA
     ``colours`` per region id, :func:`region_colours` by default), looked up in a table of
     every (cell class, region) colour."""
-    kind = np.zeros(grid.shape, np.intp)  # 0 unknown, 1 free, 2 occupied
-    kind[grid.free] = 1
+    kind = grid.free.astype(np.int32)  # 0 unknown, 1 free, 2 occupied (32 bits: faster)
     kind[grid.occupied] = 2
     shades = np.array([0.75, 1.0, 0.0])[:, None, None]
     if labels is None:
-        labels = np.zeros(grid.shape, np.intp)
+        labels = np.zeros(grid.shape, np.int32)
     if colours is None:
         colours = region_colours(int(labels.max(initial=0)))
     weight = alpha * colours[None, :, 3:]
