@@ -230,7 +230,7 @@ def test_bench_maps_command_times_the_segment_command_in_parts(tmp_path, capsys)
     (record,) = json.loads((out / "command.json").read_text())
     assert record["map"] == "flat" and record["seconds"] > 0
     parts = record["startup_s"] + record["segmentation_s"] + record["outputs_s"]
-    assert record["startup_s"] > 0 and record["segmentation_s"] > 0
+    assert record["startup_s"] > 0 and record["segmentation_s"] > 0 and record["cpu_s"] > 0
     assert parts == pytest.approx(record["seconds"], abs=0.01) or parts > record["seconds"]
     assert "| mean |" in capsys.readouterr().out
 

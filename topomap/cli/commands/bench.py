@@ -155,7 +155,7 @@ def cmd_bench_maps(args: argparse.Namespace) -> int:
     if args.command is not None:
         refuse_existing(Path(args.out), ["command.json"], args.force)
         records = bench_command(args.command, args.out, progress=args.progress)
-        columns = ["map", "seconds", "startup_s", "segmentation_s", "outputs_s"]
+        columns = ["map", "seconds", "cpu_s", "startup_s", "segmentation_s", "outputs_s"]
         mean = {c: round(sum(r[c] for r in records) / len(records), 3) for c in columns[1:]}
         print(markdown_table([*records, {"map": "mean", **mean}], columns))
         print(f"wrote {args.out}/command.json")
