@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from maps.sim.floorplan import generate_floor_plan
 from topomap.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -139,3 +140,24 @@ def test_pictures_are_drawn_without_pyplot(tmp_path):
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["False"]
     assert (tmp_path / "map.png").stat().st_size > 1000
+
+
+def test_segment_loads_only_the_libraries_it_uses(tmp_path):
+    # its wall time is half imports: the parser loads no library, the command none of those
+    # only other commands use (plotting, learning, planning, bags, clusters)
+    generate_floor_plan("flat", random_state=0).grid.save(tmp_path / "flat.yaml")
+    others = ("matplotlib", "sklearn", "ompl", "rosbags", "dask", "distributed", "selenium")
+    code = (
+        "import sys; from topomap.cli.main import build_parser, main; "
+        f"args = ['-q', 'segment', {str(tmp_path / 'flat.yaml')!r}, '--out', "
+        f"{str(tmp_path / 'out')!r}]; build_parser().parse_args(args); "
+        "print([m for m in ('numpy', 'scipy', 'networkx', 'cv2') if m in sys.modules]); "
+        f"main(args); print([m for m in {others} if m in sys.modules])"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[0] == "[]" and lines[-1] == "[]"
+    assert (tmp_path / "out" / "segmentation.png").exists()
