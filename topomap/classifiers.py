@@ -83,6 +83,9 @@ class RuleClassifier:
     corridor_length: float = _threshold(
         4.0, 1.5, 8.0, "a room is rarely over 2.5 times as long as wide; a corridor is walked"
     )
+    corridor_axis_width_m: float = _threshold(
+        3.0, 2.0, 4.5, "corridors are 1.2-3 m wide along their axis (building practice)"
+    )
     hub_doors: float = _threshold(6.0, 3.0, 15.0, "a room has one or two entrances")
     corridor_opening_m: float = _threshold(
         1.2, 0.8, 2.5, "a single door is 0.8-1.2 m: a wider opening is no door"
@@ -112,11 +115,26 @@ class RuleClassifier:
         corridor = narrow & (
             (f["slenderness"] >= self.corridor_length) | (f["doors"] >= self.hub_doors)
         )
+        corridor |= self._along_axis(f)
         labels = np.select([doorway, hall, corridor], ["doorway", "hall", "corridor"], "room")
         if "links" in features:
             passed = narrow & (f["doors"] >= 2)
             labels = self._continue_corridors(labels, passed, features)
         return [str(label) for label in labels]
+
+    def _along_axis(self, f: Mapping[str, NDArray[np.float64]]) -> NDArray[np.bool_]:
+        """The regions walked along a corridor-wide medial axis: the axis is mostly
+        :attr:`corridor_min_width_m` to :attr:`corridor_axis_width_m` wide (median) and
+        :attr:`corridor_length` times as long (``corridor_axis_m``) as that, passed through
+        (two neighbours or more). A corridor with a wide spot or an open area joined to it, or
+        with fans of rays into the rooms it passes, is one, though its floor is wide."""
+        axis = f["axis_width_median_m"]
+        return (
+            (axis >= self.corridor_min_width_m)
+            & (axis <= self.corridor_axis_width_m)
+            & (f["corridor_axis_m"] >= self.corridor_length * axis)
+            & (f["doors"] >= 2)
+        )
 
     def _continue_corridors(
         self,
@@ -151,7 +169,16 @@ class RuleClassifier:
 
 
 #: The feature columns the rules read.
-_RULE_COLUMNS = ("area_m2", "width_m", "slenderness", "doors", "extent_m", "solidity")
+_RULE_COLUMNS = (
+    "area_m2",
+    "width_m",
+    "slenderness",
+    "doors",
+    "extent_m",
+    "solidity",
+    "axis_width_median_m",
+    "corridor_axis_m",
+)
 #: The default classifier.
 rule_classifier = RuleClassifier()
 
