@@ -118,7 +118,8 @@ class RuleClassifier:
         corridor |= self._along_axis(f)
         labels = np.select([doorway, hall, corridor], ["doorway", "hall", "corridor"], "room")
         if "links" in features:
-            passed = narrow & (f["doors"] >= 2)
+            axis_narrow = f["axis_width_median_m"] <= self.corridor_axis_width_m
+            passed = narrow & axis_narrow & (f["doors"] >= 2)
             labels = self._continue_corridors(labels, passed, features)
         return [str(label) for label in labels]
 
