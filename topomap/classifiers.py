@@ -44,13 +44,17 @@ class RuleClassifier:
     - ``corridor``: passable but narrow (width from :attr:`corridor_min_width_m` to
       :attr:`corridor_width_m`: narrower strips are laser rays or gaps) and either long for
       its width (slenderness :attr:`corridor_length` or more) or opening onto
-      :attr:`hub_doors` regions or more (a room has one or two entrances);
+      :attr:`hub_doors` regions or more (a room has one or two entrances); or walked along
+      a corridor-wide medial axis (median width :attr:`corridor_min_width_m` to
+      :attr:`corridor_axis_width_m`, ``corridor_axis_m`` :attr:`corridor_length` times
+      that, two neighbours or more), though its floor is wide: a corridor with an open area
+      or a wide spot joined to it, or with fans of laser rays into the rooms it passes;
     - ``room``: everything else;
     - then, when the table has ``"links"``, the corridor system goes on where no door stops
-      it: a room as narrow as a corridor, passed through (two neighbours or more), that
-      opens onto a corridor through an opening of :attr:`corridor_opening_m` or more
-      (wider than a single door) is a corridor too, until no region changes. A corridor
-      that the segmentation cut into short pieces is one corridor system again.
+      it: a room as narrow as a corridor (its axis too), passed through (two neighbours or
+      more), that opens onto a corridor through an opening of :attr:`corridor_opening_m`
+      or more (wider than a single door) is a corridor too, until no region changes. A
+      corridor that the segmentation cut into short pieces is one corridor system again.
 
     Examples
     --------
@@ -61,15 +65,21 @@ class RuleClassifier:
     ...     "doors": np.array([4.0, 1.0, 2.0, 1.0]),
     ...     "extent_m": np.array([2.0, 5.0, 30.0, 0.5]),
     ...     "solidity": np.array([1.0, 1.0, 0.9, 0.8]),
+    ...     "axis_width_median_m": np.array([2.0, 5.0, 25.0, 0.4]),
+    ...     "corridor_axis_m": np.array([36.0, 0.0, 0.0, 0.0]),
     ... }
     >>> RuleClassifier()(table)  # a corridor, a room, a hall and a fan of laser rays
     ['corridor', 'room', 'hall', 'room']
-    >>> table["width_m"][1] = 3.0  # a 3 m wide piece between the corridor and the hall
-    >>> table["doors"][1] = 2.0
+    >>> table["width_m"][1] = table["axis_width_median_m"][1] = 3.0  # a 3 m wide piece
+    >>> table["doors"][1] = 2.0  # between the corridor and the hall
     >>> table["id"] = np.array([1.0, 2.0, 3.0, 4.0])
     >>> table["links"] = np.array([[1, 2, 2.5], [2, 3, 2.5], [1, 4, 0.4]])
     >>> RuleClassifier()(table)  # no door between it and the corridor: the corridor goes on
     ['corridor', 'corridor', 'hall', 'room']
+    >>> wide = {name: column[:1].copy() for name, column in table.items() if name != "links"}
+    >>> wide["width_m"][0], wide["slenderness"][0] = 5.5, 3.5  # an open area joined ...
+    >>> RuleClassifier()(wide)  # ... to 36 m of a 2 m wide corridor
+    ['corridor']
     """
 
     doorway_area_m2: float = _threshold(3.0, 1.0, 6.0, "a door leaf is 0.8-1.5 m wide")
