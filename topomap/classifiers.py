@@ -44,7 +44,10 @@ class RuleClassifier:
     - ``corridor``: passable but narrow (width from :attr:`corridor_min_width_m` to
       :attr:`corridor_width_m`: narrower strips are laser rays or gaps) and either long for
       its width (slenderness :attr:`corridor_length` or more) or opening onto
-      :attr:`hub_doors` regions or more (a room has one or two entrances); or walked along
+      :attr:`hub_doors` regions or more (a room has one or two entrances), and not a dead
+      end behind a door (one neighbour, that leads on to others, through an opening
+      narrower than :attr:`corridor_opening_m`: a narrow office or a store room; a corridor
+      serves the places off it, or goes on through a wider opening); or walked along
       a corridor-wide medial axis (median width :attr:`corridor_min_width_m` to
       :attr:`corridor_axis_width_m`, ``corridor_axis_m`` :attr:`corridor_length` times
       that, two neighbours or more), though its floor is wide: a corridor with an open area
@@ -67,6 +70,8 @@ class RuleClassifier:
     ...     "solidity": np.array([1.0, 1.0, 0.9, 0.8]),
     ...     "axis_width_median_m": np.array([2.0, 5.0, 25.0, 0.4]),
     ...     "corridor_axis_m": np.array([36.0, 0.0, 0.0, 0.0]),
+    ...     "door_width_max_m": np.array([1.5, 0.9, 2.0, 0.4]),
+    ...     "dead_ends": np.array([1.0, 0.0, 0.0, 0.0]),
     ... }
     >>> RuleClassifier()(table)  # a corridor, a room, a hall and a fan of laser rays
     ['corridor', 'room', 'hall', 'room']
@@ -122,9 +127,13 @@ class RuleClassifier:
         narrow = (f["width_m"] >= self.corridor_min_width_m) & (
             f["width_m"] <= self.corridor_width_m
         )
-        corridor = narrow & (
-            (f["slenderness"] >= self.corridor_length) | (f["doors"] >= self.hub_doors)
+        behind_a_door = (
+            (f["doors"] == 1)
+            & (f["dead_ends"] == 0)
+            & (f["door_width_max_m"] < self.corridor_opening_m)
         )
+        corridor = narrow & ~behind_a_door
+        corridor &= (f["slenderness"] >= self.corridor_length) | (f["doors"] >= self.hub_doors)
         corridor |= self._along_axis(f)
         labels = np.select([doorway, hall, corridor], ["doorway", "hall", "corridor"], "room")
         if "links" in features:
@@ -189,6 +198,8 @@ _RULE_COLUMNS = (
     "solidity",
     "axis_width_median_m",
     "corridor_axis_m",
+    "door_width_max_m",
+    "dead_ends",
 )
 #: The default classifier.
 rule_classifier = RuleClassifier()

@@ -286,7 +286,29 @@ def test_an_office_off_a_corridor_is_not_joined_to_it():
         "solidity": np.array([1.0, 0.93, 0.9]),
         "axis_width_median_m": np.array([2.0, 3.35, 2.4]),
         "corridor_axis_m": np.array([18.0, 1.1, 2.5]),
+        "door_width_max_m": np.array([2.0, 2.0, 2.0]),
+        "dead_ends": np.array([0.0, 0.0, 0.0]),
         "links": np.array([[1, 2, 2.0], [1, 3, 2.0], [2, 3, 0.9]]),
     }
     # the office (axis 3.35 m) stays a room; a corridor piece (axis 2.4 m) is joined
     assert rule_classifier(table) == ["corridor", "room", "corridor"]
+
+
+def test_a_long_narrow_room_behind_a_door_is_a_room():
+    # a 2.5 x 10 m office with one door (0.9 m) and a 2 x 10 m corridor end piece that goes
+    # on to the rest of the corridor through a 2 m opening: both one neighbour (which leads
+    # on to others), both slender
+    table = {
+        "id": np.array([1.0, 2.0]),
+        "area_m2": np.array([25.0, 20.0]),
+        "width_m": np.array([2.5, 2.0]),
+        "slenderness": np.array([4.0, 5.0]),
+        "doors": np.array([1.0, 1.0]),
+        "extent_m": np.array([2.5, 2.0]),
+        "solidity": np.array([1.0, 1.0]),
+        "axis_width_median_m": np.array([2.5, 2.0]),
+        "corridor_axis_m": np.array([7.5, 8.0]),
+        "door_width_max_m": np.array([0.9, 2.0]),
+        "dead_ends": np.array([0.0, 0.0]),
+    }
+    assert rule_classifier(table) == ["room", "corridor"]
