@@ -5,8 +5,8 @@ regions and each region's true type, the majority type of its floor in a truth r
 type index per cell, -1 where none is known). The floor is where a robot of
 :data:`STANDING_RADIUS_M` fits (:func:`floor_cells`): laser rays through doors and windows and
 the gaps between clutter are free cells nobody stands on, and a corridor region with a fan of
-rays into the rooms it passes is a corridor. A region without such floor (a fan of rays) is typed by all its cells.
-The sources:
+rays into the rooms it passes is a corridor. A region without such floor (a fan of rays) is
+typed by all its cells. The sources:
 
 - ``ipa_places``: plans with a place type per pixel (``NAME_places.png``), drawn by ipa;
 - ``rose2``: ROSE²'s SLAM maps of one building, the people's rooms (colours of ``gt/``) typed
