@@ -44,13 +44,20 @@ class RuleClassifier:
     - ``corridor``: passable but narrow (width from :attr:`corridor_min_width_m` to
       :attr:`corridor_width_m`: narrower strips are laser rays or gaps) and either long for
       its width (slenderness :attr:`corridor_length` or more) or opening onto
-      :attr:`hub_doors` regions or more (a room has one or two entrances);
+      :attr:`hub_doors` regions or more (a room has one or two entrances), and not a dead
+      end behind a door (one neighbour, that leads on to others, through an opening
+      narrower than :attr:`corridor_opening_m`: a narrow office or a store room; a corridor
+      serves the places off it, or goes on through a wider opening); or walked along
+      a corridor-wide medial axis (median width :attr:`corridor_min_width_m` to
+      :attr:`corridor_axis_width_m`, ``corridor_axis_m`` :attr:`corridor_length` times
+      that, two neighbours or more), though its floor is wide: a corridor with an open area
+      or a wide spot joined to it, or with fans of laser rays into the rooms it passes;
     - ``room``: everything else;
     - then, when the table has ``"links"``, the corridor system goes on where no door stops
-      it: a room as narrow as a corridor, passed through (two neighbours or more), that
-      opens onto a corridor through an opening of :attr:`corridor_opening_m` or more
-      (wider than a single door) is a corridor too, until no region changes. A corridor
-      that the segmentation cut into short pieces is one corridor system again.
+      it: a room as narrow as a corridor (its axis too), passed through (two neighbours or
+      more), that opens onto a corridor through an opening of :attr:`corridor_opening_m`
+      or more (wider than a single door) is a corridor too, until no region changes. A
+      corridor that the segmentation cut into short pieces is one corridor system again.
 
     Examples
     --------
@@ -61,15 +68,23 @@ class RuleClassifier:
     ...     "doors": np.array([4.0, 1.0, 2.0, 1.0]),
     ...     "extent_m": np.array([2.0, 5.0, 30.0, 0.5]),
     ...     "solidity": np.array([1.0, 1.0, 0.9, 0.8]),
+    ...     "axis_width_median_m": np.array([2.0, 5.0, 25.0, 0.4]),
+    ...     "corridor_axis_m": np.array([36.0, 0.0, 0.0, 0.0]),
+    ...     "door_width_max_m": np.array([1.5, 0.9, 2.0, 0.4]),
+    ...     "dead_ends": np.array([1.0, 0.0, 0.0, 0.0]),
     ... }
     >>> RuleClassifier()(table)  # a corridor, a room, a hall and a fan of laser rays
     ['corridor', 'room', 'hall', 'room']
-    >>> table["width_m"][1] = 3.0  # a 3 m wide piece between the corridor and the hall
-    >>> table["doors"][1] = 2.0
+    >>> table["width_m"][1] = table["axis_width_median_m"][1] = 3.0  # a 3 m wide piece
+    >>> table["doors"][1] = 2.0  # between the corridor and the hall
     >>> table["id"] = np.array([1.0, 2.0, 3.0, 4.0])
     >>> table["links"] = np.array([[1, 2, 2.5], [2, 3, 2.5], [1, 4, 0.4]])
     >>> RuleClassifier()(table)  # no door between it and the corridor: the corridor goes on
     ['corridor', 'corridor', 'hall', 'room']
+    >>> wide = {name: column[:1].copy() for name, column in table.items() if name != "links"}
+    >>> wide["width_m"][0], wide["slenderness"][0] = 5.5, 3.5  # an open area joined ...
+    >>> RuleClassifier()(wide)  # ... to 36 m of a 2 m wide corridor
+    ['corridor']
     """
 
     doorway_area_m2: float = _threshold(3.0, 1.0, 6.0, "a door leaf is 0.8-1.5 m wide")
@@ -82,6 +97,9 @@ class RuleClassifier:
     )
     corridor_length: float = _threshold(
         4.0, 1.5, 8.0, "a room is rarely over 2.5 times as long as wide; a corridor is walked"
+    )
+    corridor_axis_width_m: float = _threshold(
+        3.0, 2.0, 4.5, "corridors are 1.2-3 m wide along their axis (building practice)"
     )
     hub_doors: float = _threshold(6.0, 3.0, 15.0, "a room has one or two entrances")
     corridor_opening_m: float = _threshold(
@@ -109,14 +127,34 @@ class RuleClassifier:
         narrow = (f["width_m"] >= self.corridor_min_width_m) & (
             f["width_m"] <= self.corridor_width_m
         )
-        corridor = narrow & (
-            (f["slenderness"] >= self.corridor_length) | (f["doors"] >= self.hub_doors)
+        behind_a_door = (
+            (f["doors"] == 1)
+            & (f["dead_ends"] == 0)
+            & (f["door_width_max_m"] < self.corridor_opening_m)
         )
+        corridor = narrow & ~behind_a_door
+        corridor &= (f["slenderness"] >= self.corridor_length) | (f["doors"] >= self.hub_doors)
+        corridor |= self._along_axis(f)
         labels = np.select([doorway, hall, corridor], ["doorway", "hall", "corridor"], "room")
         if "links" in features:
-            passed = narrow & (f["doors"] >= 2)
+            axis_narrow = f["axis_width_median_m"] <= self.corridor_axis_width_m
+            passed = narrow & axis_narrow & (f["doors"] >= 2)
             labels = self._continue_corridors(labels, passed, features)
         return [str(label) for label in labels]
+
+    def _along_axis(self, f: Mapping[str, NDArray[np.float64]]) -> NDArray[np.bool_]:
+        """The regions walked along a corridor-wide medial axis: the axis is mostly
+        :attr:`corridor_min_width_m` to :attr:`corridor_axis_width_m` wide (median) and
+        :attr:`corridor_length` times as long (``corridor_axis_m``) as that, passed through
+        (two neighbours or more). A corridor with a wide spot or an open area joined to it, or
+        with fans of rays into the rooms it passes, is one, though its floor is wide."""
+        axis = f["axis_width_median_m"]
+        return (
+            (axis >= self.corridor_min_width_m)
+            & (axis <= self.corridor_axis_width_m)
+            & (f["corridor_axis_m"] >= self.corridor_length * axis)
+            & (f["doors"] >= 2)
+        )
 
     def _continue_corridors(
         self,
@@ -151,7 +189,18 @@ class RuleClassifier:
 
 
 #: The feature columns the rules read.
-_RULE_COLUMNS = ("area_m2", "width_m", "slenderness", "doors", "extent_m", "solidity")
+_RULE_COLUMNS = (
+    "area_m2",
+    "width_m",
+    "slenderness",
+    "doors",
+    "extent_m",
+    "solidity",
+    "axis_width_median_m",
+    "corridor_axis_m",
+    "door_width_max_m",
+    "dead_ends",
+)
 #: The default classifier.
 rule_classifier = RuleClassifier()
 

@@ -131,6 +131,23 @@ def test_drawn_corridors_and_halls_on_a_rotated_grid():
     assert truth[room] == PLACE_TYPES.index("room")
 
 
+def test_a_region_is_typed_by_its_floor_not_by_its_rays():
+    # a 10 x 2 m corridor (region 1) with 30 laser rays, 10 m long and a cell wide, out of
+    # it (more cells than the corridor, typed room: they pass into rooms), and a fan of rays
+    # alone (region 2, no floor), at 10 cm cells
+    labels = np.zeros((140, 200), np.int32)
+    labels[10:30, 10:110] = 1
+    labels[30:130, 12:72:2] = 1
+    labels[30:130, 120:180:2] = 2
+    truth = np.where(labels > 0, PLACE_TYPES.index("room"), -1).astype(np.int8)
+    truth[10:30, 10:110] = PLACE_TYPES.index("corridor")
+    assert (truth[labels == 1] == PLACE_TYPES.index("room")).sum() > 2000  # the rays' cells
+    grid = OccupancyGrid(np.where(labels > 0, 0, 100).astype(np.int8), 0.1)
+    regions = Regions(grid, labels)
+    found = labelled_map(regions, region_graph(regions), truth, source="a", building="A", name="a")
+    assert found.truth == ["corridor", "room"]
+
+
 def test_room_types_csv_errors_name_file_and_line(tmp_path):
     bad = tmp_path / "types.csv"
     bad.write_text("map,colour,type\nmap3,ffffff,room\nmap3,000001,kitchen\n")

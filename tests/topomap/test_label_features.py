@@ -269,11 +269,12 @@ def test_a_corridor_cut_into_pieces_is_one_corridor_system():
     # no door between the two pieces (the 2 m cut): the corridor system goes on
     assert rule_classifier(f) == ["corridor", "corridor", "room", "room"]
     assert rule_classifier({k: v for k, v in f.items() if k != "links"})[1] == "room"
-    # behind a wall (10 cm) with a 1 m door, the piece is a room (with two doors) of its own
+    # behind a wall (10 cm) with a 1 m door, the piece is a room (with two doors) of its own;
+    # the 14 m piece, a 4 x 4 m room (5) off it, stays a corridor
     walled = [pieces[0], (2, 15.1, 5.1, 21, 7.6), (2, 15, 5.6, 15.1, 6.6), *pieces[2:]]
-    f = _table(walled)
+    f = _table([*walled, (5, 4, 1, 8, 5), (5, 5.5, 5, 6.5, 5.1)])
     assert f["links"][0].tolist() == pytest.approx([1, 2, 1.0], abs=0.06)
-    assert rule_classifier(f) == ["corridor", "room", "room", "room"]
+    assert rule_classifier(f) == ["corridor", "room", "room", "room", "room"]
 
 
 @given(arrays(bool, st.tuples(st.integers(1, 30), st.integers(1, 30))))

@@ -240,3 +240,75 @@ def test_unknown_names_are_listed_in_natural_order():
     graph.add_nodes_from((i, {"name": f"room {i}"}) for i in (10, 2, 1))
     with pytest.raises(RegionNotFoundError, match=r"known names: room 1, room 2, room 10$"):
         find_region(graph, "kitchen")
+
+
+def _corridor_with_open_area() -> tuple[Regions, object]:
+    """A 30 x 2 m corridor (id 1) with an 8 x 6 m open area on its side, one region, and a
+    4 x 5 m office (id 2, 3) at each end below it, at 10 cm cells."""
+    labels = np.zeros((140, 340), np.int32)
+    labels[70:90, 20:320] = 1  # the corridor, y 7-9 m
+    labels[10:70, 130:210] = 1  # the open area joined to it
+    labels[91:141, 20:60] = 2
+    labels[90:91, 35:45] = 2  # a 1 m door
+    labels[91:141, 280:320] = 3
+    labels[90:91, 295:305] = 3
+    grid = OccupancyGrid(np.where(labels > 0, 0, 100).astype(np.int8), 0.1)
+    regions = Regions(grid, labels)
+    return regions, region_graph(regions)
+
+
+def test_a_corridor_with_an_open_area_joined_is_a_corridor():
+    regions, graph = _corridor_with_open_area()
+    f = region_features(regions, graph)
+    # the floor is wide (the open area) and the region not long for that width ...
+    assert f["width_m"][0] > rule_classifier.corridor_width_m
+    assert f["slenderness"][0] < rule_classifier.corridor_length
+    # ... but its axis is 2 m wide over 20 m and more: walked along, a corridor
+    assert f["axis_width_median_m"][0] == pytest.approx(2.0, abs=0.2)
+    assert rule_classifier(f) == ["corridor", "room", "room"]
+    # the same region with one neighbour only (a dead end) is not passed through: a room
+    dead_end = {k: v if k == "links" else v.copy() for k, v in f.items()}
+    dead_end["doors"][0] = 1
+    assert rule_classifier(dead_end)[0] == "room"
+
+
+def test_an_office_off_a_corridor_is_not_joined_to_it():
+    # a furnished 5 x 5 m office measures 3.3 m wide (clutter), passed through, opening onto
+    # the corridor wider than a door (a SLAM map's open door and rays): its axis is wider
+    # than a corridor's, so the corridor does not go on into it
+    table = {
+        "id": np.array([1.0, 2.0, 3.0]),
+        "area_m2": np.array([40.0, 22.0, 20.0]),
+        "width_m": np.array([2.0, 3.3, 3.0]),
+        "slenderness": np.array([10.0, 1.9, 2.2]),
+        "doors": np.array([2.0, 2.0, 2.0]),
+        "extent_m": np.array([2.0, 5.0, 4.5]),
+        "solidity": np.array([1.0, 0.93, 0.9]),
+        "axis_width_median_m": np.array([2.0, 3.35, 2.4]),
+        "corridor_axis_m": np.array([18.0, 1.1, 2.5]),
+        "door_width_max_m": np.array([2.0, 2.0, 2.0]),
+        "dead_ends": np.array([0.0, 0.0, 0.0]),
+        "links": np.array([[1, 2, 2.0], [1, 3, 2.0], [2, 3, 0.9]]),
+    }
+    # the office (axis 3.35 m) stays a room; a corridor piece (axis 2.4 m) is joined
+    assert rule_classifier(table) == ["corridor", "room", "corridor"]
+
+
+def test_a_long_narrow_room_behind_a_door_is_a_room():
+    # a 2.5 x 10 m office with one door (0.9 m) and a 2 x 10 m corridor end piece that goes
+    # on to the rest of the corridor through a 2 m opening: both one neighbour (which leads
+    # on to others), both slender
+    table = {
+        "id": np.array([1.0, 2.0]),
+        "area_m2": np.array([25.0, 20.0]),
+        "width_m": np.array([2.5, 2.0]),
+        "slenderness": np.array([4.0, 5.0]),
+        "doors": np.array([1.0, 1.0]),
+        "extent_m": np.array([2.5, 2.0]),
+        "solidity": np.array([1.0, 1.0]),
+        "axis_width_median_m": np.array([2.5, 2.0]),
+        "corridor_axis_m": np.array([7.5, 8.0]),
+        "door_width_max_m": np.array([0.9, 2.0]),
+        "dead_ends": np.array([0.0, 0.0]),
+    }
+    assert rule_classifier(table) == ["room", "corridor"]

@@ -1,8 +1,12 @@
 """Labelled buildings for the label evaluation, one loader per source.
 
 Every source gives :class:`LabelledMap` objects: a segmented map, the features of its
-regions and each region's true type, the majority type of its cells in a truth raster (place
-type index per cell, -1 where none is known). The sources:
+regions and each region's true type, the majority type of its floor in a truth raster (place
+type index per cell, -1 where none is known). The floor is where a robot of
+:data:`STANDING_RADIUS_M` fits (:func:`floor_cells`): laser rays through doors and windows and
+the gaps between clutter are free cells nobody stands on, and a corridor region with a fan of
+rays into the rooms it passes is a corridor. A region without such floor (a fan of rays) is
+typed by all its cells. The sources:
 
 - ``ipa_places``: plans with a place type per pixel (``NAME_places.png``), drawn by ipa;
 - ``rose2``: ROSE²'s SLAM maps of one building, the people's rooms (colours of ``gt/``) typed
@@ -11,7 +15,8 @@ type index per cell, -1 where none is known). The sources:
 - ``carmen``: maps built from the four real logs, corridors and halls drawn by hand in
   ``carmen.json`` (corridor centrelines with a width, hall polygons, map-frame metres;
   every other free cell a room);
-- ``generated``: generated buildings with furniture (the generator's own types), the true
+- ``generated``: generated buildings with furniture (the generator's own types, a flat's
+  "hall" a room: :func:`generated_type`), the true
   plans and, with ``scanned``, the map a simulated robot's laser builds (rays, noise).
 """
 
@@ -44,6 +49,9 @@ from topomap.topomap import TopoMap
 PLACE_GREYS = {77: "room", 115: "corridor", 179: "doorway"}
 #: Cell size of the ipa_places images, metres.
 PLACES_RESOLUTION = 0.05
+#: Half the width of the space a robot (the library's default radius) or a person needs to
+#: stand, m: the cells that count in a region's true type (:func:`floor_cells`).
+STANDING_RADIUS_M = 0.2
 #: Progress wrapper of the loaders (``iter``: none).
 Progress = Callable[[Any], Iterable[Any]]
 
@@ -72,12 +80,16 @@ def labelled_map(
     name: str,
 ) -> LabelledMap:
     """The :class:`LabelledMap` of a segmentation and a truth raster of the same shape: every
-    region with a known type among its cells, typed by their majority."""
+    region with a known type among its cells, typed by the majority on its floor
+    (:func:`floor_cells`), or of all its cells when it has no floor."""
     features = region_features(regions, graph)
+    floor = floor_cells(regions.grid)
     types = []
     for region in features["id"].astype(int):
-        cells = truth[(regions.labels == region) & (truth >= 0)]
-        counts = np.bincount(cells, minlength=len(PLACE_TYPES))
+        cells = (regions.labels == region) & (truth >= 0)
+        counts = np.bincount(truth[cells & floor], minlength=len(PLACE_TYPES))
+        if not counts.sum():  # no floor: a fan of rays, typed by all its cells
+            counts = np.bincount(truth[cells], minlength=len(PLACE_TYPES))
         types.append(PLACE_TYPES[int(counts.argmax())] if counts.sum() else None)
     keep = np.array([t is not None for t in types], bool)
     return LabelledMap(
@@ -89,6 +101,22 @@ def labelled_map(
         {k: v if k == "links" else v[keep] for k, v in features.items()},
         [t for t in types if t is not None],
     )
+
+
+def floor_cells(grid: OccupancyGrid) -> NDArray[np.bool_]:
+    """The free cells of ``grid`` a disc of :data:`STANDING_RADIUS_M` fits on (centred there);
+    not the narrow free strips of laser rays or the gaps between clutter.
+
+    Examples
+    --------
+    >>> free = np.zeros((20, 20), bool)
+    >>> free[2:18, 2:18] = True  # a 1.6 m square room at 10 cm ...
+    >>> free[9:10, 18:] = True  # ... with a ray of one cell out of it
+    >>> floor = floor_cells(OccupancyGrid.from_masks(free, 0.1))
+    >>> int(floor.sum()), bool(floor[9, 19])
+    (144, False)
+    """
+    return grid.inflate(STANDING_RADIUS_M).free
 
 
 def _segmented(grid: OccupancyGrid, truth: NDArray[np.int8], **names: str) -> LabelledMap:
@@ -267,7 +295,7 @@ def generated(
         plan = generate_floor_plan(size, furniture=0.3, random_state=seed)
         truth = np.full(plan.labels.shape, -1, np.int8)
         for index, place in enumerate(plan.types, start=1):
-            truth[plan.labels == index] = PLACE_TYPES.index(place)
+            truth[plan.labels == index] = PLACE_TYPES.index(generated_type(size, place))
         grid = plan.grid
         if scan:
             route = wander(plan.grid, plan.labels, random_state=seed)
@@ -279,6 +307,22 @@ def generated(
         names = {"building": f"{size}-{seed}", "name": f"{source}-{size}-{seed}"}
         found.append(_segmented(grid, truth, source=source, **names))
     return found
+
+
+def generated_type(size: str, place: str) -> str:
+    """The true type of a generated space: the generator's, but a flat's "hall" is a room.
+
+    A flat (about 20 x 15 m) gets its "hall" as a wider stretch of one row of rooms: 6-9 m by
+    the row's depth (30-45 m^2), one door onto the corridor. The halls people name apart
+    from rooms (issue 21) are large open spaces, warehouse floors and atria; an office's
+    halls (two rows deep, 12-20 m long, doors onto two corridors) are, a flat's is a room.
+
+    Examples
+    --------
+    >>> generated_type("flat", "hall"), generated_type("office", "hall")
+    ('room', 'hall')
+    """
+    return "room" if size == "flat" and place == "hall" else place
 
 
 def _resampled(
