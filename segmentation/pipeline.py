@@ -45,6 +45,7 @@ from segmentation.affinity import PassageAffinity
 from segmentation.base import Estimator, clone
 from segmentation.blocks import BlockSpectralSegmenter, check_n_jobs, keyframe_blocks
 from segmentation.conditioning import ConditionedMap, condition, drop_outside
+from segmentation.corridors import join_corridor_cuts
 from segmentation.coverage import Coverage, cover
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.refine import basins, count_basins, merge_open_boundaries
@@ -318,7 +319,8 @@ class MapSegmenter(Estimator):
 
         The gaps of straight walls (:func:`~segmentation.walls.wall_gaps`) are wall on the
         working grid: places, keyframes and passages end at them like at a wall with a door.
-        The cover gives their cells a region."""
+        The cover gives their cells a region. Basins that meet at a cut across a corridor are
+        one place (:func:`~segmentation.corridors.join_corridor_cuts`)."""
         grid = conditioned.grid
         factor = pool_factor(grid.resolution, self.cell_size)
         walls = ~pool(~(grid.occupied & ~conditioned.clutter), grid, factor).free
@@ -331,7 +333,7 @@ class MapSegmenter(Estimator):
             conditioned = outside
             space = _without(pool(conditioned.space, grid, factor), gaps)
             places = consecutive(np.where(space.free, places, 0))
-        return conditioned, space, places
+        return conditioned, space, join_corridor_cuts(places, space.free, space.resolution)
 
     def partition(
         self,

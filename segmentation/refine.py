@@ -20,6 +20,9 @@ from maps.grid import OccupancyGrid
 from segmentation.errors import ParameterError
 from segmentation.regions import boundary_pairs, consecutive
 
+#: A passage at least this share of the open space on both sides of it is no door.
+OPEN = 0.8
+
 
 def basins(grid: OccupancyGrid, depth: float = 0.3) -> NDArray[np.int32]:
     """Watershed basins of the clearance whose peaks rise at least ``depth`` metres above the
@@ -90,7 +93,7 @@ def merge_open_boundaries(
     grid: OccupancyGrid,
     labels: NDArray[np.int32],
     basin: NDArray[np.int32] | None = None,
-    ratio: float = 0.8,
+    ratio: float = OPEN,
     max_door: float = 2.5,
 ) -> NDArray[np.int32]:
     """Merge regions of ``labels`` that touch where nothing narrows the space.

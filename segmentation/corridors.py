@@ -1,0 +1,115 @@
+"""Corridors the places cut across: where two clearance basins meet in a corridor, nothing
+narrows the space, so they are one place.
+
+A corridor's clearance is a plateau between its junctions and wide spots, each of which
+raises a peak and seeds a basin (:func:`~segmentation.refine.basins`); the basins meet
+somewhere on the plateau, at a cut that is no door. Compared with the basins' peaks (a
+crossing of two corridors rises to sqrt(2) times their half width) such a cut looks like one,
+so the places, and the partition that votes with them, would cut the corridor system at every
+junction. :func:`join_corridor_cuts` joins two places where their boundary is a cut across a
+channel: straight across the free space from wall to wall, at least a corridor wide
+(:data:`CORRIDOR_WIDTH`), the space keeping that width (its clearance within
+:data:`~segmentation.refine.OPEN` of the cut's, and the inverse) for
+:data:`~segmentation.walls.CHANNEL` metres on both sides. A door, a room opening onto a corridor,
+a corridor leaving a hall: the space widens or narrows within those metres, and the places stay
+apart for the partition to decide.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import sparse
+from scipy.sparse.csgraph import connected_components
+
+from maps.grid import clearance_of
+from segmentation.refine import OPEN
+from segmentation.regions import boundary_pairs, consecutive
+from segmentation.walls import CHANNEL
+
+#: The narrowest corridor, metres: building codes' least (1.1-1.2 m); a narrower passage is a
+#: door or a gap between furniture.
+CORRIDOR_WIDTH = 1.2
+#: Where the width is checked on each side of a cut, as shares of :data:`CHANNEL`.
+STEPS = (0.25, 0.5, 0.75, 1.0)
+
+
+def corridor_cuts(
+    places: NDArray[np.integer], free: NDArray[np.bool_], resolution: float
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Pairs ``a < b`` of touching places whose boundary is a cut across a corridor (see the
+    module docstring).
+
+    Examples
+    --------
+    >>> free = np.zeros((22, 102), bool)
+    >>> free[1:21, 1:101] = True  # a 2 m wide, 10 m long corridor (0.1 m cells)
+    >>> places = np.where(free, 1 + (np.arange(102) >= 50), 0)
+    >>> corridor_cuts(places, free, 0.1)
+    (array([1]), array([2]))
+    >>> free[1:21, 48:52] = False; free[10:12, 48:52] = True  # a 0.2 m slot between two rooms
+    >>> corridor_cuts(places * free, free, 0.1)
+    (array([], dtype=int64), array([], dtype=int64))
+    """
+    clearance = clearance_of(free, resolution)
+    ra, ca, rb, cb = boundary_pairs(places)
+    first = places[ra, ca].astype(np.int64)
+    second = places[rb, cb].astype(np.int64)
+    count = int(places.max(initial=0)) + 1
+    pair, index, cells = np.unique(first * count + second, return_inverse=True, return_counts=True)
+    order = np.argsort(index, kind="stable")
+    ends = np.cumsum(cells)
+    middle = np.column_stack([(ca + cb) / 2.0, (ra + rb) / 2.0])[order]  # x, y
+    open_at = np.minimum(clearance[ra, ca], clearance[rb, cb])[order]
+    found = [
+        p
+        for p, end, n in zip(pair.tolist(), ends.tolist(), cells.tolist(), strict=True)
+        if n >= 3
+        and _across_corridor(middle[end - n : end], open_at[end - n : end], clearance, resolution)
+    ]
+    a, b = np.divmod(np.array(found, np.int64), count)
+    return a, b
+
+
+def join_corridor_cuts(
+    places: NDArray[np.int32], free: NDArray[np.bool_], resolution: float
+) -> NDArray[np.int32]:
+    """``places`` with the places of every :func:`corridor_cuts` pair made one (consecutive
+    ids; 0 stays 0)."""
+    a, b = corridor_cuts(places, free, resolution)
+    if len(a) == 0:
+        return places
+    count = int(places.max()) + 1
+    links = sparse.coo_matrix((np.ones(len(a)), (a, b)), shape=(count, count))
+    _, component = connected_components(links, directed=False)
+    return consecutive(np.where(places > 0, component[places] + 1, 0))
+
+
+def _across_corridor(
+    middle: NDArray[np.float64],
+    open_at: NDArray[np.float32],
+    clearance: NDArray[np.float32],
+    resolution: float,
+) -> bool:
+    """Whether a boundary (the midpoints of its cell pairs, x and y in cells, and the clearance
+    there, metres) is a cut across a corridor of the map whose ``clearance`` is given."""
+    centre = middle.mean(axis=0)
+    _, axes = np.linalg.eigh(np.cov((middle - centre).T))
+    along = axes[:, 1]
+    extent = (middle - centre) @ along
+    length = (float(extent.max() - extent.min()) + 1) * resolution
+    most = int(np.argmax(open_at))
+    width = 2 * float(open_at[most])  # the space's width at the cut's most open cell
+    if length < CORRIDOR_WIDTH or length * OPEN > width:  # a door, or not wall to wall
+        return False
+    normal = np.array([-along[1], along[0]])
+    steps = np.array(STEPS) * CHANNEL / resolution
+    samples = middle[most] + np.concatenate([steps, -steps])[:, None] * normal
+    cells = np.rint(samples).astype(int)
+    height, wide = clearance.shape
+    inside = (cells[:, 0] >= 0) & (cells[:, 0] < wide) & (cells[:, 1] >= 0) & (cells[:, 1] < height)
+    there = np.zeros(len(cells))
+    there[inside] = clearance[cells[inside, 1], cells[inside, 0]]
+    holds = (there >= OPEN * width / 2) & (there * OPEN <= width / 2)
+    half = len(STEPS)
+    return bool(holds.sum() >= 2 * half - 1 and holds[:half].any() and holds[half:].any())
