@@ -59,7 +59,9 @@ def test_a_door_the_footprint_does_not_fit_has_no_pose():
 
 def _continuous_and_clear(path, cspace, start, goal):
     poses = path.poses
-    assert np.allclose(poses[0], start) and np.allclose(poses[-1], goal)
+    ends = poses[[0, -1]] - np.array([start, goal])
+    ends[:, 2] = np.angle(np.exp(1j * ends[:, 2]))  # headings equal modulo a turn
+    assert np.allclose(ends, 0)
     assert np.hypot(*np.diff(poses[:, :2], axis=0).T).max() <= POSE_SPACING + 1e-9
     assert footprint_collisions(cspace.grid, cspace.robot.polygon, poses) == 0
 
@@ -189,3 +191,19 @@ def test_a_leg_the_robot_drives_straight_needs_no_planner(spec):
     assert whole.direct((1.0, 2.0, 0.0), (7.0, 1.0, 0.0)) is None  # the wall is in the way
     vertices, _ = whole.search((1.0, 2.0, 0.0), (3.0, 2.0, math.pi), 1.0)
     assert vertices is not None and len(vertices) == 2  # the direct motion (a car: a cusp)
+
+
+@pytest.mark.parametrize("spec", [CAR, "rect:0.9x0.6"])
+def test_a_pose_heading_exactly_west_is_planned_from_and_to(spec):
+    """A heading of exactly pi is out of OMPL's SO(2) bounds [-pi, pi): a door pose or a
+    start facing west was never a valid state of any set-up, so its legs failed (3 of 100
+    office queries, all on a corridor cut into parts along its axis, whose door poses face
+    due west)."""
+    planner = _planner(spec)
+    start, goal = (7.0, 2.0, math.pi), (1.0, 1.0, math.pi)
+    assert planner._whole.admits(start) and planner._whole.admits(goal)
+    path = planner.plan(start, goal)
+    _continuous_and_clear(path, planner.cspace, start, goal)
+    assert path.regions == (2, 1)
+    ompl = planner._submaps(next(planner._routes(start, goal)), [2])
+    assert ompl.admits(start)
