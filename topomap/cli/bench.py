@@ -294,8 +294,9 @@ def bench_plan_robot(
     planners :data:`ROBOT_BASELINES` (PRM's roadmap grown first for as long as the
     hierarchical preprocessing took, at most :data:`PRM_MAX_GROWTH` s, and kept), the
     hierarchical planner per leg (``hierarchical``) and over the union of the route's
-    submaps (``hierarchical_union``). Queries are far-apart points where a disc as wide as
-    the narrowest door the robot takes stands, each at the valid heading nearest 0.
+    submaps (``hierarchical_union``). Queries are ``queries`` far-apart points where a disc as
+    wide as the narrowest door the robot takes and the robot stand, each at the valid heading
+    nearest 0.
     Collisions are counted by the independent footprint sweep
     (:func:`planners.sweep.footprint_collisions`); lengths are compared with the disc's
     door-graph path. Writes :func:`topomap.cli.plan_report.write_report`'s files,
@@ -348,12 +349,13 @@ def bench_plan_robot(
                 flat.ompl.grow_roadmap(pre["prm_roadmap"])
             running.append(flat)
         guide = hierarchical.doors
-        pairs = far_queries(guide.space, queries, random_state=seed)
+        # the first ``queries`` where the robot stands at both ends (drawn in the same order
+        # whatever the count: a larger count adds queries after the same first ones)
         pairs = [
             (s, g)
-            for s, g in pairs
+            for s, g in far_queries(guide.space, 2 * queries, random_state=seed)
             if len(cspace.free_headings(*s)) and len(cspace.free_headings(*g))
-        ]
+        ][:queries]
         reference = [guide.plan(s, g).length for s, g in pairs]
         found, skipped = run_queries(
             name, guide.space, running, reference, pairs, budget=budget, progress=progress,
