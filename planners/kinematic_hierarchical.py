@@ -276,7 +276,11 @@ class KinematicHierarchicalPlanner:
         ids: list[int] = [route.ids[0]]
         legs: list[tuple[list[int], list[Pose]]] = []
         for crossing, after in zip(route.crossings, route.ids[1:], strict=True):
-            poses = door_poses(crossing, route.labels, self.cspace)
+            poses = (
+                door_poses(crossing, route.labels, self.cspace)
+                if self._ends(route, crossing)
+                else []
+            )
             if poses:
                 legs.append((ids, poses))
                 ids = []
@@ -294,6 +298,15 @@ class KinematicHierarchicalPlanner:
             pieces.append(found if k == 0 else found[1:])
             pose = (float(found[-1, 0]), float(found[-1, 1]), float(found[-1, 2]))
         return self._smooth(np.vstack(pieces), seconds)
+
+    def _ends(self, route: Route, crossing: Crossing) -> bool:
+        """Whether a leg ends across ``crossing``: always for a robot that reverses or turns
+        in place; for a forward-only car only at the doors between regions, since a cut
+        between two parts of one region (along a corridor) may leave it too little room to
+        turn, at its turning radius, into a side door just after it."""
+        if self.cspace.robot.reverses or route.kind == "regions":
+            return True
+        return self.doors.region_of[crossing.before] != self.doors.region_of[crossing.after]
 
     def _smooth(self, vertices: NDArray[np.float64], seconds: dict[str, float]) -> NDArray:
         """The path through ``vertices`` simplified on the whole map, as poses."""
