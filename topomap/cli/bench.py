@@ -240,13 +240,13 @@ def bench_plan(
         pre["prm_roadmap"] = min(PRM_MAX_GROWTH, pre["submaps"] + pre["door_graph"])
         prm.grow_roadmap(pre["prm_roadmap"])
         bit = FlatPlanner(space, "BITstar", time_limit=OPTIMAL_BUDGET, random_state=seed)
-        planners: list[Planner] = [hierarchical, mcp, rrt, prm, bit]
+        running: list[Planner] = [hierarchical, mcp, rrt, prm, bit]
         if python_astar:
-            planners.append(GridAStar(space))
+            running.append(GridAStar(space))
         pairs = far_queries(space, queries, random_state=seed)
         optimal, pre["exact_reference"], pre["exact_cached"] = exact_lengths(space, pairs, cache)
         found, skipped = run_queries(
-            name, space, planners, optimal, pairs, budget=budget, progress=progress
+            name, space, running, optimal, pairs, budget=budget, progress=progress
         )
         records += found
         preprocessing[name] = {
