@@ -193,8 +193,22 @@ class KinematicOMPL:
     def _state(self, pose: Pose) -> Any:
         state = self._space.allocState()
         state.setXY(pose[0], pose[1])
-        state.setYaw(pose[2])
+        state.setYaw(ompl_yaw(pose[2]))
         return state
+
+
+def ompl_yaw(yaw: float) -> float:
+    """``yaw`` in OMPL's SO(2) range ``[-pi, pi)``: a heading of exactly ``pi`` (west, as a
+    door pose or a start may face) is out of OMPL's bounds, so such a state was never valid
+    in a set-up and a leg from or to it always failed.
+
+    Examples
+    --------
+    >>> ompl_yaw(math.pi), ompl_yaw(-math.pi), ompl_yaw(3 * math.pi / 2)
+    (-3.141592653589793, -3.141592653589793, -1.5707963267948966)
+    """
+    wrapped = math.remainder(yaw, math.tau)
+    return -math.pi if wrapped >= math.pi else wrapped
 
 
 def _poses(path: Any) -> NDArray[np.float64]:

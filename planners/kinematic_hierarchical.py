@@ -41,7 +41,6 @@ from planners.kinematic import KinematicOMPL, Pose, check_pose
 from planners.legs import Crossing, door_poses
 from planners.path import PlannedPath
 from planners.region_route import region_routes
-from planners.robots import Dubins
 from planners.workspace import Workspace
 from segmentation.names import find_region
 
@@ -159,7 +158,6 @@ class KinematicHierarchicalPlanner:
         self.name = "hierarchical" if mode == MODES[0] else f"hierarchical_{mode}"
         # the whole map's OMPL set-up: the joined path is simplified there
         self._whole = KinematicOMPL(cspace, planner)
-        self._per_leg = not isinstance(cspace.robot, Dubins)  # see _legs
         self._kept: OrderedDict[tuple[str, tuple[int, ...]], KinematicOMPL] = OrderedDict()
         self.labels = self.doors.labels
         self.time_limit, self.routes = float(time_limit), int(routes)
@@ -272,14 +270,17 @@ class KinematicHierarchicalPlanner:
         """One OMPL query per leg between door poses, the legs joined end to end: their poses.
         Each leg may take the budget's share of the time left, so a leg that fails leaves
         time for the next routes, and a long route of easy legs may use the whole budget.
-        A robot that turns in place simplifies each leg inside its submaps (passing each door
-        pose costs it nothing); a car simplifies the joined path on the whole map, where
-        shortcuts may drop the fixed door headings it would otherwise manoeuvre to."""
+        The joined path is simplified on the whole map, as a flat planner's is: shortcuts
+        may cut across the doors and drop their fixed poses and headings."""
         clock = time.perf_counter()
         ids: list[int] = [route.ids[0]]
         legs: list[tuple[list[int], list[Pose]]] = []
         for crossing, after in zip(route.crossings, route.ids[1:], strict=True):
-            poses = door_poses(crossing, route.labels, self.cspace)
+            poses = (
+                door_poses(crossing, route.labels, self.cspace)
+                if self._ends(route, crossing)
+                else []
+            )
             if poses:
                 legs.append((ids, poses))
                 ids = []
@@ -289,15 +290,23 @@ class KinematicHierarchicalPlanner:
         pieces, pose = [], start
         for k, (leg, ends) in enumerate(legs):
             found = self._solve(
-                route, list(dict.fromkeys(leg)), pose, ends, budget.until(), seconds, self._per_leg
+                route, list(dict.fromkeys(leg)), pose, ends, budget.until(), seconds
             )
             if found is None:
                 log.debug("leg %d of %d (submaps %s) failed", k + 1, len(legs), leg)
                 return None
             pieces.append(found if k == 0 else found[1:])
             pose = (float(found[-1, 0]), float(found[-1, 1]), float(found[-1, 2]))
-        joined = np.vstack(pieces)
-        return joined if self._per_leg else self._smooth(joined, seconds)
+        return self._smooth(np.vstack(pieces), seconds)
+
+    def _ends(self, route: Route, crossing: Crossing) -> bool:
+        """Whether a leg ends across ``crossing``: always for a robot that reverses or turns
+        in place; for a forward-only car only at the doors between regions, since a cut
+        between two parts of one region (along a corridor) may leave it too little room to
+        turn, at its turning radius, into a side door just after it."""
+        if self.cspace.robot.reverses or route.kind == "regions":
+            return True
+        return self.doors.region_of[crossing.before] != self.doors.region_of[crossing.after]
 
     def _smooth(self, vertices: NDArray[np.float64], seconds: dict[str, float]) -> NDArray:
         """The path through ``vertices`` simplified on the whole map, as poses."""
@@ -313,11 +322,9 @@ class KinematicHierarchicalPlanner:
         goal: Pose | list[Pose],
         until: float,
         seconds: dict[str, float],
-        smooth: bool = False,
     ) -> NDArray[np.float64] | None:
         """One OMPL query inside the cells of ``route.labels`` labelled ``ids``, grown by the
-        submap margin, with the time left until ``until``: the solution's vertices, or its
-        poses simplified inside the submaps when ``smooth``."""
+        submap margin, with the time left until ``until``: the solution's vertices."""
         clock = time.perf_counter()
         if clock >= until:
             return None
@@ -327,11 +334,7 @@ class KinematicHierarchicalPlanner:
         direct = self._whole.direct(start, goal) if self._whole.admits(start) else None
         if direct is not None:
             seconds["planning"] += time.perf_counter() - clock
-            if not smooth:
-                return direct
-            resampled, spent_smoothing = self._whole.smooth(direct, simplify=False)
-            seconds["simplification"] += spent_smoothing
-            return resampled
+            return direct
         clock = time.perf_counter()
         ompl = self._submaps(route, ids)
         goals = [pose for pose in (goal if isinstance(goal, list) else [goal]) if ompl.admits(pose)]
@@ -344,10 +347,6 @@ class KinematicHierarchicalPlanner:
         )
         for key, value in spent.items():
             seconds[key] += value
-        if poses is None or not smooth:
-            return poses
-        poses, spent_smoothing = ompl.smooth(poses)
-        seconds["simplification"] += spent_smoothing
         return poses
 
     def _submaps(self, route: Route, ids: list[int]) -> KinematicOMPL:

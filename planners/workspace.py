@@ -122,8 +122,11 @@ class Workspace:
     ) -> NDArray[np.bool_]:
         """:meth:`segments_free` for points already in lattice coordinates."""
         a, b = _snap(starts), _snap(ends)
-        u, v, owner = _traversed_cells(a, b)
-        ok = np.bincount(owner, weights=~self.cells_free(u, v), minlength=len(a)) == 0
+        rows, cols = self._blocked_prefix
+        steep = np.abs(b[:, 1] - a[:, 1]) > np.abs(b[:, 0] - a[:, 0])
+        ok = np.empty(len(a), bool)
+        ok[~steep] = _runs_free(rows, a[~steep], b[~steep])
+        ok[steep] = _runs_free(cols, a[steep, ::-1], b[steep, ::-1])  # axes swapped
         for axis in (0, 1):  # motions along a grid line need a free cell on either side
             on_line = (a[:, axis] == b[:, axis]) & (a[:, axis] == np.round(a[:, axis]))
             on_line &= np.any(a != b, axis=1)
@@ -340,42 +343,41 @@ def _snap(uv: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.where(np.abs(uv - nearest) < _SNAP, nearest, uv)
 
 
-def _traversed_cells(
-    a: NDArray[np.float64], b: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp]]:
-    """Every lattice cell whose interior the segments ``a[i] -> b[i]`` enter.
+def _runs_free(
+    prefix: NDArray[np.int32], a: NDArray[np.float64], b: NDArray[np.float64]
+) -> NDArray[np.bool_]:
+    """Whether the segments ``a[i] -> b[i]`` (lattice ``(u, v)``, ``|dv| <= |du|``) enter
+    no blocked cell: across each unit band of ``v`` the cells a segment's interior enters
+    form one run of ``u``, checked at once with ``prefix``, the running counts of blocked
+    cells along each lattice row (:attr:`Workspace._blocked_prefix`, one leading zero).
 
-    A segment enters its start cell and, at each crossing of a grid line, the cell beyond
-    that line; the cell "beyond" is taken in the direction of travel on both axes, so a
-    segment through a grid vertex goes to the diagonal cell without touching the others.
-
-    Returns
-    -------
-    u, v, owner
-        Integer-valued cell coordinates (as floats) and the segment each cell belongs to.
+    A segment starting or ending on a band's edge does not enter the band beyond it, and one
+    through a grid vertex goes to the diagonal cell without touching the others, as the cell
+    walk of :meth:`Workspace.segment_free` does; a point is the cell it lies in (up and right
+    on a grid line). Cells off the grid are blocked. Motions along grid lines are left to
+    :meth:`Workspace._along_line`.
     """
+    bands, length = prefix.shape[0], prefix.shape[1] - 1
     d = b - a
-    cells_u, cells_v, owners = [cell_beyond(a[:, 0], d[:, 0])], [cell_beyond(a[:, 1], d[:, 1])], []
-    owners.append(np.arange(len(a)))
-    for axis in (0, 1):
-        other = 1 - axis
-        lo = np.minimum(a[:, axis], b[:, axis])
-        hi = np.maximum(a[:, axis], b[:, axis])
-        first = np.floor(lo) + 1
-        count = np.maximum(np.ceil(hi) - first, 0).astype(np.intp)  # lines strictly inside
-        owner = np.repeat(np.arange(len(a)), count)
-        offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-        line = first[owner] + offset
-        t = (line - a[owner, axis]) / d[owner, axis]
-        across = a[owner, other] + t * d[owner, other]
-        across = _snap(across)
-        step = np.sign(d[owner, axis])
-        at_line = np.where(step > 0, line, line - 1)
-        beyond = cell_beyond(across, d[owner, other])
-        cells_u.append(at_line if axis == 0 else beyond)
-        cells_v.append(beyond if axis == 0 else at_line)
-        owners.append(owner)
-    return np.concatenate(cells_u), np.concatenate(cells_v), np.concatenate(owners)
+    lo, hi = np.minimum(a[:, 1], b[:, 1]), np.maximum(a[:, 1], b[:, 1])
+    k0 = np.floor(lo)
+    count = np.maximum(np.ceil(hi) - k0, 1).astype(np.intp)  # bands; a flat motion has one
+    owner = np.repeat(np.arange(len(a)), count)
+    k = k0[owner] + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    dv = d[owner, 1]
+    edges = []  # u where the segment meets the band's two edges (a flat one: its ends)
+    for line, flat in ((k, 0.0), (k + 1, 1.0)):
+        t = np.full_like(dv, flat)
+        np.divide(line - a[owner, 1], dv, out=t, where=dv != 0)
+        edges.append(_snap(a[owner, 0] + np.clip(t, 0, 1) * d[owner, 0]))
+    first = np.floor(np.minimum(*edges)).astype(np.intp)
+    last = np.maximum(np.ceil(np.maximum(*edges)).astype(np.intp), first + 1)
+    band = k.astype(np.intp)
+    inside = (band >= 0) & (band < bands) & (first >= 0) & (last <= length)
+    blocked = ~inside
+    rows = np.clip(band, 0, bands - 1)
+    blocked[inside] = (prefix[rows[inside], last[inside]] - prefix[rows[inside], first[inside]]) > 0
+    return np.bincount(owner, weights=blocked, minlength=len(a)) == 0
 
 
 def cell_beyond(coord: NDArray[np.float64], delta: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -88,3 +88,18 @@ def test_long_motions_checked_band_by_band_agree_with_the_cell_walk(seed, yaw, e
     lattice = np.array(ends, float).reshape(2, 2) / 4 * [1, 0.8]
     a, b = space.from_lattice(lattice)
     assert space.segment_free(a, b) == bool(space.segments_free([a], [b])[0])
+
+
+def test_batch_motion_checks_agree_with_the_cell_walk_on_grid_lines_and_vertices():
+    """The batch check (one run of cells per unit band, looked up in running counts) and
+    the scalar cell walk agree on motions that start, end or pass on grid lines and
+    vertices, points, flat and vertical motions, and motions off the grid."""
+    rng = np.random.default_rng(3)
+    cells = np.where(rng.random((20, 30)) < 0.15, OCCUPIED, 0).astype(np.int8)
+    space = Workspace(OccupancyGrid(cells, 1.0), 0.0)
+    ends = np.round(rng.uniform(-2, 32, (3000, 4)) * 2) / 2
+    ends[::5, 2:] = ends[::5, :2]
+    ends[1::5, 3] = ends[1::5, 1]
+    batch = space.lattice_segments_free(ends[:, :2], ends[:, 2:])
+    walk = [space.segment_free(a, b) for a, b in zip(ends[:, :2], ends[:, 2:], strict=True)]
+    assert batch.tolist() == walk

@@ -389,6 +389,26 @@ def test_bench_plan_writes_one_record_per_planner_and_query(tmp_path):
 
 
 @pytest.mark.slow
+def test_bench_plan_runs_only_the_planners_named(tmp_path):
+    out = tmp_path / "bench"
+    arguments = ["bench", "plan", "--sizes", "flat", "--queries", "3", "--out", str(out)]
+    robot = ["--robot", "rect:0.9x0.6", "--time-limit", "5", "--planners", "hierarchical"]
+    assert main([*arguments, *robot]) == 0
+    records = json.loads((out / "results.json").read_text())
+    assert len(records) == 3 and {r["planner"] for r in records} == {"hierarchical"}
+
+
+@pytest.mark.parametrize(
+    ("robot", "named"),
+    [(["--robot", "rect:0.9x0.6"], "flat_rrt"), ([], "footprint robots")],
+)
+def test_bench_plan_refuses_planners_it_cannot_run(tmp_path, capsys, robot, named):
+    arguments = ["bench", "plan", "--sizes", "flat", "--out", str(tmp_path / "bench"), *robot]
+    assert main([*arguments, "--planners", "hierarchical", "flat_rrt"]) == 2
+    assert named in capsys.readouterr().err
+
+
+@pytest.mark.slow
 def test_eval_labels_on_the_place_labelled_plans(tmp_path, data_dir, capsys):
     out = tmp_path / "labels"
     model = tmp_path / "forest.skops"

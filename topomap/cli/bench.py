@@ -21,6 +21,7 @@ from maps.sim.floorplan import generate_floor_plan
 from maps.sim.laser import LaserModel, RayCaster, simulate_keyframes, simulate_scans
 from planners.benchmark import Planner, far_queries, run_queries, summarise
 from planners.cspace import HeadingCSpace
+from planners.errors import PlannerParameterError
 from planners.flat import FlatPlanner
 from planners.grid_astar import GridAStar
 from planners.grid_mcp import GridMCP
@@ -186,6 +187,7 @@ def bench_plan(
     python_astar: bool = False,
     cache: str | Path | None = "out/cache/exact",
     robot: str | None = None,
+    planners: tuple[str, ...] | None = None,
     seed: int = 0,
     progress: Callable[[Any], Any] = iter,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
@@ -203,14 +205,22 @@ def bench_plan(
     :func:`topomap.cli.plan_report.write_report` to ``out``; returns the records and the summary.
 
     A footprint ``robot`` (a :func:`planners.robots.parse_robot` spec other than a disc) runs
-    :func:`bench_plan_robot` instead.
+    :func:`bench_plan_robot` instead, with only the ``planners`` named (all by default).
+
+    Raises
+    ------
+    PlannerParameterError
+        ``planners`` given for a disc robot, or naming none of a footprint robot's planners.
     """
     model = None if robot is None else parse_robot(robot)
     if model is not None and not isinstance(model, Disc):
         return bench_plan_robot(
             out, model, sizes=sizes, maps_dir=maps_dir, queries=queries,
-            time_limit=time_limit, budget=budget, seed=seed, progress=progress,
+            time_limit=time_limit, budget=budget, planners=planners, seed=seed,
+            progress=progress,
         )  # fmt: skip
+    if planners is not None:
+        raise PlannerParameterError("choosing the planners is for footprint robots (--robot)")
     if isinstance(model, Disc):
         robot_radius = model.radius
     records: list[dict[str, Any]] = []
@@ -230,13 +240,13 @@ def bench_plan(
         pre["prm_roadmap"] = min(PRM_MAX_GROWTH, pre["submaps"] + pre["door_graph"])
         prm.grow_roadmap(pre["prm_roadmap"])
         bit = FlatPlanner(space, "BITstar", time_limit=OPTIMAL_BUDGET, random_state=seed)
-        planners: list[Planner] = [hierarchical, mcp, rrt, prm, bit]
+        running: list[Planner] = [hierarchical, mcp, rrt, prm, bit]
         if python_astar:
-            planners.append(GridAStar(space))
+            running.append(GridAStar(space))
         pairs = far_queries(space, queries, random_state=seed)
         optimal, pre["exact_reference"], pre["exact_cached"] = exact_lengths(space, pairs, cache)
         found, skipped = run_queries(
-            name, space, planners, optimal, pairs, budget=budget, progress=progress
+            name, space, running, optimal, pairs, budget=budget, progress=progress
         )
         records += found
         preprocessing[name] = {
@@ -254,6 +264,12 @@ def bench_plan(
 #: Flat OMPL planners of the footprint benchmark (each stops at its first exact solution;
 #: PRM keeps its roadmap across the queries of a map).
 ROBOT_BASELINES = ("RRTConnect", "RRTstar", "BITstar", "KPIECE1", "PRM")
+#: Benchmark names of the footprint benchmark's planners, in table order.
+ROBOT_PLANNERS = (
+    "hierarchical",
+    "hierarchical_union",
+    *(f"flat_{name.lower()}" for name in ROBOT_BASELINES),
+)
 #: Paths drawn per map in ``paths.png``.
 DRAWN_PATHS = 3
 
@@ -267,6 +283,7 @@ def bench_plan_robot(
     queries: int = 10,
     time_limit: float = 10.0,
     budget: float = PLAN_BUDGET,
+    planners: tuple[str, ...] | None = None,
     seed: int = 0,
     progress: Callable[[Any], Any] = iter,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
@@ -277,14 +294,28 @@ def bench_plan_robot(
     planners :data:`ROBOT_BASELINES` (PRM's roadmap grown first for as long as the
     hierarchical preprocessing took, at most :data:`PRM_MAX_GROWTH` s, and kept), the
     hierarchical planner per leg (``hierarchical``) and over the union of the route's
-    submaps (``hierarchical_union``). Queries are far-apart points where a disc as wide as
-    the narrowest door the robot takes stands, each at the valid heading nearest 0.
+    submaps (``hierarchical_union``). Queries are ``queries`` far-apart points where a disc as
+    wide as the narrowest door the robot takes and the robot stand, each at the valid heading
+    nearest 0.
     Collisions are counted by the independent footprint sweep
     (:func:`planners.sweep.footprint_collisions`); lengths are compared with the disc's
     door-graph path. Writes :func:`topomap.cli.plan_report.write_report`'s files,
     ``paths.json`` (footprint, maps, every path's poses) and ``paths.png`` (a few paths of
-    each map with the footprint drawn along them).
+    each map with the footprint drawn along them). ``planners`` names those that run
+    (:data:`ROBOT_PLANNERS`, all by default); the others are not even set up.
+
+    Raises
+    ------
+    PlannerParameterError
+        A name in ``planners`` that is not one of :data:`ROBOT_PLANNERS`.
     """
+    chosen = ROBOT_PLANNERS if planners is None else tuple(planners)
+    unknown = sorted(set(chosen) - set(ROBOT_PLANNERS))
+    if unknown or not chosen:
+        raise PlannerParameterError(
+            f"unknown planners {', '.join(unknown) or '(none given)'}; "
+            f"known: {', '.join(ROBOT_PLANNERS)}"
+        )
     records: list[dict[str, Any]] = []
     preprocessing: dict[str, dict[str, Any]] = {}
     found_paths: list[dict[str, Any]] = []
@@ -296,33 +327,38 @@ def bench_plan_robot(
         clock = time.perf_counter()
         cspace = HeadingCSpace(grid, robot)
         pre["cspace"] = time.perf_counter() - clock
-        hierarchical, union = (
-            KinematicHierarchicalPlanner(
-                cspace, topo.regions.labels, topo.graph, time_limit=time_limit, mode=mode,
-                random_state=seed,
-            )
-            for mode in ("legs", "union")
-        )  # fmt: skip
+        hierarchical = KinematicHierarchicalPlanner(
+            cspace, topo.regions.labels, topo.graph, time_limit=time_limit, random_state=seed
+        )
         pre["submaps"] = hierarchical.build_seconds
         pre["door_graph"] = hierarchical.prepare()
-        union.prepare()
-        planners: list[Planner] = [hierarchical, union]
+        running: list[Planner] = [hierarchical] if hierarchical.name in chosen else []
+        if "hierarchical_union" in chosen:
+            union = KinematicHierarchicalPlanner(
+                cspace, topo.regions.labels, topo.graph, time_limit=time_limit, mode="union",
+                random_state=seed,
+            )  # fmt: skip
+            union.prepare()
+            running.append(union)
         for baseline in ROBOT_BASELINES:
+            if f"flat_{baseline.lower()}" not in chosen:
+                continue
             flat = FlatKinematicPlanner(cspace, baseline, time_limit=time_limit, random_state=seed)
             if flat.ompl.keeps_roadmap:
                 pre["prm_roadmap"] = min(PRM_MAX_GROWTH, pre["submaps"] + pre["door_graph"])
                 flat.ompl.grow_roadmap(pre["prm_roadmap"])
-            planners.append(flat)
+            running.append(flat)
         guide = hierarchical.doors
-        pairs = far_queries(guide.space, queries, random_state=seed)
+        # the first ``queries`` where the robot stands at both ends (drawn in the same order
+        # whatever the count: a larger count adds queries after the same first ones)
         pairs = [
             (s, g)
-            for s, g in pairs
+            for s, g in far_queries(guide.space, 2 * queries, random_state=seed)
             if len(cspace.free_headings(*s)) and len(cspace.free_headings(*g))
-        ]
+        ][:queries]
         reference = [guide.plan(s, g).length for s, g in pairs]
         found, skipped = run_queries(
-            name, guide.space, planners, reference, pairs, budget=budget, progress=progress,
+            name, guide.space, running, reference, pairs, budget=budget, progress=progress,
             collisions=partial(_sweep, grid, robot), paths=found_paths,
         )  # fmt: skip
         records += found

@@ -91,6 +91,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     plan_bench.add_argument("--cache", default="out/cache/exact", help="exact-reference cache")
     plan_bench.add_argument("--no-cache", action="store_true", help="recompute the reference")
     add_robot_options(plan_bench)
+    plan_bench.add_argument(
+        "--planners",
+        nargs="+",
+        metavar="NAME",
+        help="with a footprint --robot: only these planners run (default all: hierarchical, "
+        "hierarchical_union, flat_rrtconnect, flat_rrtstar, flat_bitstar, flat_kpiece1, "
+        "flat_prm)",
+    )
     plan_bench.set_defaults(func=cmd_bench_plan)
     batch_bench = bench_sub.add_parser("batch", help="topomap batch: maps per minute, 1-2 workers")
     add_output_options(batch_bench, "out/bench-batch")
@@ -229,6 +237,7 @@ def cmd_bench_plan(args: argparse.Namespace) -> int:
         python_astar=args.python_astar,
         cache=None if args.no_cache else args.cache,
         robot=robot_spec(args),
+        planners=None if args.planners is None else tuple(args.planners),
         progress=args.progress,
     )
     print(markdown_table(summary, COLUMNS))
