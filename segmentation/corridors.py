@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 
-from maps.grid import clearance_of
+from maps.grid import OccupancyGrid
 from segmentation.refine import OPEN
 from segmentation.regions import boundary_pairs, consecutive
 from segmentation.walls import CHANNEL
@@ -35,23 +35,23 @@ STEPS = (0.25, 0.5, 0.75, 1.0)
 
 
 def corridor_cuts(
-    places: NDArray[np.integer], free: NDArray[np.bool_], resolution: float
+    places: NDArray[np.integer], grid: OccupancyGrid
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Pairs ``a < b`` of touching places whose boundary is a cut across a corridor (see the
-    module docstring).
+    """Pairs ``a < b`` of touching places of ``grid`` whose boundary is a cut across a
+    corridor (see the module docstring).
 
     Examples
     --------
     >>> free = np.zeros((22, 102), bool)
     >>> free[1:21, 1:101] = True  # a 2 m wide, 10 m long corridor (0.1 m cells)
     >>> places = np.where(free, 1 + (np.arange(102) >= 50), 0)
-    >>> corridor_cuts(places, free, 0.1)
+    >>> corridor_cuts(places, OccupancyGrid.from_masks(free, 0.1))
     (array([1]), array([2]))
     >>> free[1:21, 48:52] = False; free[10:12, 48:52] = True  # a 0.2 m slot between two rooms
-    >>> corridor_cuts(places * free, free, 0.1)
+    >>> corridor_cuts(places * free, OccupancyGrid.from_masks(free, 0.1))
     (array([], dtype=int64), array([], dtype=int64))
     """
-    clearance = clearance_of(free, resolution)
+    clearance, resolution = grid.free_clearance(), grid.resolution
     ra, ca, rb, cb = boundary_pairs(places)
     first = places[ra, ca].astype(np.int64)
     second = places[rb, cb].astype(np.int64)
@@ -71,12 +71,10 @@ def corridor_cuts(
     return a, b
 
 
-def join_corridor_cuts(
-    places: NDArray[np.int32], free: NDArray[np.bool_], resolution: float
-) -> NDArray[np.int32]:
-    """``places`` with the places of every :func:`corridor_cuts` pair made one (consecutive
-    ids; 0 stays 0)."""
-    a, b = corridor_cuts(places, free, resolution)
+def join_corridor_cuts(places: NDArray[np.int32], grid: OccupancyGrid) -> NDArray[np.int32]:
+    """``places`` of ``grid`` with the places of every :func:`corridor_cuts` pair made one
+    (consecutive ids; 0 stays 0)."""
+    a, b = corridor_cuts(places, grid)
     if len(a) == 0:
         return places
     count = int(places.max()) + 1

@@ -333,7 +333,7 @@ class MapSegmenter(Estimator):
             conditioned = outside
             space = _without(pool(conditioned.space, grid, factor), gaps)
             places = consecutive(np.where(space.free, places, 0))
-        return conditioned, space, join_corridor_cuts(places, space.free, space.resolution)
+        return conditioned, space, join_corridor_cuts(places, space)
 
     def partition(
         self,

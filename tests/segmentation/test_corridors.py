@@ -28,7 +28,7 @@ def test_the_basins_of_a_corridor_grid_are_joined_into_one_place():
     free = _cross()
     places = _places(free)
     assert len(np.unique(places[free])) > 1  # the crossings' peaks seed a basin each
-    joined = join_corridor_cuts(places, free, RESOLUTION)
+    joined = join_corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
     assert np.unique(joined[free]).tolist() == [1]
     assert (joined[~free] == 0).all()
 
@@ -38,7 +38,7 @@ def test_rooms_behind_doors_stay_apart():
     free[10:90, 10:100] = free[10:90, 110:200] = True  # two 8 x 9 m rooms
     free[45:54, 100:110] = True  # a 0.9 m door, 1 m deep
     places = _places(free)
-    joined = join_corridor_cuts(places, free, RESOLUTION)
+    joined = join_corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
     assert joined[50, 50] != joined[50, 150]
 
 
@@ -48,7 +48,7 @@ def test_a_passage_narrower_than_a_corridor_is_no_corridor_cut():
     free[1:21, 98:104] = False
     free[6:16, 98:104] = True  # a 1 m passage in a 2 m corridor
     places = np.where(free, 1 + (np.arange(202) >= 101), 0)
-    a, _ = corridor_cuts(places, free, RESOLUTION)
+    a, _ = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
     assert len(a) == 0
 
 
@@ -62,7 +62,7 @@ def test_joining_only_unites_whole_places(seed):
         free[r : r + rng.integers(3, 30), c : c + rng.integers(3, 30)] ^= True
     free[[0, -1]] = free[:, [0, -1]] = False
     places = _places(free)
-    joined = join_corridor_cuts(places, free, RESOLUTION)
+    joined = join_corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
     assert ((joined > 0) == (places > 0)).all()
     for place in np.unique(places[places > 0]):
         assert len(np.unique(joined[places == place])) == 1  # a place is never split
