@@ -10,6 +10,8 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	# bytecode now, as pip writes it for a wheel (an editable install does not)
+	$(BIN)/python -m compileall -q maps planners segmentation topomap
 	touch $(STAMP)
 
 demo: $(STAMP)

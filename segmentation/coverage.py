@@ -13,8 +13,9 @@ reach into it. :func:`cover` gives each such cell the region it belongs to:
   own. Rays out through a window into unmapped space end on no wall, and a pocket of a room
   behind its furniture meets the room over more than the walls it shows: both join the room
   they leave from;
-- every other cell joins the region it reaches first through the building (a geodesic
-  watershed): the furniture of a room joins the room, a ray joins the room it leaves from.
+- every other cell joins the region it reaches first through the building (grown a ring at
+  a time, :func:`~segmentation.working.grow`): the furniture of a room joins the room, a ray
+  joins the room it leaves from.
 """
 
 from __future__ import annotations
@@ -25,10 +26,10 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
-from skimage.segmentation import watershed
 
 from maps.grid import OccupancyGrid
 from segmentation.regions import consecutive
+from segmentation.working import ALL_AROUND, grow
 
 #: The widest door (double doors), metres: a leftover piece meeting the regions over more
 #: than this is not a room seen through a door.
@@ -94,12 +95,5 @@ def cover(
             new_id = np.zeros(count + 1, np.int32)
             new_id[rooms] = int(seeds.max(initial=0)) + 1 + np.arange(seen, dtype=np.int32)
             seeds = np.where(rooms[pieces], new_id[pieces], seeds)
-    # The flood only ever crosses leftover cells, from the labelled cells that touch them: the
-    # rest of the building keeps its label, so it need not be in the mask (a large map's cost
-    # follows its leftover cells, not its size).
-    left = building & (seeds == 0)
-    touching = cv2.dilate(left.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-    mask = left | (touching & (seeds > 0))
-    grown = watershed(np.zeros(grid.shape, np.uint8), seeds, mask=mask, connectivity=2)
-    grown = consecutive(np.where(seeds > 0, seeds, grown))
+    grown = consecutive(grow(seeds, building, ALL_AROUND))  # the cost follows the cells filled
     return Coverage(grown, int(((grown > 0) & (labels == 0)).sum()), seen)

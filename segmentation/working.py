@@ -54,16 +54,58 @@ def pool(space: NDArray[np.bool_], grid: OccupancyGrid, factor: int) -> Occupanc
 
 
 #: The cells beside a cell: labels grow through sides, never through a corner between walls.
-AROUND = [(-1, 0), (1, 0), (0, -1), (0, 1)]
+AROUND = ((-1, 0), (1, 0), (0, -1), (0, 1))
+#: The cells beside a cell and at its corners.
+ALL_AROUND = (*AROUND, (-1, -1), (-1, 1), (1, -1), (1, 1))
+
+
+def grow(
+    labels: NDArray[np.int32],
+    keep: NDArray[np.bool_],
+    around: tuple[tuple[int, int], ...] = AROUND,
+) -> NDArray[np.int32]:
+    """``labels`` (changed in place and returned) grown over the unlabelled cells of ``keep``,
+    a ring at a time: a cell next to labelled ones (through ``around``) takes the largest of
+    their labels, so every kept cell takes a label that reaches it first through the kept
+    cells; cells no label reaches stay 0. Each ring looks only at the cells beside the last
+    one, so the cost follows the cells filled, not the map.
+
+    Examples
+    --------
+    >>> keep = np.ones((3, 5), bool); keep[:2, 2] = False  # a wall with a gap at the bottom
+    >>> labels = np.zeros((3, 5), np.int32); labels[0, 0] = 1; labels[0, 4] = 2
+    >>> grow(labels, keep).tolist()
+    [[1, 1, 0, 2, 2], [1, 1, 0, 2, 2], [1, 1, 2, 2, 2]]
+    >>> labels = np.zeros((3, 3), np.int32); labels[0, 0] = 1
+    >>> grow(labels, np.eye(3, dtype=bool), ALL_AROUND).tolist()  # through corners
+    [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+    """
+    height, width = keep.shape
+    missing = keep & (labels == 0)
+    rows, cols = np.nonzero(missing)
+    while len(rows):
+        grown = np.zeros(len(rows), np.int32)
+        for dr, dc in around:
+            r, c = np.clip(rows + dr, 0, height - 1), np.clip(cols + dc, 0, width - 1)
+            grown = np.maximum(grown, labels[r, c])
+        rows, cols, grown = rows[grown > 0], cols[grown > 0], grown[grown > 0]
+        labels[rows, cols] = grown
+        missing[rows, cols] = False
+        beside = [
+            (np.clip(rows + dr, 0, height - 1), np.clip(cols + dc, 0, width - 1))
+            for dr, dc in around
+        ]
+        r, c = np.concatenate([b[0] for b in beside]), np.concatenate([b[1] for b in beside])
+        ahead = missing[r, c]
+        rows, cols = np.divmod(np.unique(r[ahead].astype(np.int64) * width + c[ahead]), width)
+    return labels
 
 
 def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) -> NDArray[np.int32]:
     """Fine labels for the cells of ``keep`` from coarse ``labels`` (see the module docstring).
 
-    Cells next to labelled ones take the largest label around them, a ring at a time, until no
-    ring grows: every kept cell takes the label that reaches it first through the kept cells
-    (never across a wall); cells no label reaches stay 0. Each ring looks only at the cells
-    beside the last one, so the cost follows the cells filled, not the map.
+    The kept cells whose coarse cell has no label take one from a labelled cell nearby through
+    the kept cells (never across a wall, :func:`grow`); cells no label reaches stay 0.
 
     Examples
     --------
@@ -80,21 +122,4 @@ def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) ->
     fine = np.asarray(cv2.resize(coarse, size, interpolation=cv2.INTER_NEAREST), np.int32)
     fine = fine[:height, :width]
     fine[~keep] = 0
-    missing = keep & (fine == 0)
-    rows, cols = np.nonzero(missing)
-    while len(rows):
-        grown = np.zeros(len(rows), np.int32)
-        for dr, dc in AROUND:
-            r, c = np.clip(rows + dr, 0, height - 1), np.clip(cols + dc, 0, width - 1)
-            grown = np.maximum(grown, fine[r, c])
-        rows, cols, grown = rows[grown > 0], cols[grown > 0], grown[grown > 0]
-        fine[rows, cols] = grown
-        missing[rows, cols] = False
-        beside = [
-            (np.clip(rows + dr, 0, height - 1), np.clip(cols + dc, 0, width - 1))
-            for dr, dc in AROUND
-        ]
-        r, c = np.concatenate([b[0] for b in beside]), np.concatenate([b[1] for b in beside])
-        ahead = missing[r, c]
-        rows, cols = np.divmod(np.unique(r[ahead].astype(np.int64) * width + c[ahead]), width)
-    return fine
+    return grow(fine, keep)
