@@ -140,8 +140,17 @@ def _quality(
 ) -> tuple[list[dict[str, Any]], NDArray[np.int64], dict[str, NDArray[np.int64]]]:
     """Each online engine against the offline pipeline on the same keyframes (on ``grid``,
     their map): ARI of the final regions of the keyframes, latency, and churn (the share of
-    keyframes whose region changed once they were 50 keyframes old; windows only)."""
+    keyframes whose region changed once they were 50 keyframes old; windows only). Beside
+    it, ``ari_online_resolution``: against the offline pipeline on their map at the windows'
+    resolution (what the windows are partitioned on), and ``offline_across_resolutions``: the
+    two offline partitions against each other."""
     offline = MapSegmenter().segment(grid, keyframes, random_state=seed).keyframe_regions()
+    coarse = IncrementalSegmenter().resolution
+    same = offline
+    if not np.isclose(coarse, grid.resolution):
+        rebuilt = grid_from_keyframes(keyframes, coarse)
+        same = MapSegmenter().segment(rebuilt, keyframes, random_state=seed).keyframe_regions()
+    both = (offline > 0) & (same > 0)
     seeded = None if seed_fraction is None else max(2, round(seed_fraction * len(keyframes)))
     records, labels = [], {}
     for method in ONLINE_METHODS:
@@ -159,6 +168,8 @@ def _quality(
                 "offline_regions": len(np.unique(offline[offline > 0])),
                 "online_regions": online.n_regions_,
                 "ari": agreement(online.labels_[offline > 0], offline[offline > 0]),
+                "ari_online_resolution": agreement(online.labels_[same > 0], same[same > 0]),
+                "offline_across_resolutions": agreement(offline[both], same[both]),
                 "churn": "-" if late is None else round(float(np.mean(late > 0)), 4),
                 **run.latency_ms(),
             }

@@ -206,7 +206,15 @@ def cmd_bench_online(args: argparse.Namespace) -> int:
         print(json.dumps(results["latency"]["summary"], indent=2))
     if "quality" in results:
         columns = ["run", "method", "keyframes", "seed_keyframes", "offline_regions"]
-        columns += ["online_regions", "ari", "churn", "mcc_offline", "mcc_online"]
+        columns += [
+            "online_regions",
+            "ari",
+            "ari_online_resolution",
+            "offline_across_resolutions",
+            "churn",
+            "mcc_offline",
+            "mcc_online",
+        ]
         columns += ["median_ms", "p95_ms", "max_ms"]
         print(markdown_table(results["quality"], columns))
     if "growing" in results:
