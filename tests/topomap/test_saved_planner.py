@@ -88,3 +88,22 @@ def test_plan_keeps_the_planner_it_prepared_and_reuses_it(tmp_path, capsys, capl
     repaired = capsys.readouterr()
     assert "not a door graph file" in caplog.text and "kept the prepared planner" in repaired.err
     assert _path(repaired.out) == _path(built.out)
+
+
+def test_plan_reads_the_folders_own_map_once_and_refuses_another_map(tmp_path, capsys, monkeypatch):
+    from maps.grid import OccupancyGrid
+
+    _saved(tmp_path / "seg")
+    reads = []
+    load = OccupancyGrid.load.__func__
+    monkeypatch.setattr(
+        OccupancyGrid, "load", classmethod(lambda c, p: reads.append(p) or load(c, p))
+    )
+    own = str(tmp_path / "seg" / "map.yaml")
+    plan = ["plan", "--regions", str(tmp_path / "seg"), "--start", "1", "--goal", "2"]
+    assert main(["-q", plan[0], own, *plan[1:]]) == 0
+    assert len(reads) == 1  # the folder's map, read by TopoMap.load alone
+    capsys.readouterr()
+    other = generate_floor_plan("office", random_state=5).grid.save(tmp_path / "other.yaml")
+    assert main(["-q", plan[0], str(other), *plan[1:]]) == 2
+    assert "holds the regions of another map" in capsys.readouterr().err

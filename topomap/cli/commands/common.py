@@ -246,11 +246,12 @@ def load_map(args: argparse.Namespace) -> Any:
     from maps.grid import OccupancyGrid
     from topomap.topomap import TopoMap
 
-    grid = OccupancyGrid.load(args.map)
     if args.regions is not None:
         topo = TopoMap.load(args.regions)
-        if topo.grid != grid:
+        if Path(args.map).resolve() == (Path(args.regions) / "map.yaml").resolve():
+            return topo  # the folder's own map: read once
+        if topo.grid != OccupancyGrid.load(args.map):
             raise UsageError(f"{args.regions} holds the regions of another map than {args.map}")
         return topo
     args.progress.stage(f"segmenting {args.map}")
-    return TopoMap.from_grid(grid)
+    return TopoMap.from_grid(OccupancyGrid.load(args.map))
