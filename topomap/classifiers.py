@@ -126,6 +126,13 @@ class RuleClassifier:
     hall_extent_m: float = _threshold(8.0, 5.0, 20.0, "open across, not a long strip")
     hall_width_m: float = _threshold(6.0, 3.0, 12.0, "wider than any corridor")
     hall_solidity: float = _threshold(0.5, 0.2, 0.9, "mostly floor, not a ring of corridors")
+    #: Rules (:data:`RULES`) switched off, to measure what each does (none by default).
+    off: frozenset[str] = frozenset()
+
+    def __post_init__(self) -> None:
+        unknown = sorted(set(self.off) - set(RULES))
+        if unknown:
+            raise LabelError(f"unknown rules {unknown}; known: {', '.join(RULES)}")
 
     def __call__(self, features: Mapping[str, NDArray[np.float64]]) -> list[str]:
         """The place type of every region of a feature table."""
@@ -142,7 +149,9 @@ class RuleClassifier:
             & (f["solidity"] >= self.hall_solidity)
         )
         long = f["slenderness"] >= self.corridor_length
-        hall = open_space & ~long
+        none = np.zeros(len(long), bool)
+        wide_corridor = open_space & long if "wide corridor" not in self.off else none
+        hall = open_space & ~wide_corridor
         narrow = (f["width_m"] >= self.corridor_min_width_m) & (
             f["width_m"] <= self.corridor_width_m
         )
@@ -151,21 +160,28 @@ class RuleClassifier:
             & (f["dead_ends"] == 0)
             & (f["door_width_max_m"] < self.corridor_opening_m)
         )
+        if "dead end" in self.off:
+            behind_a_door = none
         corridor = narrow & ~behind_a_door
         corridor &= long | (f["doors"] >= self.hub_doors)
-        corridor |= narrow & (f["dead_ends"] >= self.corridor_served_rooms)
-        corridor |= (
-            narrow
-            & (f["width_m"] <= self.room_min_width_m)
-            & (f["doors"] >= 2)
-            & (f["slenderness"] >= self.passage_length)
-        )
-        corridor |= self._along_axis(f) | (open_space & long)
+        if "served rooms" not in self.off:
+            corridor |= narrow & (f["dead_ends"] >= self.corridor_served_rooms)
+        if "passage" not in self.off:
+            corridor |= (
+                narrow
+                & (f["width_m"] <= self.room_min_width_m)
+                & (f["doors"] >= 2)
+                & (f["slenderness"] >= self.passage_length)
+            )
+        if "axis" not in self.off:
+            corridor |= self._along_axis(f)
+        corridor |= wide_corridor
         labels = np.select([doorway, hall, corridor], ["doorway", "hall", "corridor"], "room")
-        if "links" in features:
+        if "links" in features and "second pass" not in self.off:
             axis_narrow = f["axis_width_median_m"] <= self.corridor_axis_width_m
             passed = narrow & axis_narrow & (f["doors"] >= 2)
-            labels = self._continue_corridors(labels, passed, narrow, features)
+            bridges = narrow if "bridge" not in self.off else none
+            labels = self._continue_corridors(labels, passed, bridges, features)
         return [str(label) for label in labels]
 
     def _along_axis(self, f: Mapping[str, NDArray[np.float64]]) -> NDArray[np.bool_]:
@@ -186,7 +202,7 @@ class RuleClassifier:
         self,
         labels: NDArray[np.str_],
         passed: NDArray[np.bool_],
-        narrow: NDArray[np.bool_],
+        bridges: NDArray[np.bool_],
         features: Mapping[str, NDArray[np.float64]],
     ) -> NDArray[np.str_]:
         """``labels`` with the rooms of ``passed`` that open onto a corridor through an
@@ -205,9 +221,8 @@ class RuleClassifier:
             joins[ends[onto & passed[ends[:, 0]], 0]] = True
             # a corridor-wide room between two corridors, no door on either side: whatever
             # its axis (fans of rays into the rooms beside widen it), the corridor goes on
-            pieces = {(a, b) for a, b in ends[onto & narrow[ends[:, 0]]].tolist()}
-            bridges = np.bincount([a for a, _ in pieces], minlength=len(labels)) >= 2
-            joins |= bridges
+            pieces = {(a, b) for a, b in ends[onto & bridges[ends[:, 0]]].tolist()}
+            joins |= np.bincount([a for a, _ in pieces], minlength=len(labels)) >= 2
             if not joins.any():
                 return labels
             labels[joins] = "corridor"
@@ -218,9 +233,21 @@ class RuleClassifier:
         return {
             f.name: (float(f.default), f.metadata["range"], f.metadata["why"])  # type: ignore[arg-type]
             for f in dataclasses.fields(cls)
+            if "range" in f.metadata
         }
 
 
+#: The rules beyond the thresholds' first cut, by name (``RuleClassifier(off=...)`` switches
+#: them off): what each says.
+RULES = {
+    "dead end": "a slender room behind a single door, leading on to others, is a room",
+    "axis": "walked along a corridor-wide medial axis, however wide its floor: a corridor",
+    "served rooms": "as narrow as a corridor and the only way into 3 rooms or more: a corridor",
+    "passage": "narrower than a room, passed through, 2.5 times as long as wide: a corridor",
+    "wide corridor": "hall-sized but long for its width: a wide corridor, not a hall",
+    "second pass": "a corridor-narrow room opening onto a corridor wider than a door: corridor",
+    "bridge": "a corridor-narrow room open to two corridors, whatever its axis: corridor",
+}
 #: The feature columns the rules read.
 _RULE_COLUMNS = (
     "area_m2",

@@ -23,6 +23,8 @@ from topomap.cli.label_sources import (
     labelled_map,
     read_room_types,
 )
+from topomap.errors import LabelError
+from topomap.features import FEATURES
 
 LABELS = ROOT / "tests" / "data" / "labels"
 
@@ -229,3 +231,44 @@ def test_drawn_carmen_corridors_run_down_the_middle_of_the_corridors(data_dir):
             if len(offsets) < 3:  # a junction drawn as a dot
                 continue
             assert np.median(offsets) <= 0.4, (name, corridor["line"], np.median(offsets))
+
+
+def _table_map(truth: str, building: str) -> LabelledMap:
+    """One region: a 5.5 m wide open area on a 36 m long, 2 m wide corridor axis (a corridor
+    by the axis rule only), with the given true type."""
+    features = {name: np.zeros(1) for name in FEATURES}
+    features.update(
+        id=np.array([1.0]),
+        area_m2=np.array([106.0]),
+        width_m=np.array([5.5]),
+        slenderness=np.array([3.5]),
+        doors=np.array([2.0]),
+        extent_m=np.array([5.5]),
+        solidity=np.array([0.8]),
+        axis_width_median_m=np.array([2.0]),
+        corridor_axis_m=np.array([36.0]),
+        door_width_max_m=np.array([1.5]),
+    )
+    return LabelledMap("a", building, building, None, None, features, [truth])  # type: ignore[arg-type]
+
+
+def test_a_rule_is_kept_unless_the_other_buildings_say_it_does_harm():
+    assert RuleClassifier()(_table_map("corridor", "A").features) == ["corridor"]
+    assert RuleClassifier(off=frozenset({"axis"}))(_table_map("room", "A").features) == ["room"]
+    with pytest.raises(LabelError, match="unknown rules"):
+        RuleClassifier(off=frozenset({"hub"}))
+    # the buildings trained on call such a space a room: the axis rule goes; a corridor, or
+    # no such space at all (the rule changes nothing): it stays
+    assert ev.choose_rules([_table_map("room", "A")]).off == {"axis"}
+    assert ev.choose_rules([_table_map("corridor", "A")]).off == frozenset()
+    # what each rule changes: the axis rule one region, right, in building B
+    rows = {r["rule"]: r for r in ev.rule_changes([_table_map("corridor", "B")], RuleClassifier())}
+    assert rows["axis"]["right with it only"] == 1 and rows["axis"]["buildings"] == "B"
+    assert rows["passage"]["buildings"] == "-"
+    # left out building by building: the rule is judged on the others only
+    maps = [_table_map("room", "A"), _table_map("corridor", "B"), _table_map("corridor", "C")]
+    found = ev.predict(maps, ev.METHODS["rules, each rule chosen"], held_out=True)
+    assert found == [["corridor"], ["corridor"], ["corridor"]]
+    maps[1] = _table_map("room", "B")  # now two of three call it a room
+    found = ev.predict(maps, ev.METHODS["rules, each rule chosen"], held_out=True)
+    assert found == [["corridor"], ["corridor"], ["room"]]

@@ -19,6 +19,7 @@ from topomap.cli.evaluate_labels import (
     margins,
     mistakes,
     region_records,
+    rule_changes,
     train_forest,
 )
 from topomap.cli.tables import markdown_table
@@ -97,6 +98,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             ["threshold", "value", "lowest", "highest", "range", "why"],
         )
     )
+    changes = rule_changes(maps, rule_classifier)
+    print("\nwhat each rule of the default changes (regions right with it only / without it only):")
+    print(markdown_table(changes, list(changes[0])))
     shown = result[SHOWN]["labels"]
     per_map = mistakes(maps, shown)
     print(f"\nper map, {SHOWN}:")
@@ -109,6 +113,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "best_lobo": best,
         "lobo_by_source": per_source,
         "margins": found,
+        "rule_changes": changes,
         "per_map": per_map,
         "regions": region_records(maps, result),
     }
