@@ -40,7 +40,9 @@ class RuleClassifier:
       two regions or more;
     - ``hall``: a large open space: :attr:`hall_area_m2` or more, :attr:`hall_extent_m` or
       more across, :attr:`hall_width_m` or more wide, and mostly floor (:attr:`hall_solidity`
-      of its convex hull or more: a ring or an L of corridors is not);
+      of its convex hull or more: a ring or an L of corridors is not), and open across, not
+      long for its width (slenderness under :attr:`corridor_length`): such a long open space
+      is a wide corridor, walked along;
     - ``corridor``: passable but narrow (width from :attr:`corridor_min_width_m` to
       :attr:`corridor_width_m`: narrower strips are laser rays or gaps) and either long for
       its width (slenderness :attr:`corridor_length` or more) or opening onto
@@ -51,13 +53,19 @@ class RuleClassifier:
       a corridor-wide medial axis (median width :attr:`corridor_min_width_m` to
       :attr:`corridor_axis_width_m`, ``corridor_axis_m`` :attr:`corridor_length` times
       that, two neighbours or more), though its floor is wide: a corridor with an open area
-      or a wide spot joined to it, or with fans of laser rays into the rooms it passes;
+      or a wide spot joined to it, or with fans of laser rays into the rooms it passes; or
+      as narrow and the only way into :attr:`corridor_served_rooms` rooms or more (rooms
+      are reached from circulation space); or a passage: narrower than a habitable room
+      (:attr:`room_min_width_m`), passed through (two neighbours or more) and
+      :attr:`passage_length` times as long as wide;
     - ``room``: everything else;
     - then, when the table has ``"links"``, the corridor system goes on where no door stops
       it: a room as narrow as a corridor (its axis too), passed through (two neighbours or
       more), that opens onto a corridor through an opening of :attr:`corridor_opening_m`
-      or more (wider than a single door) is a corridor too, until no region changes. A
-      corridor that the segmentation cut into short pieces is one corridor system again.
+      or more (wider than a single door) is a corridor too, and so is a room as narrow as a
+      corridor that opens so onto two corridors, however wide its axis, until no region
+      changes. A corridor that the segmentation cut into short pieces is one corridor
+      system again.
 
     Examples
     --------
@@ -102,6 +110,15 @@ class RuleClassifier:
         3.0, 2.0, 4.5, "corridors are 1.2-3 m wide along their axis (building practice)"
     )
     hub_doors: float = _threshold(6.0, 3.0, 15.0, "a room has one or two entrances")
+    room_min_width_m: float = _threshold(
+        2.4, 1.8, 3.0, "building codes: a habitable room is 2.1-2.4 m or more in every direction"
+    )
+    passage_length: float = _threshold(
+        2.5, 1.5, 4.0, "a room is rarely over 2.5 times as long as wide; a passage is walked"
+    )
+    corridor_served_rooms: float = _threshold(
+        3.0, 2.0, 8.0, "rooms are reached from circulation: a room is the only way into few"
+    )
     corridor_opening_m: float = _threshold(
         1.2, 0.8, 2.5, "a single door is 0.8-1.2 m: a wider opening is no door"
     )
@@ -109,6 +126,13 @@ class RuleClassifier:
     hall_extent_m: float = _threshold(8.0, 5.0, 20.0, "open across, not a long strip")
     hall_width_m: float = _threshold(6.0, 3.0, 12.0, "wider than any corridor")
     hall_solidity: float = _threshold(0.5, 0.2, 0.9, "mostly floor, not a ring of corridors")
+    #: Rules (:data:`RULES`) switched off, to measure what each does (none by default).
+    off: frozenset[str] = frozenset()
+
+    def __post_init__(self) -> None:
+        unknown = sorted(set(self.off) - set(RULES))
+        if unknown:
+            raise LabelError(f"unknown rules {unknown}; known: {', '.join(RULES)}")
 
     def __call__(self, features: Mapping[str, NDArray[np.float64]]) -> list[str]:
         """The place type of every region of a feature table."""
@@ -118,12 +142,16 @@ class RuleClassifier:
             & (f["width_m"] <= self.doorway_width_m)
             & (f["doors"] >= 2)
         )
-        hall = (
+        open_space = (
             (f["area_m2"] >= self.hall_area_m2)
             & (f["extent_m"] >= self.hall_extent_m)
             & (f["width_m"] >= self.hall_width_m)
             & (f["solidity"] >= self.hall_solidity)
         )
+        long = f["slenderness"] >= self.corridor_length
+        none = np.zeros(len(long), bool)
+        wide_corridor = open_space & long if "wide corridor" not in self.off else none
+        hall = open_space & ~wide_corridor
         narrow = (f["width_m"] >= self.corridor_min_width_m) & (
             f["width_m"] <= self.corridor_width_m
         )
@@ -132,14 +160,28 @@ class RuleClassifier:
             & (f["dead_ends"] == 0)
             & (f["door_width_max_m"] < self.corridor_opening_m)
         )
+        if "dead end" in self.off:
+            behind_a_door = none
         corridor = narrow & ~behind_a_door
-        corridor &= (f["slenderness"] >= self.corridor_length) | (f["doors"] >= self.hub_doors)
-        corridor |= self._along_axis(f)
+        corridor &= long | (f["doors"] >= self.hub_doors)
+        if "served rooms" not in self.off:
+            corridor |= narrow & (f["dead_ends"] >= self.corridor_served_rooms)
+        if "passage" not in self.off:
+            corridor |= (
+                narrow
+                & (f["width_m"] <= self.room_min_width_m)
+                & (f["doors"] >= 2)
+                & (f["slenderness"] >= self.passage_length)
+            )
+        if "axis" not in self.off:
+            corridor |= self._along_axis(f)
+        corridor |= wide_corridor
         labels = np.select([doorway, hall, corridor], ["doorway", "hall", "corridor"], "room")
-        if "links" in features:
+        if "links" in features and "second pass" not in self.off:
             axis_narrow = f["axis_width_median_m"] <= self.corridor_axis_width_m
             passed = narrow & axis_narrow & (f["doors"] >= 2)
-            labels = self._continue_corridors(labels, passed, features)
+            bridges = narrow if "bridge" not in self.off else none
+            labels = self._continue_corridors(labels, passed, bridges, features)
         return [str(label) for label in labels]
 
     def _along_axis(self, f: Mapping[str, NDArray[np.float64]]) -> NDArray[np.bool_]:
@@ -160,6 +202,7 @@ class RuleClassifier:
         self,
         labels: NDArray[np.str_],
         passed: NDArray[np.bool_],
+        bridges: NDArray[np.bool_],
         features: Mapping[str, NDArray[np.float64]],
     ) -> NDArray[np.str_]:
         """``labels`` with the rooms of ``passed`` that open onto a corridor through an
@@ -173,11 +216,16 @@ class RuleClassifier:
         ends = np.vstack([ends, ends[:, ::-1]])  # both directions
         labels = labels.copy()
         while True:
-            joins = passed[ends[:, 0]] & (labels[ends[:, 0]] == "room")
-            joins &= labels[ends[:, 1]] == "corridor"
+            onto = (labels[ends[:, 0]] == "room") & (labels[ends[:, 1]] == "corridor")
+            joins = np.zeros(len(labels), bool)
+            joins[ends[onto & passed[ends[:, 0]], 0]] = True
+            # a corridor-wide room between two corridors, no door on either side: whatever
+            # its axis (fans of rays into the rooms beside widen it), the corridor goes on
+            pieces = {(a, b) for a, b in ends[onto & bridges[ends[:, 0]]].tolist()}
+            joins |= np.bincount([a for a, _ in pieces], minlength=len(labels)) >= 2
             if not joins.any():
                 return labels
-            labels[ends[joins, 0]] = "corridor"
+            labels[joins] = "corridor"
 
     @classmethod
     def thresholds(cls) -> dict[str, tuple[float, tuple[float, float], str]]:
@@ -185,9 +233,21 @@ class RuleClassifier:
         return {
             f.name: (float(f.default), f.metadata["range"], f.metadata["why"])  # type: ignore[arg-type]
             for f in dataclasses.fields(cls)
+            if "range" in f.metadata
         }
 
 
+#: The rules beyond the thresholds' first cut, by name (``RuleClassifier(off=...)`` switches
+#: them off): what each says.
+RULES = {
+    "dead end": "a slender room behind a single door, leading on to others, is a room",
+    "axis": "walked along a corridor-wide medial axis, however wide its floor: a corridor",
+    "served rooms": "as narrow as a corridor and the only way into 3 rooms or more: a corridor",
+    "passage": "narrower than a room, passed through, 2.5 times as long as wide: a corridor",
+    "wide corridor": "hall-sized but long for its width: a wide corridor, not a hall",
+    "second pass": "a corridor-narrow room opening onto a corridor wider than a door: corridor",
+    "bridge": "a corridor-narrow room open to two corridors, whatever its axis: corridor",
+}
 #: The feature columns the rules read.
 _RULE_COLUMNS = (
     "area_m2",

@@ -2,6 +2,7 @@
 per-map counts and pictures, on hand-made buildings whose true types are drawn by hand; and
 the hand-made label files against the data they label."""
 
+import itertools
 import json
 
 import cv2
@@ -22,6 +23,8 @@ from topomap.cli.label_sources import (
     labelled_map,
     read_room_types,
 )
+from topomap.errors import LabelError
+from topomap.features import FEATURES
 
 LABELS = ROOT / "tests" / "data" / "labels"
 
@@ -175,3 +178,97 @@ def test_hand_labels_match_the_data(data_dir):
     for shapes in drawn.values():
         assert (data_dir / "carmen" / shapes["log"]).is_file()
         assert all(c["width"] >= 1.0 for c in shapes["corridors"])
+
+
+def _centre_offsets(grid: OccupancyGrid, line: list[list[float]]) -> list[float]:
+    """Every metre along a drawn centreline, how far the middle of the free cross-section
+    through it (wall to wall, 1-4 m wide, within 3 m either side) lies from it, m; inf where
+    the line is on a wall or in unknown space."""
+    found = []
+    points = np.asarray(line, float)
+    for a, b in itertools.pairwise(points):
+        length = float(np.linalg.norm(b - a))
+        along = (b - a) / length
+        normal = np.array([-along[1], along[0]])
+        offsets = np.arange(-3.0, 3.0 + 1e-9, grid.resolution / 2)
+        for s in np.arange(0.5, length - 0.5, 1.0):
+            xy = a + along * s + np.outer(offsets, normal)
+            rows, cols = grid.world_to_cell(xy[:, 0], xy[:, 1])
+            inside = grid.contains(rows, cols)
+            free = np.zeros(len(offsets), bool)
+            free[inside] = grid.free[rows[inside], cols[inside]]
+            mid = len(offsets) // 2
+            if not free[mid]:
+                found.append(np.inf)
+                continue
+            lo = hi = mid
+            while lo > 0 and free[lo - 1]:
+                lo -= 1
+            while hi < len(offsets) - 1 and free[hi + 1]:
+                hi += 1
+            width = offsets[hi] - offsets[lo]
+            if lo > 0 and hi < len(offsets) - 1 and 1.0 <= width <= 4.0:  # a cross-section
+                found.append(abs(offsets[lo] + offsets[hi]) / 2)
+    return found
+
+
+def test_drawn_carmen_corridors_run_down_the_middle_of_the_corridors(data_dir):
+    # the corridors of carmen.json are the truth of four real maps: each centreline lies on
+    # the corridor's floor and mid-way between its walls (median within 0.4 m, a fifth of a
+    # 2 m corridor: clutter makes some cross-sections lopsided) on the map `topomap map`
+    # builds; a line drawn straight along a corridor that bends, or on a map turned a
+    # little, lies on the wall, and its band types half the floor wrong
+    from maps.carmen import read_carmen
+    from maps.mapping import grid_from_keyframes
+    from maps.scan import select_keyframes
+
+    drawn = json.loads((LABELS / "carmen.json").read_text())
+    for name, shapes in drawn.items():
+        frames = read_carmen(data_dir / "carmen" / shapes["log"])
+        grid = grid_from_keyframes(select_keyframes(frames, distance=0.5), 0.05, max_range=30.0)
+        for corridor in shapes["corridors"]:
+            offsets = _centre_offsets(grid, corridor["line"])
+            if len(offsets) < 3:  # a junction drawn as a dot
+                continue
+            assert np.median(offsets) <= 0.4, (name, corridor["line"], np.median(offsets))
+
+
+def _table_map(truth: str, building: str) -> LabelledMap:
+    """One region: a 5.5 m wide open area on a 36 m long, 2 m wide corridor axis (a corridor
+    by the axis rule only), with the given true type."""
+    features = {name: np.zeros(1) for name in FEATURES}
+    features.update(
+        id=np.array([1.0]),
+        area_m2=np.array([106.0]),
+        width_m=np.array([5.5]),
+        slenderness=np.array([3.5]),
+        doors=np.array([2.0]),
+        extent_m=np.array([5.5]),
+        solidity=np.array([0.8]),
+        axis_width_median_m=np.array([2.0]),
+        corridor_axis_m=np.array([36.0]),
+        door_width_max_m=np.array([1.5]),
+    )
+    return LabelledMap("a", building, building, None, None, features, [truth])  # type: ignore[arg-type]
+
+
+def test_a_rule_is_kept_unless_the_other_buildings_say_it_does_harm():
+    assert RuleClassifier()(_table_map("corridor", "A").features) == ["corridor"]
+    assert RuleClassifier(off=frozenset({"axis"}))(_table_map("room", "A").features) == ["room"]
+    with pytest.raises(LabelError, match="unknown rules"):
+        RuleClassifier(off=frozenset({"hub"}))
+    # the buildings trained on call such a space a room: the axis rule goes; a corridor, or
+    # no such space at all (the rule changes nothing): it stays
+    assert ev.choose_rules([_table_map("room", "A")]).off == {"axis"}
+    assert ev.choose_rules([_table_map("corridor", "A")]).off == frozenset()
+    # what each rule changes: the axis rule one region, right, in building B
+    rows = {r["rule"]: r for r in ev.rule_changes([_table_map("corridor", "B")], RuleClassifier())}
+    assert rows["axis"]["right with it only"] == 1 and rows["axis"]["buildings"] == "B"
+    assert rows["passage"]["buildings"] == "-"
+    # left out building by building: the rule is judged on the others only
+    maps = [_table_map("room", "A"), _table_map("corridor", "B"), _table_map("corridor", "C")]
+    found = ev.predict(maps, ev.METHODS["rules, each rule chosen"], held_out=True)
+    assert found == [["corridor"], ["corridor"], ["corridor"]]
+    maps[1] = _table_map("room", "B")  # now two of three call it a room
+    found = ev.predict(maps, ev.METHODS["rules, each rule chosen"], held_out=True)
+    assert found == [["corridor"], ["corridor"], ["room"]]

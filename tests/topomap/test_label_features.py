@@ -95,9 +95,11 @@ def test_room_with_one_door_and_a_hall():
     assert rule_classifier(f) == ["corridor", "room", "hall"]
 
 
-def test_hub_whatever_its_length():
-    # a 5 x 5 m space that six rooms open onto is where people pass: corridor; with five
-    # rooms (under the default six doors) it is a room with many doors
+def test_a_space_that_is_the_only_way_into_three_rooms_is_circulation():
+    # a 5 x 5 m space that rooms open onto and nothing else: rooms are reached from
+    # circulation space, so with three such rooms or more (corridor_served_rooms) it is a
+    # corridor, whatever its length; with two (a room with a store room and an office off
+    # it) a room
     size = _cells(5)
 
     def hub(rooms: int) -> tuple[float, str]:
@@ -119,7 +121,8 @@ def test_hub_whatever_its_length():
         return f["doors"][0], rule_classifier(f)[0]
 
     assert hub(6) == (6, "corridor")
-    assert hub(5) == (5, "room")
+    assert hub(3) == (3, "corridor")
+    assert hub(2) == (2, "room")
 
 
 def test_a_fan_of_laser_rays_is_no_corridor():
@@ -253,12 +256,12 @@ def test_features_do_not_depend_on_the_cell_size(name, office_at_two_cell_sizes)
 
 
 def test_a_corridor_cut_into_pieces_is_one_corridor_system():
-    # a 20 x 2 m corridor cut (by the segmentation) into a 14 m piece (1) and a 6 x 2.5 m
-    # piece (2), squat for a corridor, that leads on to a 4 x 4 m room (3) and has a 4 x 4 m
-    # room (4) on its side, each through a 1 m door
+    # a 20 x 2 m corridor cut (by the segmentation) into a 14 m piece (1) and a 6 x 2.8 m
+    # piece (2), squat for a corridor and wider than a passage, that leads on to a 4 x 4 m
+    # room (3) and has a 4 x 4 m room (4) on its side, each through a 1 m door
     pieces = [
         (1, 1, 5.1, 15, 7.1),
-        (2, 15, 5.1, 21, 7.6),
+        (2, 15, 5.1, 21, 7.9),
         (3, 21.1, 5.1, 25.1, 9.1),
         (3, 21, 6, 21.1, 7),
         (4, 16, 1, 20, 5),
@@ -268,13 +271,82 @@ def test_a_corridor_cut_into_pieces_is_one_corridor_system():
     assert f["slenderness"][1] < rule_classifier.corridor_length
     # no door between the two pieces (the 2 m cut): the corridor system goes on
     assert rule_classifier(f) == ["corridor", "corridor", "room", "room"]
+    # (with room 4 the piece is the only way into three regions, 1, 3 and 4: circulation
+    # by the first pass already); without room 4 the first pass alone calls it a room
+    f = _table(pieces[:4])
+    assert rule_classifier(f) == ["corridor", "corridor", "room"]
     assert rule_classifier({k: v for k, v in f.items() if k != "links"})[1] == "room"
     # behind a wall (10 cm) with a 1 m door, the piece is a room (with two doors) of its own;
     # the 14 m piece, a 4 x 4 m room (5) off it, stays a corridor
-    walled = [pieces[0], (2, 15.1, 5.1, 21, 7.6), (2, 15, 5.6, 15.1, 6.6), *pieces[2:]]
+    walled = [pieces[0], (2, 15.1, 5.1, 21, 7.9), (2, 15, 5.6, 15.1, 6.6), *pieces[2:]]
     f = _table([*walled, (5, 4, 1, 8, 5), (5, 5.5, 5, 6.5, 5.1)])
     assert f["links"][0].tolist() == pytest.approx([1, 2, 1.0], abs=0.06)
     assert rule_classifier(f) == ["corridor", "room", "room", "room", "room"]
+
+
+def _passage(width: float, length: float) -> dict:
+    """Two 4 x 4 m rooms (1, 3) joined by a ``width`` x ``length`` m space (2) through a 1 m
+    door at each end."""
+    top, bottom = 3 - width / 2, 3 + width / 2
+    return _table(
+        [
+            (1, 1, 1, 5, 5),
+            (1, 5, 2.5, 5.1, 3.5),
+            (2, 5.1, top, 5.1 + length, bottom),
+            (3, 5.2 + length, 1, 9.2 + length, 5),
+            (3, 5.1 + length, 2.5, 5.2 + length, 3.5),
+        ]
+    )
+
+
+@pytest.mark.parametrize(
+    ("width", "length", "expected"),
+    [
+        (2.0, 6.0, "corridor"),  # narrower than a room, walked through: a passage
+        (2.0, 3.0, "room"),  # as narrow but squat: a small room between two (an anteroom)
+        (3.0, 9.0, "room"),  # wider than a room must be, not 4 times as long: a room
+    ],
+)
+def test_a_passage_narrower_than_a_room(width, length, expected):
+    f = _passage(width, length)
+    assert f["doors"][1] == 2 and f["dead_ends"][1] < rule_classifier.corridor_served_rooms
+    assert rule_classifier(f)[1] == expected
+    assert rule_classifier(f)[::2] == ["room", "room"]
+
+
+def test_a_long_open_space_is_a_wide_corridor_an_open_one_a_hall():
+    # a 9 m wide, 45 m long space with six 4 x 4 m offices off it, each through a 1 m door:
+    # hall-sized, but 5 times as long as wide, walked along (ipa's Fr101 corridor is 8-11 m
+    # wide); the same offices off a 20 x 16 m floor: a hall
+    def floor(width: float, length: float) -> str:
+        offices = [(k + 2, 1 + 5 * k, 1, 5 + 5 * k, 5) for k in range(6)]
+        doors = [(k + 2, 2.5 + 5 * k, 5, 3.5 + 5 * k, 5.1) for k in range(6)]
+        f = _table([(1, 1, 5.1, 1 + length, 5.1 + width), *offices, *doors])
+        assert f["area_m2"][0] >= rule_classifier.hall_area_m2
+        return rule_classifier(f)[0]
+
+    assert floor(9.0, 45.0) == "corridor"
+    assert floor(16.0, 30.0) == "hall"
+
+
+def test_a_room_between_two_corridors_with_no_door_is_the_corridor():
+    # two 12 x 2 m corridor pieces (1, 3) and a 5 x 3.4 m piece (2) between them, open to
+    # both across their whole width (no door): its axis is wider than a corridor's (3.4 m,
+    # the rays into the rooms beside widen it on a SLAM map), yet the corridor goes on; a
+    # 4 x 4 m room (4) off piece 1 stays a room
+    pieces = [
+        (1, 1, 6, 13, 8),
+        (2, 13, 5.3, 18, 8.7),
+        (3, 18, 6, 30, 8),
+        (4, 5, 1, 9, 5),
+        (4, 6.5, 5, 7.5, 6),
+    ]
+    f = _table(pieces)
+    assert f["axis_width_median_m"][1] > rule_classifier.corridor_axis_width_m
+    assert rule_classifier(f) == ["corridor", "corridor", "corridor", "room"]
+    # open onto one corridor only (piece 3 behind a 1 m door): an office open to a corridor
+    doored = [*pieces[:2], (3, 18.1, 6, 30, 8), (3, 18, 6.5, 18.1, 7.5), pieces[3], pieces[4]]
+    assert rule_classifier(_table(doored))[1] == "room"
 
 
 @given(arrays(bool, st.tuples(st.integers(1, 30), st.integers(1, 30))))

@@ -19,6 +19,7 @@ from topomap.cli.evaluate_labels import (
     margins,
     mistakes,
     region_records,
+    rule_changes,
     train_forest,
 )
 from topomap.cli.tables import markdown_table
@@ -53,6 +54,22 @@ def score_rows(result: dict[str, Any]) -> list[dict[str, Any]]:
     return rows
 
 
+def lobo_by_source(result: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per method: its leave-one-building-out macro-F1 per source and over all.
+
+    Examples
+    --------
+    >>> scores = {"a": {"macro_f1": 0.5}, "all": {"macro_f1": 0.4}}
+    >>> lobo_by_source({"rules (LOBO)": {"scores": scores}, "rules (in-sample)": {}})
+    [{'method': 'rules', 'a': 0.5, 'all': 0.4}]
+    """
+    return [
+        {"method": m.removesuffix(" (LOBO)")} | {s: v["macro_f1"] for s, v in r["scores"].items()}
+        for m, r in result.items()
+        if m.endswith("(LOBO)")
+    ]
+
+
 def run(args: argparse.Namespace) -> dict[str, Any]:
     """Run the evaluation the options ask for, print it and write its files into ``args.out``;
     returns what results.json holds."""
@@ -68,6 +85,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     lobo = {m: r["scores"]["all"]["macro_f1"] for m, r in result.items() if m.endswith("(LOBO)")}
     best = max(lobo, key=lambda m: lobo[m])
     print(f"\nbest LOBO macro-F1 over all sources: {best} ({lobo[best]})")
+    per_source = lobo_by_source(result)
+    print("LOBO macro-F1 per source (the default classifier is chosen by the 'all' column):")
+    print(markdown_table(per_source, list(per_source[0])))
     found = margins(maps, rule_classifier)
     print("\nmargins of the default rules' thresholds (others fixed; macro-F1 on all sources")
     print("stays within 0.01 from 'lowest' to 'highest'; 'range' is what was searched):")
@@ -78,6 +98,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             ["threshold", "value", "lowest", "highest", "range", "why"],
         )
     )
+    changes = rule_changes(maps, rule_classifier)
+    print("\nwhat each rule of the default changes (regions right with it only / without it only):")
+    print(markdown_table(changes, list(changes[0])))
     shown = result[SHOWN]["labels"]
     per_map = mistakes(maps, shown)
     print(f"\nper map, {SHOWN}:")
@@ -88,7 +111,9 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     results = {
         "scores": rows,
         "best_lobo": best,
+        "lobo_by_source": per_source,
         "margins": found,
+        "rule_changes": changes,
         "per_map": per_map,
         "regions": region_records(maps, result),
     }
@@ -97,4 +122,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if args.save_model:
         model = train_forest([m for m in maps if m.source not in VIEWS])
         print(f"wrote {model.save(args.save_model)} (forest trained on all labelled regions)")
+        print(
+            f"its LOBO macro-F1 over all sources {lobo['forest (LOBO)']}, the rules' "
+            f"{lobo['rules (LOBO)']}: use it where it is the better ({best} is the best here)"
+        )
     return results
