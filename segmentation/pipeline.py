@@ -256,7 +256,7 @@ class MapSegmenter(Estimator):
         if len(seeing) < 2:
             raise SegmentationError(
                 f"{len(seeing)} of {len(keyframes)} keyframes saw a wall within their laser's "
-                "range: nothing to cluster"
+                "range: at least 2 are needed to cluster"
             )
         if len(seeing) < len(keyframes):
             log.info("%d keyframes saw no wall and are not clustered", len(keyframes) - len(seeing))
