@@ -37,7 +37,7 @@ from planners.cspace import HeadingCSpace
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError, PlanningError
 from planners.flat import _seed_once
 from planners.hierarchical import HierarchicalPlanner, regions_along
-from planners.kinematic import KinematicOMPL, Pose, check_pose
+from planners.kinematic import KinematicOMPL, Pose, describe, end_poses
 from planners.legs import Crossing, door_poses
 from planners.path import PlannedPath
 from planners.region_route import region_routes
@@ -176,7 +176,8 @@ class KinematicHierarchicalPlanner:
 
     def plan(self, start: ArrayLike | int | str, goal: ArrayLike | int | str) -> PlannedPath:
         """Plan from ``start`` to ``goal``: poses ``(x, y, yaw)`` or points ``(x, y)`` (the
-        valid heading nearest 0), or regions (an id or a name,
+        valid heading nearest 0, or any valid heading for a forward-only car:
+        :func:`planners.kinematic.end_poses`), or regions (an id or a name,
         :func:`segmentation.names.find_region`) standing for their most open points.
 
         The first route is the door graph's shortest path for a disc as wide as the
@@ -200,12 +201,12 @@ class KinematicHierarchicalPlanner:
             else end
             for end in (start, goal)
         )
-        s, g = check_pose(self.cspace, start, "start"), check_pose(self.cspace, goal, "goal")
-        for what, pose in (("start", s), ("goal", g)):
-            if self.region_at(pose[0], pose[1]) not in self.graph:
-                raise InvalidQueryError(f"{what} {pose[:2]} lies in no region of the graph")
+        s, g = end_poses(self.cspace, start, "start"), end_poses(self.cspace, goal, "goal")
+        for what, poses in (("start", s), ("goal", g)):
+            if self.region_at(poses[0][0], poses[0][1]) not in self.graph:
+                raise InvalidQueryError(f"{what} {poses[0][:2]} lies in no region of the graph")
         seconds = {"route_search": 0.0, "submaps": 0.0, "planning": 0.0, "simplification": 0.0}
-        routes = self._routes(s, g)
+        routes = self._routes(s[0], g[0])
         tried: list[str] = []
         for k in range(self.routes):
             clock = time.perf_counter()
@@ -215,16 +216,18 @@ class KinematicHierarchicalPlanner:
                 break
             tried.append(route.what)
             along = self._legs if self.mode == "legs" else self._union
-            poses = along(route, s, g, Budget(deadline, self.routes - k), seconds)
-            if poses is not None:
-                crossed = regions_along(self.cspace.grid, self.labels, poses[:, :2])
-                return PlannedPath.from_poses(poses, self.name, crossed, seconds)
+            found = along(route, s, g, Budget(deadline, self.routes - k), seconds)
+            if found is not None:
+                crossed = regions_along(self.cspace.grid, self.labels, found[:, :2])
+                return PlannedPath.from_poses(found, self.name, crossed, seconds)
         if not tried:
             raise NoPathError(
-                f"no route from {s} to {g} through doors at least {self.min_width:g} m wide"
+                f"no route from {describe(s)} to {describe(g)} through doors at least "
+                f"{self.min_width:g} m wide"
             )
         raise NoPathError(
-            f"OMPL {self.planner} found no path from {s} to {g} in {self.time_limit:g} s "
+            f"OMPL {self.planner} found no path from {describe(s)} to {describe(g)} in "
+            f"{self.time_limit:g} s "
             f"on any of the routes tried: {'; '.join(tried)}"
         )
 
@@ -257,7 +260,12 @@ class KinematicHierarchicalPlanner:
             log.debug("no region route: %s", err)
 
     def _union(
-        self, route: Route, start: Pose, goal: Pose, budget: Budget, seconds: dict[str, float]
+        self,
+        route: Route,
+        start: list[Pose],
+        goal: list[Pose],
+        budget: Budget,
+        seconds: dict[str, float],
     ) -> NDArray[np.float64] | None:
         """One OMPL query inside the union of the route's submaps, simplified on the whole
         map: its poses."""
@@ -265,7 +273,12 @@ class KinematicHierarchicalPlanner:
         return None if vertices is None else self._smooth(vertices, seconds)
 
     def _legs(
-        self, route: Route, start: Pose, goal: Pose, budget: Budget, seconds: dict[str, float]
+        self,
+        route: Route,
+        start: list[Pose],
+        goal: list[Pose],
+        budget: Budget,
+        seconds: dict[str, float],
     ) -> NDArray[np.float64] | None:
         """One OMPL query per leg between door poses, the legs joined end to end: their poses.
         Each leg may take the budget's share of the time left, so a leg that fails leaves
@@ -285,7 +298,7 @@ class KinematicHierarchicalPlanner:
                 legs.append((ids, poses))
                 ids = []
             ids.append(after)
-        legs.append((ids, [goal]))
+        legs.append((ids, goal))
         seconds["submaps"] += time.perf_counter() - clock
         pieces, pose = [], start
         for k, (leg, ends) in enumerate(legs):
@@ -296,7 +309,7 @@ class KinematicHierarchicalPlanner:
                 log.debug("leg %d of %d (submaps %s) failed", k + 1, len(legs), leg)
                 return None
             pieces.append(found if k == 0 else found[1:])
-            pose = (float(found[-1, 0]), float(found[-1, 1]), float(found[-1, 2]))
+            pose = [(float(found[-1, 0]), float(found[-1, 1]), float(found[-1, 2]))]
         return self._smooth(np.vstack(pieces), seconds)
 
     def _ends(self, route: Route, crossing: Crossing) -> bool:
@@ -318,8 +331,8 @@ class KinematicHierarchicalPlanner:
         self,
         route: Route,
         ids: list[int],
-        start: Pose,
-        goal: Pose | list[Pose],
+        start: list[Pose],
+        goal: list[Pose],
         until: float,
         seconds: dict[str, float],
     ) -> NDArray[np.float64] | None:
@@ -331,19 +344,23 @@ class KinematicHierarchicalPlanner:
         # the motion straight to a goal first, on the whole map: when valid it needs no
         # submap set-up and no planner (most legs between the door poses of near-convex
         # submaps), and it is the shortest leg between the two poses
-        direct = self._whole.direct(start, goal) if self._whole.admits(start) else None
+        starts = [pose for pose in start if self._whole.admits(pose)]
+        direct = self._whole.direct(starts, goal) if starts else None
         if direct is not None:
             seconds["planning"] += time.perf_counter() - clock
             return direct
         clock = time.perf_counter()
         ompl = self._submaps(route, ids)
-        goals = [pose for pose in (goal if isinstance(goal, list) else [goal]) if ompl.admits(pose)]
+        goals = [pose for pose in goal if ompl.admits(pose)]
+        starts = [pose for pose in start if ompl.admits(pose)]
         seconds["submaps"] += time.perf_counter() - clock
-        if not (goals and ompl.admits(start)):
-            log.debug("the ends %s, %s are not valid in submaps %s", start, goal, ids)
+        if not (goals and starts):
+            log.debug(
+                "the ends %s, %s are not valid in submaps %s", describe(start), describe(goal), ids
+            )
             return None
         poses, spent = ompl.search(
-            start, goals, max(until - time.perf_counter(), 1e-3), direct=False
+            starts, goals, max(until - time.perf_counter(), 1e-3), direct=False
         )
         for key, value in spent.items():
             seconds[key] += value

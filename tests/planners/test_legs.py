@@ -247,6 +247,6 @@ def test_a_forward_only_car_ends_legs_only_at_doors_between_regions():
         assert route.kind == "parts" and len(route.crossings) == 3  # two cuts, then the door
         assert sum(planner._ends(route, c) for c in route.crossings) == ends
         seconds = dict.fromkeys(("route_search", "submaps", "planning", "simplification"), 0.0)
-        poses = planner._legs(route, start, goal, Budget(time.perf_counter() + 2.0, 1), seconds)
+        poses = planner._legs(route, [start], [goal], Budget(time.perf_counter() + 2.0, 1), seconds)
         assert poses is not None  # the first route, within its 2 s
         assert footprint_collisions(grid, cspace.robot.polygon, poses) == 0
