@@ -302,11 +302,17 @@ class KinematicHierarchicalPlanner:
         seconds["submaps"] += time.perf_counter() - clock
         pieces, pose = [], start
         for k, (leg, ends) in enumerate(legs):
+            clock = time.perf_counter()
             found = self._solve(
                 route, list(dict.fromkeys(leg)), pose, ends, budget.until(), seconds
             )
+            log.debug(
+                "leg %d of %d (submaps %s, from %s to %s): %s in %.3f s",
+                k + 1, len(legs), leg, describe(pose), describe(ends),
+                "failed" if found is None else f"{len(found)} vertices",
+                time.perf_counter() - clock,
+            )  # fmt: skip
             if found is None:
-                log.debug("leg %d of %d (submaps %s) failed", k + 1, len(legs), leg)
                 return None
             pieces.append(found if k == 0 else found[1:])
             pose = [(float(found[-1, 0]), float(found[-1, 1]), float(found[-1, 2]))]
