@@ -107,20 +107,24 @@ class KinematicOMPL:
         self, start: Pose | list[Pose], goal: Pose | list[Pose]
     ) -> NDArray[np.float64] | None:
         """The vertices ``(2, 3)`` of the motion from the start straight to the goal (each a
-        valid pose, or of lists of poses the pair nearest by the state space's distance)
-        when it is valid (OMPL's motion validator: the goal valid and in bounds, the states
-        between checked at the motion step), else None. For a car the motion is its shortest
-        path between the two poses in free space, so a valid one is the best path there is.
-        Only the nearest pair is tried: a farther one reached directly may be a detour (a
-        turn about to cross a door backwards) that a planner would not take."""
-        starts = [(pose, self._state(pose)) for pose in _listed(start)]
+        valid pose, or a list of poses) when it is valid (OMPL's motion validator: the goal
+        valid and in bounds, the states between checked at the motion step), else None. For
+        a car the motion is its shortest path between the two poses in free space, so a
+        valid one is the best path there is. Each start tries only the goal nearest it by
+        the state space's distance, the starts in the order of that distance: a farther goal
+        reached directly may be a detour (a turn about to cross a door backwards) that a
+        planner would not take."""
         goals = [(pose, self._state(pose)) for pose in _listed(goal)]
-        (p, a), (q, b) = min(
-            ((s, g) for s in starts for g in goals),
-            key=lambda pair: self._space.distance(pair[0][1], pair[1][1]),
-        )
-        if self._si.checkMotion(a, b):
-            return np.array([p, q], float)
+        pairs = []
+        for pose in _listed(start):
+            a = self._state(pose)
+            far, (q, b) = min(
+                ((self._space.distance(a, g[1]), g) for g in goals), key=lambda d: d[0]
+            )
+            pairs.append((far, pose, a, q, b))
+        for _, p, a, q, b in sorted(pairs, key=lambda item: item[0]):
+            if self._si.checkMotion(a, b):
+                return np.array([p, q], float)
         return None
 
     def search(

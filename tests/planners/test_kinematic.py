@@ -192,3 +192,49 @@ def test_the_same_seed_gives_the_same_path():
     ]
     assert json.loads(runs[0].stdout) == json.loads(runs[1].stdout)
     assert "leaked" not in runs[0].stderr  # OMPL's bindings report nothing at exit
+
+
+CAR = "dubins:radius=1,footprint=0.9x0.6"
+
+
+def _ahead(cspace, pose, turn):
+    """Metres a forward-only car drives from ``pose`` straight (``turn`` 0) or on its
+    tightest circle left (1) or right (-1) before its footprint collides (at most 3 m)."""
+    x, y, yaw = pose
+    radius = cspace.robot.turning_radius
+    for s in np.arange(0.01, 3.0, 0.01):
+        a = yaw + turn * s / radius
+        if turn == 0:
+            p = (x + s * math.cos(yaw), y + s * math.sin(yaw), yaw)
+        else:
+            p = (
+                x + turn * radius * (math.sin(a) - math.sin(yaw)),
+                y - turn * radius * (math.cos(a) - math.cos(yaw)),
+                a,
+            )
+        if not cspace.valid(*p):
+            return s - 0.01
+    return 3.0
+
+
+def test_a_forward_only_car_starting_at_a_wall_leaves_at_another_heading():
+    """A point start whose heading nearest 0 faces the wall 0.4 m ahead, beside the door: a
+    forward-only car (1 m turning radius) cannot drive away at that heading (2 of 10 office
+    queries failed so), but a point stands for any heading, so both planners start at one
+    the car can leave from; the paths are continuous and collision-free by the sweep."""
+    planner = _planner(CAR)
+    planner.time_limit = 1.0
+    grid, robot = planner.cspace.grid, planner.cspace.robot
+    start, goal = (3.2, 0.6), (6.0, 2.0)
+    facing = (*start, 0.0)  # the front 0.4 m from the dividing wall
+    assert planner.cspace.valid(*facing)
+    assert max(_ahead(planner.cspace, facing, turn) for turn in (-1, 0, 1)) < 0.5
+    with pytest.raises(NoPathError):
+        planner.plan(facing, goal)
+    flat = FlatKinematicPlanner(planner.cspace, "RRT", time_limit=5.0)
+    for path in (planner.plan(start, goal), flat.plan(start, goal)):
+        poses = path.poses
+        assert np.allclose(poses[0, :2], start) and np.allclose(poses[-1, :2], goal)
+        assert abs(math.remainder(poses[0, 2], math.tau)) > 0.5  # not the heading at the wall
+        assert np.hypot(*np.diff(poses[:, :2], axis=0).T).max() <= POSE_SPACING + 1e-9
+        assert footprint_collisions(grid, robot.polygon, poses) == 0
