@@ -142,5 +142,7 @@ def _across(crossing: Crossing, cspace: HeadingCSpace, yaw: float) -> list[Pose]
     valid = cspace.valid_many(np.array(candidates))
     found = [pose for pose, ok in zip(candidates, valid, strict=True) if ok]
     if len(found) > cspace.headings:
-        found = [found[i] for i in np.linspace(0, len(found) - 1, cspace.headings).round()]
+        found = [
+            found[i] for i in np.linspace(0, len(found) - 1, cspace.headings).round().astype(int)
+        ]
     return found
