@@ -300,23 +300,47 @@ class KinematicHierarchicalPlanner:
             ids.append(after)
         legs.append((ids, goal))
         seconds["submaps"] += time.perf_counter() - clock
-        pieces, pose = [], start
+        pieces: list[NDArray[np.float64]] = []
+        froms: list[tuple[list[Pose], list[int]]] = []  # each planned leg's start, submaps
+        pose = start
         for k, (leg, ends) in enumerate(legs):
-            clock = time.perf_counter()
-            found = self._solve(
-                route, list(dict.fromkeys(leg)), pose, ends, budget.until(), seconds
-            )
-            log.debug(
-                "leg %d of %d (submaps %s, from %s to %s): %s in %.3f s",
-                k + 1, len(legs), leg, describe(pose), describe(ends),
-                "failed" if found is None else f"{len(found)} vertices",
-                time.perf_counter() - clock,
-            )  # fmt: skip
+            found = self._leg(route, k, len(legs), leg, pose, ends, budget, seconds)
+            if found is None and pieces:
+                # the previous leg's end (a pose across a door) may be one this leg cannot
+                # leave at the car's turning radius: the two legs as one, from its start
+                pieces.pop()
+                pose, before = froms.pop()
+                leg = before + leg
+                found = self._leg(route, k, len(legs), leg, pose, ends, budget, seconds)
             if found is None:
                 return None
-            pieces.append(found if k == 0 else found[1:])
+            froms.append((pose, leg))
+            pieces.append(found if not pieces else found[1:])
             pose = [(float(found[-1, 0]), float(found[-1, 1]), float(found[-1, 2]))]
         return self._smooth(np.vstack(pieces), seconds)
+
+    def _leg(
+        self,
+        route: Route,
+        k: int,
+        count: int,
+        leg: list[int],
+        start: list[Pose],
+        ends: list[Pose],
+        budget: Budget,
+        seconds: dict[str, float],
+    ) -> NDArray[np.float64] | None:
+        """Leg ``k`` of ``count``: :meth:`_solve` in submaps ``leg``, its share of the
+        budget."""
+        clock = time.perf_counter()
+        found = self._solve(route, list(dict.fromkeys(leg)), start, ends, budget.until(), seconds)
+        log.debug(
+            "leg %d of %d (submaps %s, from %s to %s): %s in %.3f s",
+            k + 1, count, leg, describe(start), describe(ends),
+            "failed" if found is None else f"{len(found)} vertices",
+            time.perf_counter() - clock,
+        )  # fmt: skip
+        return found
 
     def _ends(self, route: Route, crossing: Crossing) -> bool:
         """Whether a leg ends across ``crossing``: always for a robot that reverses or turns
