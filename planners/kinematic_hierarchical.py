@@ -291,12 +291,8 @@ class KinematicHierarchicalPlanner:
         points = [start[0][:2], *(c.point for c in route.crossings), goal[0][:2]]
         last = np.asarray(points[0], float)  # where the current leg starts
         for k, (crossing, after) in enumerate(zip(route.crossings, route.ids[1:], strict=True)):
-            if self._ends(route, crossing):
-                poses = door_poses(crossing, route.labels, self.cspace)
-            elif self._room(last, crossing.point, points[k + 2]):
-                poses = door_poses(crossing, route.labels, self.cspace)
-            else:
-                poses = []
+            stop = self._ends(route, crossing) or self._room(last, crossing.point, points[k + 2])
+            poses = door_poses(crossing, route.labels, self.cspace) if stop else []
             if poses:
                 last = np.asarray(crossing.point, float)
                 legs.append((ids, poses))
