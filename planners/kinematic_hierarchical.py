@@ -343,10 +343,11 @@ class KinematicHierarchicalPlanner:
         return found
 
     def _ends(self, route: Route, crossing: Crossing) -> bool:
-        """Whether a leg ends across ``crossing``: always for a robot that reverses or turns
-        in place; for a forward-only car only at the doors between regions, since a cut
-        between two parts of one region (along a corridor) may leave it too little room to
-        turn, at its turning radius, into a side door just after it."""
+        """Whether a leg ends across ``crossing`` whatever its surroundings: always for a
+        robot that reverses or turns in place; for a forward-only car at the doors between
+        regions, since a cut between two parts of one region (along a corridor) may leave
+        it too little room to turn, at its turning radius, into a side door just after it
+        (such a cut ends a leg only where :meth:`_room` says so)."""
         if self.cspace.robot.reverses or route.kind == "regions":
             return True
         return self.doors.region_of[crossing.before] != self.doors.region_of[crossing.after]
