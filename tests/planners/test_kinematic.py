@@ -220,7 +220,7 @@ def _ahead(cspace, pose, turn):
 
 def test_a_forward_only_car_starting_at_a_wall_leaves_at_another_heading():
     """A point start whose heading nearest 0 faces the wall 0.4 m ahead, beside the door: a
-    forward-only car (1 m turning radius) cannot drive away at that heading (2 of 10 office
+    forward-only car (1 m turning radius) cannot drive away at that heading (1 of 10 office
     queries failed so), but a point stands for any heading, so both planners start at one
     the car can leave from; the paths are continuous and collision-free by the sweep."""
     planner = _planner(CAR)
