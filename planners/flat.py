@@ -82,17 +82,18 @@ def solve_query(
     *,
     first: bool = False,
 ) -> Any:
-    """One query of ``planner`` from state ``start`` to ``goal`` (a state, or a list of
+    """One query of ``planner`` from ``start`` to ``goal`` (each a state, or a list of
     states any of which will do): its problem definition, after solving for at most
     ``time_limit`` seconds. A roadmap planner keeps its roadmap (only the query is cleared)
     and accepts the first path it finds, as does any planner when ``first``; any other
     starts afresh."""
     problem = ob.ProblemDefinition(si)
-    if isinstance(goal, list):
+    if isinstance(goal, list) or isinstance(start, list):
         goals = ob.GoalStates(si)
-        for state in goal:
+        for state in goal if isinstance(goal, list) else [goal]:
             goals.addState(state)
-        problem.addStartState(start)
+        for state in start if isinstance(start, list) else [start]:
+            problem.addStartState(state)
         problem.setGoal(goals)
     else:
         problem.setStartAndGoalStates(start, goal)

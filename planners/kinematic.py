@@ -12,6 +12,7 @@ validity and motion checks, the planner and the simplification.
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from typing import Any
@@ -33,6 +34,8 @@ from planners.flat import (
     solve_query,
 )
 from planners.path import PlannedPath
+
+log = logging.getLogger(__name__)
 
 Pose = tuple[float, float, float]
 #: Largest distance between two poses of a returned path, metres.
@@ -84,14 +87,15 @@ class KinematicOMPL:
 
     def solve(
         self,
-        start: Pose,
+        start: Pose | list[Pose],
         goal: Pose | list[Pose],
         time_limit: float,
         simplify: bool = True,
     ) -> tuple[NDArray[np.float64] | None, dict[str, float]]:
-        """Poses ``(n, 3)`` from ``start`` to ``goal`` (a pose, or a list of poses any of
-        which will do: the path ends on one of them), at most :data:`POSE_SPACING` apart, or
-        None when no exact solution was found in ``time_limit`` seconds; and the seconds of
+        """Poses ``(n, 3)`` from ``start`` to ``goal`` (each a pose, or a list of poses any of
+        which will do: the path starts and ends on one of them), at most
+        :data:`POSE_SPACING` apart, or None when no exact solution was found in
+        ``time_limit`` seconds; and the seconds of
         planning and simplification (:meth:`search`, then :meth:`smooth`)."""
         vertices, seconds = self.search(start, goal, time_limit)
         if vertices is None:
@@ -99,23 +103,36 @@ class KinematicOMPL:
         poses, seconds["simplification"] = self.smooth(vertices, simplify)
         return poses, seconds
 
-    def direct(self, start: Pose, goal: Pose | list[Pose]) -> NDArray[np.float64] | None:
-        """The vertices ``(2, 3)`` of the motion from ``start`` (a valid pose) straight to
-        the goal (a pose, or of a list of poses the one nearest by the state space's
-        distance) when it is valid (OMPL's motion validator: the goal valid and in bounds,
-        the states between checked at the motion step), else None. For a car the motion is
-        its shortest path between the two poses in free space, so a valid one is the best
-        path there is. Only the nearest goal is tried: a farther one reached directly may be
-        a detour (a turn about to cross a door backwards) that a planner would not take."""
-        a = self._state(start)
-        goals = [(pose, self._state(pose)) for pose in (goal if isinstance(goal, list) else [goal])]
-        pose, b = min(goals, key=lambda item: self._space.distance(a, item[1]))
-        if self._si.checkMotion(a, b):
-            return np.array([start, pose], float)
+    def direct(
+        self, start: Pose | list[Pose], goal: Pose | list[Pose]
+    ) -> NDArray[np.float64] | None:
+        """The vertices ``(2, 3)`` of the motion from the start straight to the goal (each a
+        valid pose, or a list of poses) when it is valid (OMPL's motion validator: the goal
+        valid and in bounds, the states between checked at the motion step), else None. For
+        a car the motion is its shortest path between the two poses in free space, so a
+        valid one is the best path there is. Each start tries only the goal nearest it by
+        the state space's distance, the starts in the order of that distance: a farther goal
+        reached directly may be a detour (a turn about to cross a door backwards) that a
+        planner would not take."""
+        goals = [(pose, self._state(pose)) for pose in _listed(goal)]
+        pairs = []
+        for pose in _listed(start):
+            a = self._state(pose)
+            far, (q, b) = min(
+                ((self._space.distance(a, g[1]), g) for g in goals), key=lambda d: d[0]
+            )
+            pairs.append((far, pose, a, q, b))
+        for _, p, a, q, b in sorted(pairs, key=lambda item: item[0]):
+            if self._si.checkMotion(a, b):
+                return np.array([p, q], float)
         return None
 
     def search(
-        self, start: Pose, goal: Pose | list[Pose], time_limit: float, direct: bool = True
+        self,
+        start: Pose | list[Pose],
+        goal: Pose | list[Pose],
+        time_limit: float,
+        direct: bool = True,
     ) -> tuple[NDArray[np.float64] | None, dict[str, float]]:
         """The planner's solution from ``start`` to ``goal`` (as for :meth:`solve`) as its
         vertices ``(n, 3)`` after OMPL's ``reduceVertices`` (the vertices it can skip), or
@@ -131,11 +148,14 @@ class KinematicOMPL:
         goals = (
             [self._state(pose) for pose in goal] if isinstance(goal, list) else self._state(goal)
         )
+        starts = (
+            [self._state(pose) for pose in start] if isinstance(start, list) else self._state(start)
+        )
         problem = solve_query(
             self._si,
             self._planner,
             self.keeps_roadmap,
-            self._state(start),
+            starts,
             goals,
             time_limit,
             first=True,
@@ -168,7 +188,16 @@ class KinematicOMPL:
             simplifier = og.PathSimplifier(self._si)
             simplifier.reduceVertices(path)
             simplifier.partialShortcutPath(path)
+            shortcut = og.PathGeometric(path)
             simplifier.smoothBSpline(path, SMOOTHING_STEPS)
+            # OMPL's B-spline smoothing subdivides the path and checks only the motions onto
+            # the states it moves, not the path it returns: on a Dubins space that path went
+            # through walls (1 of 30 office queries, 209 poses in collision by the sweep).
+            # Keep it only when every state and motion passes the checks, else the shortcut
+            # path (every motion of it checked)
+            if not path.check():
+                log.debug("B-spline smoothing left an invalid path: kept the shortcut one")
+                path = shortcut
         # states a motion-check step apart: a step moves no footprint point more than a cell
         path.interpolate()
         poses = _poses(path)
@@ -211,6 +240,10 @@ def ompl_yaw(yaw: float) -> float:
     return -math.pi if wrapped >= math.pi else wrapped
 
 
+def _listed(poses: Pose | list[Pose]) -> list[Pose]:
+    return poses if isinstance(poses, list) else [poses]
+
+
 def _poses(path: Any) -> NDArray[np.float64]:
     """The states of an OMPL path as poses ``(n, 3)``."""
     states = (path.getState(i) for i in range(path.getStateCount()))
@@ -246,6 +279,29 @@ def check_pose(cspace: HeadingCSpace, pose: ArrayLike, what: str) -> Pose:
     return x, y, float(wrapped[np.argmin(np.abs(wrapped))])
 
 
+def end_poses(cspace: HeadingCSpace, pose: ArrayLike, what: str) -> list[Pose]:
+    """The poses a query's start or goal ``pose`` stands for: a pose ``(x, y, yaw)`` itself;
+    a point ``(x, y)`` the valid heading nearest 0 (:func:`check_pose`) for a robot that
+    reverses or turns in place, which can take any heading there; for a forward-only car
+    every valid heading there (the middles of the configuration space's heading bins,
+    nearest 0 first), any of which will do. A forward-only car cannot turn on the spot: at
+    the heading nearest 0 it may face a wall closer than it can turn away from (a start
+    0.4 m from a wall at a 1 m turning radius) or have too little room behind it to arrive
+    (a goal 1 m in front of a wall), so that one heading would make a query with an easy
+    answer unsolvable.
+
+    Raises
+    ------
+    InvalidQueryError
+        As :func:`check_pose`.
+    """
+    first = check_pose(cspace, pose, what)
+    if cspace.robot.reverses or np.asarray(pose, float).size == 3:
+        return [first]
+    yaws = np.array([ompl_yaw(float(a)) for a in cspace.free_headings(first[0], first[1])])
+    return [(first[0], first[1], float(a)) for a in yaws[np.argsort(np.abs(yaws), kind="stable")]]
+
+
 class FlatKinematicPlanner:
     """The flat baseline: one OMPL planner on the whole map's configuration space.
 
@@ -276,7 +332,7 @@ class FlatKinematicPlanner:
         self.ompl = KinematicOMPL(cspace, planner, random_state)
 
     def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:
-        """Plan from ``start`` to ``goal`` (poses, or points: see :func:`check_pose`).
+        """Plan from ``start`` to ``goal`` (poses, or points: see :func:`end_poses`).
 
         Raises
         ------
@@ -285,8 +341,29 @@ class FlatKinematicPlanner:
         NoPathError
             No exact solution within the time limit.
         """
-        s, g = check_pose(self.cspace, start, "start"), check_pose(self.cspace, goal, "goal")
-        poses, seconds = self.ompl.solve(s, g, self.time_limit)
+        s, g = end_poses(self.cspace, start, "start"), end_poses(self.cspace, goal, "goal")
+        poses, seconds = self.ompl.solve(_single(s), _single(g), self.time_limit)
         if poses is None:
-            raise NoPathError(f"{self.name} found no path from {s} to {g} in {self.time_limit:g} s")
+            raise NoPathError(
+                f"{self.name} found no path from {describe(s)} to {describe(g)} "
+                f"in {self.time_limit:g} s"
+            )
         return PlannedPath.from_poses(poses, self.name, seconds=seconds)
+
+
+def _single(poses: list[Pose]) -> Pose | list[Pose]:
+    """One pose as itself (OMPL's single start and goal), several as a list."""
+    return poses[0] if len(poses) == 1 else poses
+
+
+def describe(poses: list[Pose]) -> str:
+    """An end of a query in messages: its pose, or its point and how many headings.
+
+    Examples
+    --------
+    >>> describe([(1.0, 2.0, 0.0)]), describe([(1.0, 2.0, 0.0), (1.0, 2.0, 1.0)])
+    ('(1.0, 2.0, 0.0)', '(1.0, 2.0) at any of 2 headings')
+    """
+    if len(poses) == 1:
+        return str(tuple(poses[0]))
+    return f"{tuple(poses[0][:2])} at any of {len(poses)} headings"

@@ -37,11 +37,11 @@ from planners.cspace import HeadingCSpace
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError, PlanningError
 from planners.flat import _seed_once
 from planners.hierarchical import HierarchicalPlanner, regions_along
-from planners.kinematic import KinematicOMPL, Pose, check_pose
+from planners.kinematic import KinematicOMPL, Pose, describe, end_poses
 from planners.legs import Crossing, door_poses
 from planners.path import PlannedPath
 from planners.region_route import region_routes
-from planners.workspace import Workspace
+from planners.workspace import Point, Workspace
 from segmentation.names import find_region
 
 log = logging.getLogger(__name__)
@@ -176,7 +176,8 @@ class KinematicHierarchicalPlanner:
 
     def plan(self, start: ArrayLike | int | str, goal: ArrayLike | int | str) -> PlannedPath:
         """Plan from ``start`` to ``goal``: poses ``(x, y, yaw)`` or points ``(x, y)`` (the
-        valid heading nearest 0), or regions (an id or a name,
+        valid heading nearest 0, or any valid heading for a forward-only car:
+        :func:`planners.kinematic.end_poses`), or regions (an id or a name,
         :func:`segmentation.names.find_region`) standing for their most open points.
 
         The first route is the door graph's shortest path for a disc as wide as the
@@ -200,12 +201,12 @@ class KinematicHierarchicalPlanner:
             else end
             for end in (start, goal)
         )
-        s, g = check_pose(self.cspace, start, "start"), check_pose(self.cspace, goal, "goal")
-        for what, pose in (("start", s), ("goal", g)):
-            if self.region_at(pose[0], pose[1]) not in self.graph:
-                raise InvalidQueryError(f"{what} {pose[:2]} lies in no region of the graph")
+        s, g = end_poses(self.cspace, start, "start"), end_poses(self.cspace, goal, "goal")
+        for what, poses in (("start", s), ("goal", g)):
+            if self.region_at(poses[0][0], poses[0][1]) not in self.graph:
+                raise InvalidQueryError(f"{what} {poses[0][:2]} lies in no region of the graph")
         seconds = {"route_search": 0.0, "submaps": 0.0, "planning": 0.0, "simplification": 0.0}
-        routes = self._routes(s, g)
+        routes = self._routes(s[0], g[0])
         tried: list[str] = []
         for k in range(self.routes):
             clock = time.perf_counter()
@@ -215,16 +216,18 @@ class KinematicHierarchicalPlanner:
                 break
             tried.append(route.what)
             along = self._legs if self.mode == "legs" else self._union
-            poses = along(route, s, g, Budget(deadline, self.routes - k), seconds)
-            if poses is not None:
-                crossed = regions_along(self.cspace.grid, self.labels, poses[:, :2])
-                return PlannedPath.from_poses(poses, self.name, crossed, seconds)
+            found = along(route, s, g, Budget(deadline, self.routes - k), seconds)
+            if found is not None:
+                crossed = regions_along(self.cspace.grid, self.labels, found[:, :2])
+                return PlannedPath.from_poses(found, self.name, crossed, seconds)
         if not tried:
             raise NoPathError(
-                f"no route from {s} to {g} through doors at least {self.min_width:g} m wide"
+                f"no route from {describe(s)} to {describe(g)} through doors at least "
+                f"{self.min_width:g} m wide"
             )
         raise NoPathError(
-            f"OMPL {self.planner} found no path from {s} to {g} in {self.time_limit:g} s "
+            f"OMPL {self.planner} found no path from {describe(s)} to {describe(g)} in "
+            f"{self.time_limit:g} s "
             f"on any of the routes tried: {'; '.join(tried)}"
         )
 
@@ -257,7 +260,12 @@ class KinematicHierarchicalPlanner:
             log.debug("no region route: %s", err)
 
     def _union(
-        self, route: Route, start: Pose, goal: Pose, budget: Budget, seconds: dict[str, float]
+        self,
+        route: Route,
+        start: list[Pose],
+        goal: list[Pose],
+        budget: Budget,
+        seconds: dict[str, float],
     ) -> NDArray[np.float64] | None:
         """One OMPL query inside the union of the route's submaps, simplified on the whole
         map: its poses."""
@@ -265,7 +273,12 @@ class KinematicHierarchicalPlanner:
         return None if vertices is None else self._smooth(vertices, seconds)
 
     def _legs(
-        self, route: Route, start: Pose, goal: Pose, budget: Budget, seconds: dict[str, float]
+        self,
+        route: Route,
+        start: list[Pose],
+        goal: list[Pose],
+        budget: Budget,
+        seconds: dict[str, float],
     ) -> NDArray[np.float64] | None:
         """One OMPL query per leg between door poses, the legs joined end to end: their poses.
         Each leg may take the budget's share of the time left, so a leg that fails leaves
@@ -275,38 +288,84 @@ class KinematicHierarchicalPlanner:
         clock = time.perf_counter()
         ids: list[int] = [route.ids[0]]
         legs: list[tuple[list[int], list[Pose]]] = []
-        for crossing, after in zip(route.crossings, route.ids[1:], strict=True):
-            poses = (
-                door_poses(crossing, route.labels, self.cspace)
-                if self._ends(route, crossing)
-                else []
-            )
+        points = [start[0][:2], *(c.point for c in route.crossings), goal[0][:2]]
+        last = np.asarray(points[0], float)  # where the current leg starts
+        for k, (crossing, after) in enumerate(zip(route.crossings, route.ids[1:], strict=True)):
+            stop = self._ends(route, crossing) or self._room(last, crossing.point, points[k + 2])
+            poses = door_poses(crossing, route.labels, self.cspace) if stop else []
             if poses:
+                last = np.asarray(crossing.point, float)
                 legs.append((ids, poses))
                 ids = []
             ids.append(after)
-        legs.append((ids, [goal]))
+        legs.append((ids, goal))
         seconds["submaps"] += time.perf_counter() - clock
-        pieces, pose = [], start
+        pieces: list[NDArray[np.float64]] = []
+        froms: list[tuple[list[Pose], list[int]]] = []  # each planned leg's start, submaps
+        pose = start
         for k, (leg, ends) in enumerate(legs):
-            found = self._solve(
-                route, list(dict.fromkeys(leg)), pose, ends, budget.until(), seconds
-            )
+            found = self._leg(route, k, len(legs), leg, pose, ends, budget, seconds)
+            if found is None and pieces:
+                # the previous leg's end (a pose across a door) may be one this leg cannot
+                # leave at the car's turning radius: the two legs as one, from its start
+                pieces.pop()
+                pose, before = froms.pop()
+                leg = before + leg
+                found = self._leg(route, k, len(legs), leg, pose, ends, budget, seconds)
             if found is None:
-                log.debug("leg %d of %d (submaps %s) failed", k + 1, len(legs), leg)
                 return None
-            pieces.append(found if k == 0 else found[1:])
-            pose = (float(found[-1, 0]), float(found[-1, 1]), float(found[-1, 2]))
+            froms.append((pose, leg))
+            pieces.append(found if not pieces else found[1:])
+            pose = [(float(found[-1, 0]), float(found[-1, 1]), float(found[-1, 2]))]
         return self._smooth(np.vstack(pieces), seconds)
 
+    def _leg(
+        self,
+        route: Route,
+        k: int,
+        count: int,
+        leg: list[int],
+        start: list[Pose],
+        ends: list[Pose],
+        budget: Budget,
+        seconds: dict[str, float],
+    ) -> NDArray[np.float64] | None:
+        """Leg ``k`` of ``count``: :meth:`_solve` in submaps ``leg``, its share of the
+        budget."""
+        clock = time.perf_counter()
+        found = self._solve(route, list(dict.fromkeys(leg)), start, ends, budget.until(), seconds)
+        log.debug(
+            "leg %d of %d (submaps %s, from %s to %s): %s in %.3f s",
+            k + 1, count, leg, describe(start), describe(ends),
+            "failed" if found is None else f"{len(found)} vertices",
+            time.perf_counter() - clock,
+        )  # fmt: skip
+        return found
+
     def _ends(self, route: Route, crossing: Crossing) -> bool:
-        """Whether a leg ends across ``crossing``: always for a robot that reverses or turns
-        in place; for a forward-only car only at the doors between regions, since a cut
-        between two parts of one region (along a corridor) may leave it too little room to
-        turn, at its turning radius, into a side door just after it."""
+        """Whether a leg ends across ``crossing`` whatever its surroundings: always for a
+        robot that reverses or turns in place; for a forward-only car at the doors between
+        regions, since a cut between two parts of one region (along a corridor) may leave
+        it too little room to turn, at its turning radius, into a side door just after it
+        (such a cut ends a leg only where :meth:`_room` says so)."""
         if self.cspace.robot.reverses or route.kind == "regions":
             return True
         return self.doors.region_of[crossing.before] != self.doors.region_of[crossing.after]
+
+    def _room(self, last: NDArray, here: Point, after: Point) -> bool:
+        """Whether a forward-only car may end a leg at a cut ``here`` between two parts of
+        one region: when the leg started (``last``) and the next crossing (or the goal)
+        ``after`` lie at least a turn's room away, twice the turning radius plus the
+        circumradius, so the fixed pose across the cut (heading along the corridor) leaves
+        the car room to turn into a side door. Ending there splits a long corridor leg (86
+        submaps of a campus corridor system in one RRT query: none found in 5 s) into short
+        ones between poses the car can drive between."""
+        robot = self.cspace.robot
+        room = 2 * (getattr(robot, "turning_radius", 0.0) + robot.circumradius)
+        p = np.asarray(here, float)
+        return bool(
+            np.hypot(*(p - last)) >= room and np.hypot(*(p - np.asarray(after, float))) >= room
+        )
 
     def _smooth(self, vertices: NDArray[np.float64], seconds: dict[str, float]) -> NDArray:
         """The path through ``vertices`` simplified on the whole map, as poses."""
@@ -318,8 +377,8 @@ class KinematicHierarchicalPlanner:
         self,
         route: Route,
         ids: list[int],
-        start: Pose,
-        goal: Pose | list[Pose],
+        start: list[Pose],
+        goal: list[Pose],
         until: float,
         seconds: dict[str, float],
     ) -> NDArray[np.float64] | None:
@@ -331,19 +390,23 @@ class KinematicHierarchicalPlanner:
         # the motion straight to a goal first, on the whole map: when valid it needs no
         # submap set-up and no planner (most legs between the door poses of near-convex
         # submaps), and it is the shortest leg between the two poses
-        direct = self._whole.direct(start, goal) if self._whole.admits(start) else None
+        starts = [pose for pose in start if self._whole.admits(pose)]
+        direct = self._whole.direct(starts, goal) if starts else None
         if direct is not None:
             seconds["planning"] += time.perf_counter() - clock
             return direct
         clock = time.perf_counter()
         ompl = self._submaps(route, ids)
-        goals = [pose for pose in (goal if isinstance(goal, list) else [goal]) if ompl.admits(pose)]
+        goals = [pose for pose in goal if ompl.admits(pose)]
+        starts = [pose for pose in start if ompl.admits(pose)]
         seconds["submaps"] += time.perf_counter() - clock
-        if not (goals and ompl.admits(start)):
-            log.debug("the ends %s, %s are not valid in submaps %s", start, goal, ids)
+        if not (goals and starts):
+            log.debug(
+                "the ends %s, %s are not valid in submaps %s", describe(start), describe(goal), ids
+            )
             return None
         poses, spent = ompl.search(
-            start, goals, max(until - time.perf_counter(), 1e-3), direct=False
+            starts, goals, max(until - time.perf_counter(), 1e-3), direct=False
         )
         for key, value in spent.items():
             seconds[key] += value

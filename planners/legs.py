@@ -100,11 +100,49 @@ def door_poses(
     """The valid poses across ``crossing``: on its point (the middle of its cell), heading
     across it or along the passage there (see :func:`crossing_heading`), and the opposite
     heading when the robot reverses or turns in place
-    (:attr:`planners.robots.Footprint.reverses`). Empty when none is valid."""
+    (:attr:`planners.robots.Footprint.reverses`); for a forward-only car, after that pose,
+    the valid poses on the portal's other cells at headings crossing it the same way
+    (:func:`_across`). Empty when none is valid."""
     yaw = crossing_heading(crossing, labels, cspace)
     yaws = [yaw, math.remainder(yaw + math.pi, math.tau)] if cspace.robot.reverses else [yaw]
     # the middle of the point's cell: an opening's point lies on a cell edge, where crops
     # of the map could round it into different cells
     row, col = cspace.grid.world_to_cell(*crossing.point)
     x, y = (float(v) for v in cspace.grid.cell_to_world(row, col))
-    return [(x, y, a) for a in yaws if cspace.valid(x, y, a)]
+    poses = [(x, y, a) for a in yaws if cspace.valid(x, y, a)]
+    if cspace.robot.reverses:
+        return poses
+    return poses + [p for p in _across(crossing, cspace, yaw) if p not in poses]
+
+
+def _across(crossing: Crossing, cspace: HeadingCSpace, yaw: float) -> list[Pose]:
+    """A forward-only car's other valid poses across ``crossing``: the reference point on
+    any cell of the portal, heading any way that crosses it the way ``yaw`` does (the
+    configuration space's heading bins less than a right angle from it), at most as many
+    as there are heading bins, spread evenly. A car may pass a door anywhere along it and
+    at a slant: a single pose on its point, normal to it, can lie too close to the leg's
+    start for the car to turn onto (a start 0.65 m from a door, 0.25 m to one side of its
+    point, at a 1 m turning radius: no path found in 5 s; 0.05 m further along the door,
+    the car's own curve from the start is valid)."""
+    grid = cspace.grid
+    (ax, ay), (bx, by) = crossing.portal
+    steps = max(1, math.ceil(math.hypot(bx - ax, by - ay) / grid.resolution))
+    t = np.linspace(0.0, 1.0, steps + 1)
+    rows, cols = grid.world_to_cell(ax + t * (bx - ax), ay + t * (by - ay))
+    rows, cols = np.atleast_1d(rows).tolist(), np.atleast_1d(cols).tolist()
+    cells = list(dict.fromkeys(zip(rows, cols, strict=True)))
+    bins = np.arange(cspace.headings) * (math.tau / cspace.headings)
+    ahead = bins[np.cos(bins - yaw) > 1e-9]
+    candidates = []
+    for row, col in cells:
+        x, y = (float(v) for v in grid.cell_to_world(row, col))
+        candidates += [(x, y, float(math.remainder(a, math.tau))) for a in ahead]
+    if not candidates:
+        return []
+    valid = cspace.valid_many(np.array(candidates))
+    found = [pose for pose, ok in zip(candidates, valid, strict=True) if ok]
+    if len(found) > cspace.headings:
+        found = [
+            found[i] for i in np.linspace(0, len(found) - 1, cspace.headings).round().astype(int)
+        ]
+    return found

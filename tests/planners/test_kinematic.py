@@ -14,9 +14,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from maps.grid import OCCUPIED, OccupancyGrid
+from maps.sim.floorplan import generate_floor_plan
 from planners.cspace import HeadingCSpace
 from planners.errors import InvalidQueryError, NoPathError, PlanningError
-from planners.kinematic import POSE_SPACING, FlatKinematicPlanner
+from planners.kinematic import POSE_SPACING, FlatKinematicPlanner, KinematicOMPL
 from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
 from planners.robots import Dubins, Footprint, ReedsShepp, RobotSpecError, parse_robot, rectangle
 from planners.sweep import footprint_collisions
@@ -192,3 +193,100 @@ def test_the_same_seed_gives_the_same_path():
     ]
     assert json.loads(runs[0].stdout) == json.loads(runs[1].stdout)
     assert "leaked" not in runs[0].stderr  # OMPL's bindings report nothing at exit
+
+
+CAR = "dubins:radius=1,footprint=0.9x0.6"
+
+
+def _ahead(cspace, pose, turn):
+    """Metres a forward-only car drives from ``pose`` straight (``turn`` 0) or on its
+    tightest circle left (1) or right (-1) before its footprint collides (at most 3 m)."""
+    x, y, yaw = pose
+    radius = cspace.robot.turning_radius
+    for s in np.arange(0.01, 3.0, 0.01):
+        a = yaw + turn * s / radius
+        if turn == 0:
+            p = (x + s * math.cos(yaw), y + s * math.sin(yaw), yaw)
+        else:
+            p = (
+                x + turn * radius * (math.sin(a) - math.sin(yaw)),
+                y - turn * radius * (math.cos(a) - math.cos(yaw)),
+                a,
+            )
+        if not cspace.valid(*p):
+            return s - 0.01
+    return 3.0
+
+
+def test_a_forward_only_car_starting_at_a_wall_leaves_at_another_heading():
+    """A point start whose heading nearest 0 faces the wall 0.4 m ahead, beside the door: a
+    forward-only car (1 m turning radius) cannot drive away at that heading (1 of 10 office
+    queries failed so), but a point stands for any heading, so both planners start at one
+    the car can leave from; the paths are continuous and collision-free by the sweep."""
+    planner = _planner(CAR)
+    planner.time_limit = 1.0
+    grid, robot = planner.cspace.grid, planner.cspace.robot
+    start, goal = (3.2, 0.6), (6.0, 2.0)
+    facing = (*start, 0.0)  # the front 0.4 m from the dividing wall
+    assert planner.cspace.valid(*facing)
+    assert max(_ahead(planner.cspace, facing, turn) for turn in (-1, 0, 1)) < 0.5
+    with pytest.raises(NoPathError):
+        planner.plan(facing, goal)
+    flat = FlatKinematicPlanner(planner.cspace, "RRT", time_limit=5.0)
+    for path in (planner.plan(start, goal), flat.plan(start, goal)):
+        poses = path.poses
+        assert np.allclose(poses[0, :2], start) and np.allclose(poses[-1, :2], goal)
+        assert abs(math.remainder(poses[0, 2], math.tau)) > 0.5  # not the heading at the wall
+        assert np.hypot(*np.diff(poses[:, :2], axis=0).T).max() <= POSE_SPACING + 1e-9
+        assert footprint_collisions(grid, robot.polygon, poses) == 0
+
+
+def test_a_failed_leg_is_planned_again_with_the_leg_before(monkeypatch):
+    """When a leg fails (its start, the previous leg's door pose, may be one the car cannot
+    leave), the two legs are planned as one from the previous leg's start, before the next
+    route is tried."""
+    planner = _planner(CAR)
+    calls = []
+    solve = KinematicHierarchicalPlanner._solve
+
+    def second_leg_fails_once(self, route, ids, start, *rest):
+        calls.append(list(ids))
+        return None if len(calls) == 2 else solve(self, route, ids, start, *rest)
+
+    monkeypatch.setattr(KinematicHierarchicalPlanner, "_solve", second_leg_fails_once)
+    start, goal = (1.0, 1.0, 0.0), (7.0, 3.0, math.pi / 2)
+    path = planner.plan(start, goal)
+    assert calls == [[1], [2], [1, 2]]  # the door graph's route: one leg per room, then both
+    _check(path, planner.cspace.grid, planner.cspace.robot, start, goal)
+
+
+#: The legs' vertices of an office Dubins query whose B-spline smoothing went through walls.
+_SMOOTHED_INTO_WALLS = [
+    [86.775, 55.425000000000004, -1.5707963267948966],
+    [86.575, 50.425000000000004, -1.5707963267948966],
+    [86.65437955352459, 49.59059088180519, -1.4439977213614343],
+    [90.63957627642158, 48.55908094995035, -1.2116199364766718],
+    [88.31942046635281, 47.14099814346618, -3.1125062640150607],
+    [80.30721406861515, 48.33710275210529, 1.4929467849428342],
+    [29.842703888171496, 49.62511092400137, -3.130955864459022],
+    [12.820468242921265, 48.83934821452893, -3.095427406773048],
+    [9.993809054444732, 49.77907935692707, 1.768064080235126],
+    [10.025, 50.425000000000004, 1.5707963267948966],
+    [10.875, 58.425000000000004, 1.4726215563702154],
+]
+
+
+def test_smoothing_never_leaves_the_checked_motions():
+    """OMPL's B-spline smoothing returned a path through walls for these vertices on the
+    generated office (in about half of the runs: it shortcuts at random first); the
+    simplified path must stay collision-free by the sweep whatever the draw."""
+    grid = generate_floor_plan("office", random_state=0).grid
+    cspace = HeadingCSpace(grid, parse_robot(CAR))
+    ompl = KinematicOMPL(cspace, "RRT")
+    vertices = np.array(_SMOOTHED_INTO_WALLS)
+    raw, _ = ompl.smooth(vertices, simplify=False)
+    assert footprint_collisions(grid, cspace.robot.polygon, raw) == 0
+    for _ in range(16):
+        poses, _ = ompl.smooth(vertices)
+        assert np.allclose(poses[[0, -1]], vertices[[0, -1]])
+        assert footprint_collisions(grid, cspace.robot.polygon, poses) == 0

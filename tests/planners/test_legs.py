@@ -45,12 +45,19 @@ def test_door_poses_head_across_the_door_from_before_into_after(spec, headings):
     planner = _planner(spec)
     for before, after, east in ((1, 2, True), (2, 1, False)):
         poses = door_poses(_door(planner, before, after), planner.labels, planner.cspace)
-        assert len(poses) == headings
         x, y, yaw = poses[0]
         assert abs(x - 4.1) < 0.05 and abs(y - 2.0) < 0.1  # in the door, mid-wall
         assert math.cos(yaw) == pytest.approx(1.0 if east else -1.0)
         if headings == 2:  # and the other way round
+            assert len(poses) == 2
             assert math.cos(poses[1][2]) == pytest.approx(-math.cos(yaw))
+        else:  # a forward-only car: any valid pose on the portal crossing it the same way
+            assert 1 < len(poses) <= planner.cspace.headings + 1  # the pose and the others
+            across = np.array(poses)
+            assert np.all(np.abs(across[:, 0] - 4.1) < 0.05)  # on the portal
+            assert np.ptp(across[:, 1]) > 0.1 and np.ptp(across[:, 2]) > 0.1
+            assert np.all(np.cos(across[:, 2]) * (1 if east else -1) > 0)  # the same way
+            assert planner.cspace.valid_many(across).all()
 
 
 def test_a_door_the_footprint_does_not_fit_has_no_pose():
@@ -247,6 +254,6 @@ def test_a_forward_only_car_ends_legs_only_at_doors_between_regions():
         assert route.kind == "parts" and len(route.crossings) == 3  # two cuts, then the door
         assert sum(planner._ends(route, c) for c in route.crossings) == ends
         seconds = dict.fromkeys(("route_search", "submaps", "planning", "simplification"), 0.0)
-        poses = planner._legs(route, start, goal, Budget(time.perf_counter() + 2.0, 1), seconds)
+        poses = planner._legs(route, [start], [goal], Budget(time.perf_counter() + 2.0, 1), seconds)
         assert poses is not None  # the first route, within its 2 s
         assert footprint_collisions(grid, cspace.robot.polygon, poses) == 0

@@ -262,8 +262,9 @@ def bench_plan(
 
 
 #: Flat OMPL planners of the footprint benchmark (each stops at its first exact solution;
-#: PRM keeps its roadmap across the queries of a map).
-ROBOT_BASELINES = ("RRTConnect", "RRTstar", "BITstar", "KPIECE1", "PRM")
+#: PRM keeps its roadmap across the queries of a map). RRT is the one the hierarchical
+#: planner runs for a forward-only car (RRTConnect's goal tree grows along reversed motions).
+ROBOT_BASELINES = ("RRTConnect", "RRT", "RRTstar", "BITstar", "KPIECE1", "PRM")
 #: Benchmark names of the footprint benchmark's planners, in table order.
 ROBOT_PLANNERS = (
     "hierarchical",
