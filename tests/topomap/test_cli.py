@@ -400,11 +400,11 @@ def test_bench_plan_runs_only_the_planners_named(tmp_path):
 
 @pytest.mark.parametrize(
     ("robot", "named"),
-    [(["--robot", "rect:0.9x0.6"], "flat_rrt"), ([], "footprint robots")],
+    [(["--robot", "rect:0.9x0.6"], "flat_est"), ([], "footprint robots")],
 )
 def test_bench_plan_refuses_planners_it_cannot_run(tmp_path, capsys, robot, named):
     arguments = ["bench", "plan", "--sizes", "flat", "--out", str(tmp_path / "bench"), *robot]
-    assert main([*arguments, "--planners", "hierarchical", "flat_rrt"]) == 2
+    assert main([*arguments, "--planners", "hierarchical", "flat_est"]) == 2
     assert named in capsys.readouterr().err
 
 
