@@ -86,7 +86,10 @@ def solve_query(
     states any of which will do): its problem definition, after solving for at most
     ``time_limit`` seconds. A roadmap planner keeps its roadmap (only the query is cleared)
     and accepts the first path it finds, as does any planner when ``first``; any other
-    starts afresh."""
+    starts afresh. A roadmap planner is given the first goal state alone: OMPL 2.0.1's PRM
+    and PRM* given a goal set wait forever on a lock (seen from Python, no CPU used)."""
+    if keeps_roadmap and isinstance(goal, list):
+        goal = goal[0]
     problem = ob.ProblemDefinition(si)
     if isinstance(goal, list) or isinstance(start, list):
         goals = ob.GoalStates(si)

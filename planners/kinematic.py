@@ -28,6 +28,7 @@ from planners.cspace import HeadingCSpace
 from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
 from planners.flat import (
     PLANNERS,
+    ROADMAP_PLANNERS,
     _seed_once,
     make_planner,
     plane_bounds,
@@ -56,6 +57,12 @@ class KinematicOMPL:
     random_state
         Seeds OMPL's process-wide generator (only the first planner made in a process
         does).
+
+    Raises
+    ------
+    PlannerParameterError
+        An unknown planner, or a roadmap planner (PRM, PRM*) on a state space whose motions
+        are not reversible (Dubins).
     """
 
     def __init__(
@@ -69,6 +76,12 @@ class KinematicOMPL:
         _seed_once(random_state)
         self.cspace = cspace
         self._space = cspace.robot.state_space()
+        if planner in ROADMAP_PLANNERS and not self._space.hasSymmetricInterpolate():
+            raise PlannerParameterError(
+                f"{planner} travels its roadmap's edges both ways, but a forward-only car's "
+                "motion from a to b is not that from b to a reversed (its paths went through "
+                "walls): use a tree planner (RRT, RRTConnect, RRTstar, BITstar, KPIECE1)"
+            )
         xmin, ymin, xmax, ymax = cspace.grid.bounds()
         self._space.setBounds(plane_bounds(xmin, ymin, xmax, ymax))
         self._si = ob.SpaceInformation(self._space)

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from maps.grid import OCCUPIED, OccupancyGrid
 from maps.sim.floorplan import generate_floor_plan
 from planners.cspace import HeadingCSpace
-from planners.errors import InvalidQueryError, NoPathError, PlanningError
+from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError, PlanningError
 from planners.kinematic import POSE_SPACING, FlatKinematicPlanner, KinematicOMPL
 from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
 from planners.robots import Dubins, Footprint, ReedsShepp, RobotSpecError, parse_robot, rectangle
@@ -290,3 +290,39 @@ def test_smoothing_never_leaves_the_checked_motions():
         poses, _ = ompl.smooth(vertices)
         assert np.allclose(poses[[0, -1]], vertices[[0, -1]])
         assert footprint_collisions(grid, cspace.robot.polygon, poses) == 0
+
+
+_PRM_GOAL_SET = """
+import sys
+sys.path.insert(0, "tests/planners")
+from test_kinematic import CAR, _planner
+from planners.kinematic import KinematicOMPL, end_poses
+cspace = _planner(CAR.replace("dubins", "reeds-shepp")).cspace
+goals = end_poses(_planner(CAR).cspace, (6.0, 2.0), "goal")  # every heading: a goal set
+for name in ("PRM", "PRMstar"):
+    start = end_poses(cspace, (3.2, 0.6), "start")[0]
+    poses, _ = KinematicOMPL(cspace, name).solve(start, goals, 2.0)
+    assert poses is not None
+print("solved")
+"""
+
+
+def test_prm_takes_a_goal_set_and_refuses_a_forward_only_car():
+    """OMPL's PRM and PRM* given a goal set waited forever on a lock (a benchmark of a
+    forward-only car, whose point ends are every valid heading, hung): they plan now (in a
+    subprocess, so that a hang fails the test instead of stopping the suite). On a Dubins
+    space they are refused: they travel roadmap edges both ways, and the flat PRM's Dubins
+    paths went through walls (hundreds of poses by the sweep)."""
+    run = subprocess.run(
+        [sys.executable, "-c", _PRM_GOAL_SET],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+    )
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "solved"
+    cspace = _planner(CAR).cspace
+    for name in ("PRM", "PRMstar"):
+        with pytest.raises(PlannerParameterError, match="forward-only"):
+            FlatKinematicPlanner(cspace, name)

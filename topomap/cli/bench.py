@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import time
 from collections.abc import Callable, Iterator
 from functools import partial
@@ -37,6 +38,8 @@ from segmentation.spectral import SpectralSegmenter
 from topomap.cli.naive import naive_segment
 from topomap.cli.plan_report import plot_footprint_paths, write_report
 from topomap.topomap import TopoMap
+
+log = logging.getLogger(__name__)
 
 
 def bench_sim(
@@ -344,7 +347,15 @@ def bench_plan_robot(
         for baseline in ROBOT_BASELINES:
             if f"flat_{baseline.lower()}" not in chosen:
                 continue
-            flat = FlatKinematicPlanner(cspace, baseline, time_limit=time_limit, random_state=seed)
+            try:
+                flat = FlatKinematicPlanner(
+                    cspace, baseline, time_limit=time_limit, random_state=seed
+                )
+            except PlannerParameterError as err:  # PRM for a forward-only car
+                if planners is not None:  # asked for by name
+                    raise
+                log.warning("flat %s left out: %s", baseline, err)
+                continue
             if flat.ompl.keeps_roadmap:
                 pre["prm_roadmap"] = min(PRM_MAX_GROWTH, pre["submaps"] + pre["door_graph"])
                 flat.ompl.grow_roadmap(pre["prm_roadmap"])
