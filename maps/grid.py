@@ -358,6 +358,29 @@ class OccupancyGrid:
             self._derived[name] = value
         return self._derived[name]
 
+    def padded(self, left: int, top: int) -> OccupancyGrid:
+        """The same map with ``left`` columns and ``top`` rows of unknown cells added on its
+        left and top: every cell keeps its place in the map frame, only the cell grid moves
+        against the building (what a map saved one cell over would be).
+
+        Examples
+        --------
+        >>> grid = OccupancyGrid(np.zeros((2, 3), np.int8), 0.1, (1.0, 2.0, 0.0))
+        >>> moved = grid.padded(1, 2)
+        >>> moved.shape, moved.origin, bool(moved.unknown[:2].all() and moved.unknown[:, 0].all())
+        ((4, 4), (0.9, 2.0, 0.0), True)
+        >>> [int(v) for v in moved.world_to_cell(1.05, 2.05)]
+        [3, 1]
+        """
+        if not (isinstance(left, int) and isinstance(top, int) and left >= 0 and top >= 0):
+            raise InvalidMapError(f"padding must be whole cells >= 0, got {left!r}, {top!r}")
+        cells = np.full((self.shape[0] + top, self.shape[1] + left), UNKNOWN, np.int8)
+        cells[top:, left:] = self.cells
+        ox, oy, yaw = self.origin
+        step = left * self.resolution  # the lower-left corner moves left along the grid's x
+        origin = (ox - step * math.cos(yaw), oy - step * math.sin(yaw), yaw)
+        return OccupancyGrid(cells, self.resolution, origin)
+
     def inflate(self, radius: float) -> OccupancyGrid:
         """A grid where free cells closer than ``radius`` metres to a non-free cell are occupied.
 

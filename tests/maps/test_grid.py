@@ -53,6 +53,30 @@ def test_yaw_rotates_the_grid_about_its_origin():
     assert (x, y) == pytest.approx((-0.5, 1.5))
 
 
+
+@given(
+    yaw=st.floats(-math.pi, math.pi),
+    left=st.integers(0, 3),
+    top=st.integers(0, 3),
+    row=st.integers(0, 19),
+    col=st.integers(0, 29),
+)
+def test_a_padded_grid_keeps_every_cell_in_place(yaw, left, top, row, col):
+    cells = np.random.default_rng(0).choice(np.array([-1, 0, 100], np.int8), (20, 30))
+    grid = OccupancyGrid(cells, 0.1, (1.0, -2.0, yaw))
+    moved = grid.padded(left, top)
+    assert moved.shape == (20 + top, 30 + left)
+    wx, wy = grid.cell_to_world(row, col)
+    assert moved.world_to_cell(wx, wy) == (row + top, col + left)
+    assert moved.cells[row + top, col + left] == grid.cells[row, col]
+    assert (moved.cells[:top] == -1).all() and (moved.cells[:, :left] == -1).all()
+
+
+@pytest.mark.parametrize("left, top", [(-1, 0), (0, 1.5), (0, None)])
+def test_padding_must_be_whole_cells(left, top):
+    with pytest.raises(InvalidMapError, match="whole cells"):
+        OccupancyGrid(np.zeros((2, 2), np.int8), 0.1).padded(left, top)
+
 def test_every_ipa_map_loads_with_the_benchmark_free_rule(data_dir):
     import cv2
 
