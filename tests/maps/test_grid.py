@@ -53,7 +53,6 @@ def test_yaw_rotates_the_grid_about_its_origin():
     assert (x, y) == pytest.approx((-0.5, 1.5))
 
 
-
 @given(
     yaw=st.floats(-math.pi, math.pi),
     left=st.integers(0, 3),
@@ -76,6 +75,7 @@ def test_a_padded_grid_keeps_every_cell_in_place(yaw, left, top, row, col):
 def test_padding_must_be_whole_cells(left, top):
     with pytest.raises(InvalidMapError, match="whole cells"):
         OccupancyGrid(np.zeros((2, 2), np.int8), 0.1).padded(left, top)
+
 
 def test_every_ipa_map_loads_with_the_benchmark_free_rule(data_dir):
     import cv2
