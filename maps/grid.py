@@ -345,6 +345,29 @@ class OccupancyGrid:
             "free_clearance", lambda: self.free_distance() * np.float32(self.resolution)
         )
 
+    def with_free_clearance(self, clearance: ArrayLike) -> OccupancyGrid:
+        """This grid with the clearance of its free cells given (metres, 0 on the other
+        cells), e.g. measured on the finer map it was pooled from: :meth:`free_clearance`
+        returns it.
+
+        Examples
+        --------
+        >>> grid = OccupancyGrid(np.array([[0, 100]], np.int8), 0.1)
+        >>> grid.with_free_clearance([[0.07, 0.0]]).free_clearance().tolist()
+        [[0.07000000029802322, 0.0]]
+        """
+        values = np.array(clearance, np.float32)
+        if values.shape != self.shape or not np.isfinite(values).all():
+            raise InvalidMapError(
+                f"clearance must be finite and of the grid's shape {self.shape}, got {values.shape}"
+            )
+        if (values < 0).any() or (values[~self.free] != 0).any():
+            raise InvalidMapError("clearance must be >= 0 on free cells and 0 on the others")
+        grid = OccupancyGrid(self.cells, self.resolution, self.origin)
+        values.setflags(write=False)
+        grid._derived["free_clearance"] = values
+        return grid
+
     def free_distance(self) -> NDArray[np.float32]:
         """``clearance_of(self.free, 1.0)``, cached (read-only): the clearance in cells, what
         :meth:`clearance` and :meth:`free_clearance` are made of."""

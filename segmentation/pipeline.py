@@ -53,7 +53,7 @@ from segmentation.regions import Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter, at_most
 from segmentation.virtual import VIRTUAL_LASER, most_open_cells, virtual_keyframes
 from segmentation.walls import wall_gaps
-from segmentation.working import pool, pool_factor, unpool
+from segmentation.working import pool, pool_factor, spread, unpool
 
 log = logging.getLogger(__name__)
 
@@ -324,14 +324,15 @@ class MapSegmenter(Estimator):
         grid = conditioned.grid
         factor = pool_factor(grid.resolution, self.cell_size)
         walls = ~pool(~(grid.occupied & ~conditioned.clutter), grid, factor).free
-        space = pool(conditioned.space, grid, factor)
-        gaps = wall_gaps(walls, space.free, space.resolution)
-        space = _without(space, gaps)
+        coarse = pool(conditioned.space, grid, factor)
+        gaps = wall_gaps(walls, coarse.free, coarse.resolution)
+        closed = spread(gaps, factor, grid.shape)
+        space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
         places = basins(space, self.place_depth)
         outside = drop_outside(conditioned, unpool(places, factor, conditioned.space))
         if outside is not conditioned:
             conditioned = outside
-            space = _without(pool(conditioned.space, grid, factor), gaps)
+            space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
             places = consecutive(np.where(space.free, places, 0))
         return conditioned, space, join_corridor_cuts(places, space)
 
@@ -357,10 +358,6 @@ class MapSegmenter(Estimator):
 
     def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
         return cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
-
-
-def _without(space: OccupancyGrid, cells: NDArray[np.bool_]) -> OccupancyGrid:
-    return OccupancyGrid.from_masks(space.free & ~cells, space.resolution, space.origin)
 
 
 def by_place(

@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.grid import OccupancyGrid
+from maps.grid import OccupancyGrid, clearance_of
 
 
 def pool_factor(resolution: float, cell_size: float) -> int:
@@ -29,9 +29,18 @@ def pool_factor(resolution: float, cell_size: float) -> int:
     return max(1, math.floor(cell_size / resolution + 1e-9))
 
 
-def pool(space: NDArray[np.bool_], grid: OccupancyGrid, factor: int) -> OccupancyGrid:
+def pool(
+    space: NDArray[np.bool_], grid: OccupancyGrid, factor: int, *, fine_clearance: bool = False
+) -> OccupancyGrid:
     """The working grid: ``space`` pooled by ``factor`` (free where every cell is), with the
     map's frame (the padding to whole blocks goes below and right of the map).
+
+    With ``fine_clearance``, the working grid's clearance
+    (:meth:`~maps.grid.OccupancyGrid.free_clearance`) is measured on ``space`` itself, each
+    working cell taking the least of its cells': to a map cell, not to a working cell, so
+    the places and passages measured on it do not move with the way the blocks fall on the
+    building. (Measured with ``topomap eval segment --shifts``: ROSE²'s maps IoU 81.1 ->
+    84.0 %, MCC 0.683 -> 0.685; the ipa plans 0.851 / 0.831 -> 0.852 / 0.830.)
 
     Examples
     --------
@@ -39,6 +48,9 @@ def pool(space: NDArray[np.bool_], grid: OccupancyGrid, factor: int) -> Occupanc
     >>> coarse = pool(grid.free, grid, 2)
     >>> coarse.shape, coarse.origin, coarse.free.tolist()
     ((2, 2), (1.0, 1.95, 0.0), [[True, True], [False, False]])
+    >>> clearance = pool(grid.free, grid, 2, fine_clearance=True).free_clearance()
+    >>> (clearance * 100).round().astype(int).tolist()  # centimetres: a map cell's, not 0.1 m
+    [[5, 5], [0, 0]]
     """
     if factor == 1:
         return OccupancyGrid.from_masks(space, grid.resolution, grid.origin)
@@ -46,11 +58,35 @@ def pool(space: NDArray[np.bool_], grid: OccupancyGrid, factor: int) -> Occupanc
     rows, cols = math.ceil(height / factor), math.ceil(width / factor)
     padded = np.zeros((rows * factor, cols * factor), bool)
     padded[:height, :width] = space
-    coarse = padded.reshape(rows, factor, cols, factor).all(axis=(1, 3))
+    coarse = _block_min(padded.view(np.uint8), factor) > 0
     drop = (rows * factor - height) * grid.resolution
     ox, oy, yaw = grid.origin
     origin = (ox + math.sin(yaw) * drop, oy - math.cos(yaw) * drop, yaw)
-    return OccupancyGrid.from_masks(coarse, grid.resolution * factor, origin)
+    pooled = OccupancyGrid.from_masks(coarse, grid.resolution * factor, origin)
+    if not fine_clearance:
+        return pooled
+    fine = _block_min(clearance_of(padded, grid.resolution), factor)
+    return pooled.with_free_clearance(np.where(coarse, fine, 0.0))
+
+
+def _block_min(values: NDArray, factor: int) -> NDArray:
+    """The least value of each ``factor x factor`` block of ``values`` (whose sides are whole
+    blocks): an erosion anchored at the block's corner, read every ``factor`` cells (OpenCV's,
+    several times faster than numpy's reduction over a reshaped array)."""
+    kernel = np.ones((factor, factor), np.uint8)
+    return cv2.erode(values, kernel, anchor=(0, 0))[::factor, ::factor]
+
+
+def spread(coarse: NDArray[np.bool_], factor: int, shape: tuple[int, int]) -> NDArray[np.bool_]:
+    """The cells of ``shape`` under the ``True`` cells of ``coarse`` (pooled by ``factor``).
+
+    Examples
+    --------
+    >>> spread(np.array([[True, False]]), 2, (2, 3)).tolist()
+    [[True, True, False], [True, True, False]]
+    """
+    fine = np.repeat(np.repeat(coarse, factor, axis=0), factor, axis=1)
+    return fine[: shape[0], : shape[1]]
 
 
 #: The cells beside a cell: labels grow through sides, never through a corner between walls.

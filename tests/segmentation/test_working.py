@@ -7,7 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from segmentation.working import ALL_AROUND, AROUND, grow
+from maps.grid import OccupancyGrid, clearance_of
+from segmentation.working import ALL_AROUND, AROUND, grow, pool
 
 
 def _nearest_labels(labels, keep, around):
@@ -54,3 +55,36 @@ def test_every_cell_takes_a_nearest_label(keep, data, corners):
             assert grown[r, c] in nearest[r][c]
         else:  # a wall, or a kept cell no label reaches
             assert grown[r, c] == 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    free=arrays(bool, st.tuples(st.integers(1, 23), st.integers(1, 23))),
+    factor=st.integers(1, 5),
+)
+def test_a_working_cell_is_free_where_all_its_map_cells_are(free, factor):
+    grid = OccupancyGrid.from_masks(free, 0.02)
+    pooled = pool(free, grid, factor, fine_clearance=True)
+    rows, cols = -(-free.shape[0] // factor), -(-free.shape[1] // factor)
+    blocks = np.zeros((rows * factor, cols * factor), bool)
+    blocks[: free.shape[0], : free.shape[1]] = free
+    blocks = blocks.reshape(rows, factor, cols, factor)
+    assert np.array_equal(pooled.free, blocks.all(axis=(1, 3)))
+    fine = np.zeros(blocks.shape, np.float32)
+    fine.reshape(rows * factor, cols * factor)[:] = clearance_of(
+        blocks.reshape(rows * factor, cols * factor), 0.02
+    )
+    expected = np.where(pooled.free, fine.min(axis=(1, 3)), 0)  # each block's least
+    assert np.array_equal(pooled.free_clearance(), expected)
+
+
+@given(width=st.integers(24, 40), top=st.integers(0, 1))
+def test_the_working_clearance_is_a_map_cells_not_a_working_cells(width, top):
+    free = np.zeros((60, 40), bool)
+    free[5 + top : 5 + top + width] = True  # a corridor, its walls one way or the other of a block
+    grid = OccupancyGrid.from_masks(free, 0.05)
+    true = float(clearance_of(free, 0.05).max())
+    fine = float(pool(free, grid, 2, fine_clearance=True).free_clearance().max())
+    coarse = float(pool(free, grid, 2).free_clearance().max())
+    assert true - 0.05 - 1e-6 <= fine <= true  # off by at most a map cell, whatever the phase
+    assert abs(coarse - true) <= 0.1 + 1e-6  # a working cell: twice the error
