@@ -53,7 +53,7 @@ from segmentation.regions import Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter, at_most
 from segmentation.virtual import VIRTUAL_LASER, most_open_cells, virtual_keyframes
 from segmentation.walls import wall_gaps
-from segmentation.working import pool, pool_factor, spread, unpool
+from segmentation.working import pool, pool_factor, unpool
 
 log = logging.getLogger(__name__)
 
@@ -323,10 +323,8 @@ class MapSegmenter(Estimator):
         one place (:func:`~segmentation.corridors.join_corridor_cuts`)."""
         grid = conditioned.grid
         factor = pool_factor(grid.resolution, self.cell_size)
-        walls = ~pool(~(grid.occupied & ~conditioned.clutter), grid, factor).free
-        coarse = pool(conditioned.space, grid, factor)
-        gaps = wall_gaps(walls, coarse.free, coarse.resolution)
-        closed = spread(gaps, factor, grid.shape)
+        walls = grid.occupied & ~conditioned.clutter
+        closed = wall_gaps(walls, conditioned.space, grid.resolution)  # on the map's cells
         space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
         places = basins(space, self.place_depth)
         outside = drop_outside(conditioned, unpool(places, factor, conditioned.space))
