@@ -77,26 +77,6 @@ def _block_min(values: NDArray, factor: int) -> NDArray:
     return cv2.erode(values, kernel, anchor=(0, 0))[::factor, ::factor]
 
 
-def _block_min(values: NDArray, factor: int) -> NDArray:
-    """The least value of each ``factor x factor`` block of ``values`` (whose sides are whole
-    blocks): an erosion anchored at the block's corner, read every ``factor`` cells (OpenCV's,
-    several times faster than numpy's reduction over a reshaped array)."""
-    kernel = np.ones((factor, factor), np.uint8)
-    return cv2.erode(values, kernel, anchor=(0, 0))[::factor, ::factor]
-
-
-def spread(coarse: NDArray[np.bool_], factor: int, shape: tuple[int, int]) -> NDArray[np.bool_]:
-    """The cells of ``shape`` under the ``True`` cells of ``coarse`` (pooled by ``factor``).
-
-    Examples
-    --------
-    >>> spread(np.array([[True, False]]), 2, (2, 3)).tolist()
-    [[True, True, False], [True, True, False]]
-    """
-    fine = np.repeat(np.repeat(coarse, factor, axis=0), factor, axis=1)
-    return fine[: shape[0], : shape[1]]
-
-
 #: The cells beside a cell: labels grow through sides, never through a corner between walls.
 AROUND = ((-1, 0), (1, 0), (0, -1), (0, 1))
 #: The cells beside a cell and at its corners.
