@@ -10,6 +10,7 @@ workspace's exact validity rule, so the length is the optimum every planner is j
 from __future__ import annotations
 
 import time
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -133,7 +134,7 @@ class VisibilityGraph(SearchPlanner):
         graph.build_seconds = 0.0
         return graph
 
-    @property
+    @cached_property
     def nodes(self) -> NDArray[np.float64]:
         """Lattice coordinates of the graph's nodes: the corners, then the sites."""
         return np.vstack([self.corners, self.sites])
@@ -150,14 +151,20 @@ class VisibilityGraph(SearchPlanner):
             return np.zeros((0, len(self.nodes)))
         return self._site_paths[0]
 
+    @cached_property
+    def points(self) -> NDArray[np.float64]:
+        """Map-frame coordinates of the graph's nodes (:attr:`nodes`)."""
+        return self.space.from_lattice(self.nodes)
+
     def site_path(self, site: int, node: int) -> NDArray[np.float64]:
         """Map-frame polyline of the shortest path from site ``site`` to node ``node``."""
         assert self._site_paths is not None
+        pred = self._site_paths[1][site]
         order = [node]
         root = len(self.corners) + site
         while order[-1] != root:
-            order.append(int(self._site_paths[1][site, order[-1]]))
-        return self.space.from_lattice(self.nodes[order[::-1]])
+            order.append(int(pred[order[-1]]))
+        return self.points[order[::-1]]
 
     def sight(self, point: ArrayLike) -> tuple[NDArray[np.intp], NDArray[np.float64]]:
         """Nodes a free map-frame point sees on a shortest path (corners it is tangent to,
