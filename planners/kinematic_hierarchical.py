@@ -291,7 +291,7 @@ class KinematicHierarchicalPlanner:
         points = [start[0][:2], *(c.point for c in route.crossings), goal[0][:2]]
         last = np.asarray(points[0], float)  # where the current leg starts
         for k, (crossing, after) in enumerate(zip(route.crossings, route.ids[1:], strict=True)):
-            stop = self._stops(route, crossing, last, points[k + 2])
+            stop = self._ends(route, crossing) or self._room(last, crossing.point, points[k + 2])
             poses = door_poses(crossing, route.labels, self.cspace) if stop else []
             if poses:
                 last = np.asarray(crossing.point, float)
@@ -352,29 +352,16 @@ class KinematicHierarchicalPlanner:
             return True
         return self.doors.region_of[crossing.before] != self.doors.region_of[crossing.after]
 
-    def _stops(self, route: Route, crossing: Crossing, last: NDArray, after: Point) -> bool:
-        """Whether a leg ends across ``crossing`` (:meth:`_ends`, :meth:`_room`). A car that
-        reverses ends one there only with room to turn on both sides, its reach (turning
-        radius plus circumradius) from where the leg started (``last``) and from the next
-        crossing or the goal (``after``): two fixed poses closer than that (a start 0.47 m
-        from its door, heading 22.5 degrees off it; two door poses 0.36 m apart) may ask the
-        car for a turn it cannot make between them (2 of 300 campus queries failed so)."""
-        robot = self.cspace.robot
-        if robot.reverses and getattr(robot, "turning_radius", 0.0) > 0:
-            return self._room(last, crossing.point, after, robot.reach)
-        return self._ends(route, crossing) or self._room(last, crossing.point, after)
-
-    def _room(self, last: NDArray, here: Point, after: Point, room: float | None = None) -> bool:
+    def _room(self, last: NDArray, here: Point, after: Point) -> bool:
         """Whether a forward-only car may end a leg at a cut ``here`` between two parts of
         one region: when the leg started (``last``) and the next crossing (or the goal)
-        ``after`` lie at least a turn's ``room`` away (by default twice the turning radius
-        plus the circumradius), so the fixed pose across the cut (heading along the corridor) leaves
+        ``after`` lie at least a turn's room away, twice the turning radius plus the
+        circumradius, so the fixed pose across the cut (heading along the corridor) leaves
         the car room to turn into a side door. Ending there splits a long corridor leg (86
         submaps of a campus corridor system in one RRT query: none found in 5 s) into short
         ones between poses the car can drive between."""
         robot = self.cspace.robot
-        if room is None:
-            room = 2 * (getattr(robot, "turning_radius", 0.0) + robot.circumradius)
+        room = 2 * (getattr(robot, "turning_radius", 0.0) + robot.circumradius)
         p = np.asarray(here, float)
         return bool(
             np.hypot(*(p - last)) >= room and np.hypot(*(p - np.asarray(after, float))) >= room

@@ -259,21 +259,6 @@ def test_a_forward_only_car_ends_legs_only_at_doors_between_regions():
         assert footprint_collisions(grid, cspace.robot.polygon, poses) == 0
 
 
-def test_a_car_that_reverses_ends_no_leg_at_a_door_beside_the_leg_start():
-    """Two fixed poses closer than a car's reach (a campus start 0.47 m from its door, two
-    door poses 0.36 m apart) may ask for a turn the car cannot make between them: such a
-    door is no leg end for it. A robot turning in place keeps every door."""
-    for spec, beside in ((CAR, False), ("rect:0.9x0.6", True)):
-        planner = _planner(spec)
-        route = next(planner._routes((1.0, 2.0, 0.0), (7.0, 2.0, 0.0)))
-        (door,) = route.crossings
-        near = np.asarray(door.point) - (0.4, 0.2)
-        assert planner._stops(route, door, np.array([1.0, 2.0]), (7.0, 2.0))
-        assert planner._stops(route, door, near, (7.0, 2.0)) == beside
-        after = near + np.array([0.8, 0.0])  # a goal 0.4 m past the door
-        assert planner._stops(route, door, np.array([1.0, 2.0]), after) == beside
-
-
 def test_a_car_given_a_point_stands_for_every_valid_heading_there():
     """A car that reverses may stand wedged at the heading nearest 0 (a campus start across
     a doorway); a point is every valid heading for it, as for a forward-only car."""
