@@ -46,6 +46,7 @@ if TYPE_CHECKING:  # the names as type checkers see them (``as``: re-exported)
     from maps.sim.laser import LaserModel as LaserModel
     from maps.sim.laser import RayCaster as RayCaster
     from maps.sim.laser import simulate_scans as simulate_scans
+    from maps.sim.rooms import generate_rooms as generate_rooms
     from maps.tf import TransformTree as TransformTree
 
 

@@ -152,7 +152,9 @@ def _record(
 def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     """Per map and planner: success rate, median and 90th-percentile query time, path length
     over the optimum (median, max), collisions, the hierarchical planner's speed-up (this
-    planner's median time over the hierarchical one's), the map's :func:`best_flat` planner
+    planner's median time over the hierarchical one's; ``speedup_query``: the median over
+    the queries both ran of this planner's time over the hierarchical one's on the same
+    query), the map's :func:`best_flat` planner
     and how many times faster than it this planner's median is (``vs_best_flat``)."""
     rows = []
     maps = list(dict.fromkeys(r["map"] for r in records))
@@ -179,11 +181,18 @@ def summarise(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
                 }
             )
         base = medians.get("hierarchical")
+        hierarchical = {r["query"]: r["seconds"] for r in here if r["planner"] == "hierarchical"}
         here_rows = rows[-len(medians) :]
         best = best_flat(here_rows)
         for row in here_rows:
             median = medians[row["planner"]]
             row["speedup"] = round(median / base, 1) if base else None
+            per_query = [
+                r["seconds"] / hierarchical[r["query"]]
+                for r in here
+                if r["planner"] == row["planner"] and hierarchical.get(r["query"])
+            ]
+            row["speedup_query"] = round(float(np.median(per_query)), 1) if per_query else None
             row["best_flat"] = best
             row["vs_best_flat"] = round(medians[best] / median, 1) if best and median else None
     return rows

@@ -3,6 +3,7 @@ leaving the free space."""
 
 from __future__ import annotations
 
+import math
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Iterable, Mapping
@@ -164,58 +165,64 @@ def tighten(
     tries
         Moves tried per point and pass (the full move, then halves of it).
     """
-    p = np.asarray(waypoints, float).reshape(-1, 2).copy()
-    portals = {} if portals is None else portals
+    p = [(float(x), float(y)) for x, y in np.asarray(waypoints, float).reshape(-1, 2)]
+    ends = {
+        i: tuple((float(e[0]), float(e[1])) for e in portal)
+        for i, portal in ({} if portals is None else portals).items()
+    }
     tolerance = space.grid.resolution * 1e-2
     inner = range(1, len(p) - 1)
     todo = set(inner) if first is None else set(first) & set(inner)
     for _ in range(passes):
         moved: set[int] = set()
         for i in sorted(todo):
-            if i in portals:
-                e1, e2 = (np.asarray(e, float) for e in portals[i])
-                best = _best_on_segment(p[i - 1], p[i + 1], e1, e2)
+            if i in ends:
+                best = _best_on_segment(p[i - 1], p[i + 1], *ends[i])
             else:
                 best = _closest_on_segment(p[i], p[i - 1], p[i + 1])
-            if np.hypot(*(best - p[i])) < tolerance:
+            if math.hypot(best[0] - p[i][0], best[1] - p[i][1]) < tolerance:
                 continue
             for _halving in range(tries):
                 if space.segment_free(p[i - 1], best) and space.segment_free(best, p[i + 1]):
                     p[i] = best
                     moved.add(i)
                     break
-                best = (best + p[i]) / 2
+                best = ((best[0] + p[i][0]) / 2, (best[1] + p[i][1]) / 2)
         todo = {j for i in moved for j in (i - 1, i, i + 1) if 0 < j < len(p) - 1}
         if not todo:
             break
-    return p
+    return np.array(p, float).reshape(-1, 2)
 
 
-def _closest_on_segment(
-    point: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    along = b - a
-    span = float(along @ along)
-    t = 0.0 if span == 0 else min(max(float((point - a) @ along) / span, 0.0), 1.0)
-    return a + t * along
+def _closest_on_segment(point: Point, a: Point, b: Point) -> Point:
+    """The point of segment ``a b`` closest to ``point`` (plain floats: called per point)."""
+    du, dv = b[0] - a[0], b[1] - a[1]
+    span = du * du + dv * dv
+    t = (
+        0.0
+        if span == 0
+        else min(max(((point[0] - a[0]) * du + (point[1] - a[1]) * dv) / span, 0.0), 1.0)
+    )
+    return (a[0] + t * du, a[1] + t * dv)
 
 
-def _best_on_segment(
-    a: NDArray[np.float64], c: NDArray[np.float64], e1: NDArray[np.float64], e2: NDArray[np.float64]
-) -> NDArray[np.float64]:
+def _best_on_segment(a: Point, c: Point, e1: Point, e2: Point) -> Point:
     """The point of segment ``e1 e2`` minimising the distance from ``a`` plus to ``c``."""
-    along = e2 - e1
-    span = float(along @ along)
+    du, dv = e2[0] - e1[0], e2[1] - e1[1]
+    span = du * du + dv * dv
     if span == 0:
-        return e1.copy()
-    normal = np.array([-along[1], along[0]])
-    side_a, side_c = float((a - e1) @ normal), float((c - e1) @ normal)
+        return e1
+    nu, nv = -dv, du  # the portal's normal
+    side_a = (a[0] - e1[0]) * nu + (a[1] - e1[1]) * nv
+    side_c = (c[0] - e1[0]) * nu + (c[1] - e1[1]) * nv
     if side_a * side_c > 0:  # same side: mirror c in the portal line
-        c = c - 2 * side_c / span * normal
+        c = (c[0] - 2 * side_c / span * nu, c[1] - 2 * side_c / span * nv)
         side_c = -side_c
     if side_a == side_c:
-        t = float((a - e1) @ along) / span
+        t = ((a[0] - e1[0]) * du + (a[1] - e1[1]) * dv) / span
     else:
-        hit = a + side_a / (side_a - side_c) * (c - a)
-        t = float((hit - e1) @ along) / span
-    return e1 + min(max(t, 0.0), 1.0) * along
+        f = side_a / (side_a - side_c)
+        hu, hv = a[0] + f * (c[0] - a[0]), a[1] + f * (c[1] - a[1])
+        t = ((hu - e1[0]) * du + (hv - e1[1]) * dv) / span
+    t = min(max(t, 0.0), 1.0)
+    return (e1[0] + t * du, e1[1] + t * dv)

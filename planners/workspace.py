@@ -167,10 +167,17 @@ class Workspace:
     def segment_free(self, start: PointLike, end: PointLike) -> bool:
         """Whether the straight motion ``start -> end`` is valid: :meth:`segments_free` for
         one motion, walking the cells one by one (Amanatides and Woo) without numpy."""
-        free, w, h, ox, oy, c, s, snap = self._scalar
+        _, _, _, ox, oy, c, s, _ = self._scalar
         x0, y0, x1, y1 = float(start[0]), float(start[1]), float(end[0]), float(end[1])
-        u0, v0 = _snap1(c * (x0 - ox) + s * (y0 - oy)), _snap1(c * (y0 - oy) - s * (x0 - ox))
-        u1, v1 = _snap1(c * (x1 - ox) + s * (y1 - oy)), _snap1(c * (y1 - oy) - s * (x1 - ox))
+        u0, v0 = c * (x0 - ox) + s * (y0 - oy), c * (y0 - oy) - s * (x0 - ox)
+        return self.lattice_segment_free(
+            u0, v0, c * (x1 - ox) + s * (y1 - oy), c * (y1 - oy) - s * (x1 - ox)
+        )
+
+    def lattice_segment_free(self, u0: float, v0: float, u1: float, v1: float) -> bool:
+        """:meth:`segment_free` for a motion in lattice coordinates (:meth:`to_lattice`)."""
+        free, w, h, _, _, _, _, snap = self._scalar
+        u0, v0, u1, v1 = _snap1(float(u0)), _snap1(float(v0)), _snap1(float(u1)), _snap1(float(v1))
         if (u0 == u1 and u0 == round(u0) and v0 != v1) or (
             v0 == v1 and v0 == round(v0) and u0 != u1
         ):

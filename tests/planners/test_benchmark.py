@@ -5,7 +5,7 @@ import sqlite3
 import numpy as np
 import pytest
 
-from planners.benchmark import far_queries, run_queries
+from planners.benchmark import far_queries, run_queries, summarise
 from planners.grid_mcp import GridMCP
 from planners.visibility import VisibilityGraph
 from planners.workspace import Workspace
@@ -72,3 +72,17 @@ def test_the_footprint_picture_draws_the_hierarchical_paths(two_rooms, tmp_path)
     }
     written = plot_footprint_paths(tmp_path / "paths.png", about)
     assert written.stat().st_size > 10_000
+
+
+def test_speedup_per_query_pairs_the_same_queries():
+    seconds = {"hierarchical": [1.0, 2.0, 4.0], "grid_mcp": [10.0, 4.0, 400.0]}
+    records = [
+        {"map": "m", "planner": name, "query": q, "seconds": t, "success": True,
+         "length_m": 1.0, "optimal_m": 1.0, "collisions": 0}
+        for name, times in seconds.items()
+        for q, t in enumerate(times)
+    ]  # fmt: skip
+    rows = {row["planner"]: row for row in summarise(records)}
+    assert rows["grid_mcp"]["speedup_query"] == 10.0  # ratios 10, 2, 100
+    assert rows["grid_mcp"]["speedup"] == 5.0  # median 10 over median 2
+    assert rows["hierarchical"]["speedup_query"] == 1.0

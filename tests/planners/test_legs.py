@@ -15,7 +15,7 @@ from maps.sim.floorplan import generate_floor_plan
 from planners.benchmark import best_flat, far_queries
 from planners.cspace import HeadingCSpace
 from planners.errors import InvalidQueryError, PlannerParameterError
-from planners.kinematic import POSE_SPACING
+from planners.kinematic import POSE_SPACING, end_poses
 from planners.kinematic_hierarchical import Budget, KinematicHierarchicalPlanner
 from planners.legs import Crossing, door_poses
 from planners.robots import Footprint, RobotSpecError, parse_robot, rectangle
@@ -257,3 +257,13 @@ def test_a_forward_only_car_ends_legs_only_at_doors_between_regions():
         poses = planner._legs(route, [start], [goal], Budget(time.perf_counter() + 2.0, 1), seconds)
         assert poses is not None  # the first route, within its 2 s
         assert footprint_collisions(grid, cspace.robot.polygon, poses) == 0
+
+
+def test_a_car_given_a_point_stands_for_every_valid_heading_there():
+    """A car that reverses may stand wedged at the heading nearest 0 (a campus start across
+    a doorway); a point is every valid heading for it, as for a forward-only car."""
+    car, rect = (_planner(spec).cspace for spec in (CAR, "rect:0.9x0.6"))
+    poses = end_poses(car, (2.0, 2.0), "start")
+    assert len(poses) == len(car.free_headings(2.0, 2.0)) > 1
+    assert abs(poses[0][2]) <= math.pi / 32  # the heading nearest 0 first
+    assert len(end_poses(rect, (2.0, 2.0), "start")) == 1

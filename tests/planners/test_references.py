@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from maps.grid import OCCUPIED, OccupancyGrid
+from planners import visibility
 from planners.errors import NoPathError
 from planners.grid_astar import GridAStar
 from planners.visibility import VisibilityGraph
@@ -52,3 +53,22 @@ def test_disconnected_start_and_goal_raise_no_path():
         VisibilityGraph(space).plan((1.0, 1.0), (7.0, 1.0))
     with pytest.raises(NoPathError):
         GridAStar(space).plan((1.0, 1.0), (7.0, 1.0))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_sight_walks_the_cells_or_checks_in_one_batch_alike(seed, monkeypatch):
+    rng = np.random.default_rng(seed)
+    cells = np.where(rng.random((60, 60)) < 0.08, OCCUPIED, 0).astype(np.int8)
+    space = Workspace(OccupancyGrid(cells, 0.1, (-1.0, 2.0, 0.4)), 0.0)
+    graph = VisibilityGraph(space)
+    rows, cols = np.nonzero(space.free)
+    points = np.column_stack(space.grid.cell_to_world(rows, cols))[::23]
+    points += rng.uniform(-0.04, 0.04, points.shape)  # off the centres, inside the cells
+    seen = {}
+    for few in (0, 10**9):  # every sight in one batch, every sight walked
+        monkeypatch.setattr(visibility, "FEW_SIGHTS", few)
+        seen[few] = [graph.sight(p) for p in points]
+    assert sum(len(nodes) for nodes, _ in seen[0]) > 10 * len(seen[0])
+    for (a, da), (b, db) in zip(seen[0], seen[10**9], strict=True):
+        np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(da, db)

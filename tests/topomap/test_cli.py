@@ -398,9 +398,28 @@ def test_bench_plan_runs_only_the_planners_named(tmp_path):
     assert len(records) == 3 and {r["planner"] for r in records} == {"hierarchical"}
 
 
+@pytest.mark.slow
+def test_bench_plan_runs_only_the_disc_planners_named(tmp_path):
+    out = tmp_path / "bench"
+    arguments = ["bench", "plan", "--sizes", "flat", "--queries", "2", "--out", str(out)]
+    chosen = ["--planners", "hierarchical", "grid_mcp", "--cache", str(tmp_path / "cache")]
+    assert main([*arguments, *chosen]) == 0
+    records = json.loads((out / "results.json").read_text())
+    assert len(records) == 4 and {r["planner"] for r in records} == {"hierarchical", "grid_mcp"}
+    assert all(r["success"] and r["collisions"] == 0 for r in records)
+    preprocessing = json.loads((out / "preprocessing.json").read_text())
+    assert "prm_roadmap" not in preprocessing["generated-flat"]
+
+
+def test_bench_plan_refuses_an_unknown_map_size(tmp_path, capsys):
+    arguments = ["bench", "plan", "--sizes", "office", "rooms9", "--out", str(tmp_path / "b")]
+    assert main(arguments) == 2
+    assert "rooms9" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     ("robot", "named"),
-    [(["--robot", "rect:0.9x0.6"], "flat_est"), ([], "footprint robots")],
+    [(["--robot", "rect:0.9x0.6"], "flat_est"), ([], "flat_est for a disc robot")],
 )
 def test_bench_plan_refuses_planners_it_cannot_run(tmp_path, capsys, robot, named):
     arguments = ["bench", "plan", "--sizes", "flat", "--out", str(tmp_path / "bench"), *robot]

@@ -20,7 +20,8 @@ from maps.scan import Keyframe
 from maps.sim.exploration import wander
 from maps.sim.floorplan import generate_floor_plan
 from maps.sim.laser import LaserModel, RayCaster, simulate_keyframes, simulate_scans
-from planners.benchmark import Planner, far_queries, run_queries, summarise
+from maps.sim.rooms import ROOM_SIZES, generate_rooms
+from planners.benchmark import PLANNER_NAMES, Planner, far_queries, run_queries, summarise
 from planners.cspace import HeadingCSpace
 from planners.errors import PlannerParameterError
 from planners.flat import FlatPlanner
@@ -147,6 +148,9 @@ def bench_segment(
 
 #: Generated buildings of the planning benchmark: result name -> generator size.
 BUILDINGS = {"generated-flat": "flat", "generated-office": "office", "generated-campus": "campus"}
+#: Grid benchmark maps of rooms (:func:`maps.sim.rooms.generate_rooms`, 512 x 512 cells):
+#: ``--sizes`` name -> cells from wall to wall.
+ROOM_MAPS = {f"rooms{room}": room for room in ROOM_SIZES}
 
 
 def plan_maps(
@@ -154,11 +158,27 @@ def plan_maps(
     maps_dir: str | Path | None = None,
     seed: int = 0,
 ) -> Iterator[tuple[str, OccupancyGrid]]:
-    """The benchmark's maps: generated buildings of ``sizes`` (empty, seed ``seed``), then
-    every map YAML in ``maps_dir``."""
+    """The benchmark's maps: generated buildings of ``sizes`` (empty, seed ``seed``), the
+    512 x 512 rooms maps of ``sizes`` (:data:`ROOM_MAPS`, seed ``seed``), then every map YAML
+    in ``maps_dir``.
+
+    Raises
+    ------
+    PlannerParameterError
+        A name in ``sizes`` that is neither a building nor a rooms map.
+    """
+    unknown = sorted(set(sizes) - set(BUILDINGS.values()) - set(ROOM_MAPS))
+    if unknown:
+        known = [*BUILDINGS.values(), *ROOM_MAPS]
+        raise PlannerParameterError(
+            f"unknown map sizes {', '.join(unknown)}; known: {', '.join(known)}"
+        )
     for name, size in BUILDINGS.items():
         if size in sizes:
             yield name, generate_floor_plan(size, random_state=seed).grid
+    for size, room in ROOM_MAPS.items():
+        if size in sizes:
+            yield f"rooms{room}-512", generate_rooms(512, room, random_state=seed)
     if maps_dir is not None:
         folder = Path(maps_dir)
         if not folder.is_dir():
@@ -207,13 +227,15 @@ def bench_plan(
     no cache), so a rerun does not rebuild them. Writes the files of
     :func:`topomap.cli.plan_report.write_report` to ``out``; returns the records and the summary.
 
+    ``planners`` names those that run (:data:`~planners.benchmark.PLANNER_NAMES`; default
+    all but ``grid_astar``, which ``python_astar`` adds); the others are not even set up.
     A footprint ``robot`` (a :func:`planners.robots.parse_robot` spec other than a disc) runs
     :func:`bench_plan_robot` instead, with only the ``planners`` named (all by default).
 
     Raises
     ------
     PlannerParameterError
-        ``planners`` given for a disc robot, or naming none of a footprint robot's planners.
+        ``planners`` naming none or one the robot's benchmark does not have.
     """
     model = None if robot is None else parse_robot(robot)
     if model is not None and not isinstance(model, Disc):
@@ -222,8 +244,14 @@ def bench_plan(
             time_limit=time_limit, budget=budget, planners=planners, seed=seed,
             progress=progress,
         )  # fmt: skip
-    if planners is not None:
-        raise PlannerParameterError("choosing the planners is for footprint robots (--robot)")
+    default = PLANNER_NAMES if python_astar else PLANNER_NAMES[:-1]
+    chosen = default if planners is None else (*planners, *("grid_astar",) * python_astar)
+    unknown = sorted(set(chosen) - set(PLANNER_NAMES))
+    if unknown or not chosen:
+        raise PlannerParameterError(
+            f"unknown planners {', '.join(unknown) or '(none given)'} for a disc robot; "
+            f"known: {', '.join(PLANNER_NAMES)}"
+        )
     if isinstance(model, Disc):
         robot_radius = model.radius
     records: list[dict[str, Any]] = []
@@ -236,15 +264,25 @@ def bench_plan(
         space = hierarchical.space
         pre["submaps"] = hierarchical.build_seconds
         pre["door_graph"] = hierarchical.prepare()
-        mcp = GridMCP(space)
-        pre["grid_mcp"] = mcp.build_seconds
-        rrt = FlatPlanner(space, "RRTConnect", time_limit=time_limit, random_state=seed)
-        prm = FlatPlanner(space, "PRM", time_limit=time_limit, random_state=seed)
-        pre["prm_roadmap"] = min(PRM_MAX_GROWTH, pre["submaps"] + pre["door_graph"])
-        prm.grow_roadmap(pre["prm_roadmap"])
-        bit = FlatPlanner(space, "BITstar", time_limit=OPTIMAL_BUDGET, random_state=seed)
-        running: list[Planner] = [hierarchical, mcp, rrt, prm, bit]
-        if python_astar:
+        running: list[Planner] = [hierarchical] if "hierarchical" in chosen else []
+        if "grid_mcp" in chosen:
+            mcp = GridMCP(space)
+            pre["grid_mcp"] = mcp.build_seconds
+            running.append(mcp)
+        if "flat_rrtconnect" in chosen:
+            running.append(
+                FlatPlanner(space, "RRTConnect", time_limit=time_limit, random_state=seed)
+            )
+        if "flat_prm" in chosen:
+            prm = FlatPlanner(space, "PRM", time_limit=time_limit, random_state=seed)
+            pre["prm_roadmap"] = min(PRM_MAX_GROWTH, pre["submaps"] + pre["door_graph"])
+            prm.grow_roadmap(pre["prm_roadmap"])
+            running.append(prm)
+        if "flat_bitstar" in chosen:
+            running.append(
+                FlatPlanner(space, "BITstar", time_limit=OPTIMAL_BUDGET, random_state=seed)
+            )
+        if "grid_astar" in chosen:
             running.append(GridAStar(space))
         pairs = far_queries(space, queries, random_state=seed)
         optimal, pre["exact_reference"], pre["exact_cached"] = exact_lengths(space, pairs, cache)

@@ -119,8 +119,9 @@ def write_ompl_log(
 
 
 #: Columns of the summary table (lengths are ratios to the exact shortest path; ``speedup``
-#: is the planner's median time over the hierarchical planner's, ``vs_best_flat`` the best
-#: flat planner's median time over this planner's).
+#: is the planner's median time over the hierarchical planner's, ``speedup_query`` the
+#: median of its time over the hierarchical planner's on the same query, ``vs_best_flat``
+#: the best flat planner's median time over this planner's).
 COLUMNS = [
     "map",
     "planner",
@@ -128,6 +129,7 @@ COLUMNS = [
     "median_s",
     "p90_s",
     "speedup",
+    "speedup_query",
     "vs_best_flat",
     "length_median",
     "length_max",

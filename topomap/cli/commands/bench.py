@@ -77,7 +77,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_output_options(plan_bench, "out/bench-plan")
     plan_bench.add_argument("--maps", help="also every map YAML in this folder")
     plan_bench.add_argument(
-        "--sizes", nargs="*", default=["flat", "office", "campus"], help="generated buildings"
+        "--sizes",
+        nargs="*",
+        default=["flat", "office", "campus"],
+        help="generated buildings (flat, office, campus) and 512 x 512 grid maps of rooms "
+        "8, 16 or 32 cells apart with one-cell doors (rooms8, rooms16, rooms32)",
     )
     plan_bench.add_argument("--queries", type=int, default=30, help="per map")
     plan_bench.add_argument("--robot-radius", type=float, default=0.2, help="metres")
@@ -95,9 +99,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--planners",
         nargs="+",
         metavar="NAME",
-        help="with a footprint --robot: only these planners run (default all: hierarchical, "
-        "hierarchical_union, flat_rrtconnect, flat_rrtstar, flat_bitstar, flat_kpiece1, "
-        "flat_prm)",
+        help="only these planners run (default all; a disc: hierarchical, grid_mcp, "
+        "flat_rrtconnect, flat_prm, flat_bitstar, grid_astar; a footprint --robot: "
+        "hierarchical, hierarchical_union, flat_rrtconnect, flat_rrt, flat_rrtstar, "
+        "flat_bitstar, flat_kpiece1, flat_prm)",
     )
     plan_bench.set_defaults(func=cmd_bench_plan)
     batch_bench = bench_sub.add_parser("batch", help="topomap batch: maps per minute, 1-2 workers")
