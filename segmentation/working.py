@@ -39,8 +39,7 @@ def pool(
     (:meth:`~maps.grid.OccupancyGrid.free_clearance`) is measured on ``space`` itself, each
     working cell taking the least of its cells': to a map cell, not to a working cell, so
     the places and passages measured on it do not move with the way the blocks fall on the
-    building. (Measured with ``topomap eval segment --shifts``: ROSE²'s maps IoU 81.1 ->
-    84.0 %, MCC 0.683 -> 0.685; the ipa plans 0.851 / 0.831 -> 0.852 / 0.830.)
+    building (measured with ``topomap eval segment --shifts``: docs/segmentation.md).
 
     Examples
     --------

@@ -71,6 +71,16 @@ def test_a_padded_grid_keeps_every_cell_in_place(yaw, left, top, row, col):
     assert (moved.cells[:top] == -1).all() and (moved.cells[:, :left] == -1).all()
 
 
+@pytest.mark.parametrize(
+    "clearance",
+    [np.zeros((2, 3)), [[np.nan, 0.0]], [[-0.1, 0.0]], [[0.1, 0.1]]],  # shape, NaN, < 0, on a wall
+)
+def test_a_given_clearance_is_checked(clearance):
+    grid = OccupancyGrid(np.array([[0, 100]], np.int8), 0.1)
+    with pytest.raises(InvalidMapError, match="clearance"):
+        grid.with_free_clearance(clearance)
+
+
 @pytest.mark.parametrize("left, top", [(-1, 0), (0, 1.5), (0, None)])
 def test_padding_must_be_whole_cells(left, top):
     with pytest.raises(InvalidMapError, match="whole cells"):

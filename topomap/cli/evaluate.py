@@ -129,9 +129,14 @@ def evaluate(
             found = pipeline.segment(grid.padded(left, top), random_state=0)
             wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
             labels = found.regions.labels[top : top + height, left : left + width]
-            scores = _scores(labels, truth)
-            runs.append({"keyframes": len(found.keyframes), "seconds": wall, "cpu_seconds": cpu})
-            runs[-1].update(scores)
+            runs.append(
+                {
+                    "keyframes": len(found.keyframes),
+                    "seconds": wall,
+                    "cpu_seconds": cpu,
+                    **_scores(labels, truth),
+                }
+            )
         record: dict[str, Any] = {
             "map": plan.name.removesuffix("_furnitures"),
             "furnished": plan.furnished,
