@@ -7,7 +7,8 @@ reach into it. :func:`cover` gives each such cell the region it belongs to:
 - the *building* is every free cell of the map and every clutter cell (free-standing
   obstacles that fit in ``clutter_size``, :func:`~segmentation.conditioning.find_clutter`);
 - a piece of building left without a region (8-connected) that is at least ``min_area``,
-  meets the regions over at most a door's width and shows walls (its cells beside occupied
+  opens onto the regions over at most a door's width (the span of the cells where it meets
+  them, jamb to jamb, :func:`opening_spans`) and shows walls (its cells beside occupied
   cells, where its rays ended) at least :data:`WALLS_SHOWN` times as long as that opening is a
   room seen through its door (a fan of rays into an office nobody entered): a region of its
   own. Rays out through a window into unmapped space end on no wall, and a pocket of a room
@@ -86,9 +87,11 @@ def cover(
         area = np.bincount(pieces.ravel(), minlength=count + 1) * grid.resolution**2
         touching = cv2.dilate((labels > 0).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
         contact = np.bincount(pieces[touching & left], minlength=count + 1) * grid.resolution
+        large = area >= min_area
+        span = opening_spans(pieces, touching & left & large[pieces], count) * grid.resolution
         walls = cv2.dilate(grid.occupied.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
         shown = np.bincount(pieces[walls & left], minlength=count + 1) * grid.resolution
-        rooms = (area >= min_area) & (contact <= door_width) & (shown >= WALLS_SHOWN * contact)
+        rooms = large & (span <= door_width) & (shown >= WALLS_SHOWN * contact)
         rooms[0] = False
         seen = int(rooms.sum())
         if seen:
@@ -97,3 +100,34 @@ def cover(
             seeds = np.where(rooms[pieces], new_id[pieces], seeds)
     grown = consecutive(grow(seeds, building, ALL_AROUND))  # the cost follows the cells filled
     return Coverage(grown, int(((grown > 0) & (labels == 0)).sum()), seen)
+
+
+def opening_spans(
+    pieces: NDArray[np.integer], contact: NDArray[np.bool_], count: int
+) -> NDArray[np.float64]:
+    """How wide each of the ``count`` labelled ``pieces`` opens onto its neighbours, in cells:
+    the span (largest distance, plus a cell) of its ``contact`` cells, as a door's width is
+    measured from jamb to jamb. The count of the touching cells reads a double door as wider
+    than 2 m (its corner cells touch too) and a diagonal opening up to 1.4 times its width;
+    it stays the measure of how long a piece meets the regions, against the walls it shows.
+
+    Examples
+    --------
+    >>> pieces = np.array([[1, 1, 1, 0], [0, 0, 0, 2]])
+    >>> contact = np.array([[True, False, True, False], [False, False, False, True]])
+    >>> opening_spans(pieces, contact, 2).tolist()
+    [0.0, 3.0, 1.0]
+    """
+    spans = np.zeros(count + 1)
+    rows, cols = np.nonzero(contact)
+    which = pieces[rows, cols]
+    order = np.argsort(which, kind="stable")
+    rows, cols, which = rows[order], cols[order], which[order]
+    starts = np.searchsorted(which, np.arange(count + 2))
+    for piece in np.flatnonzero(np.diff(starts[1:]) > 0) + 1:
+        at = slice(starts[piece], starts[piece + 1])
+        points = np.column_stack([cols[at], rows[at]]).astype(np.int32)
+        hull = cv2.convexHull(points).reshape(-1, 2).astype(np.float64)
+        gaps = hull[:, None, :] - hull[None, :, :]
+        spans[piece] = float(np.sqrt((gaps**2).sum(axis=2).max())) + 1.0
+    return spans

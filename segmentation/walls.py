@@ -113,7 +113,12 @@ def wall_gaps(
                 * resolution
                 >= flank
                 and free[ys[i:j], xs[i:j]].mean() > 0.5
-                and not _through_channel(near, *wall_ends, CHANNEL / resolution)
+                and not _through_channel(
+                    near,
+                    (xs[i - 1 - reach], ys[i - 1 - reach]),  # on the walls' faces
+                    (xs[j + reach], ys[j + reach]),
+                    CHANNEL / resolution,
+                )
             ):
                 _close(out, *wall_ends, HOLE / resolution)
     return out.astype(bool) & free
@@ -132,8 +137,11 @@ def _through_channel(
     """Whether the gap from ``start`` to ``end`` (x, y cells) is where corridors meet: walls
     run on from both its ends, across the line, for ``depth`` cells on one side (a channel)
     and the other side is a channel too (a corridor crossing the line of the rooms' walls) or
-    no deeper than twice the gap (a corridor branching off another: a T junction). A channel
-    opening into a deep space (a passage leaving a hall) is closed like any gap."""
+    no deeper than twice the gap (a corridor branching off another: a T junction), or one of
+    the channel's walls runs on into the other side (a corridor going on past an open area
+    beside it, which people draw as part of the corridor). A channel opening into a deep
+    space with neither wall going on (a passage leaving a hall) is closed like any gap. The
+    ends given are on the walls' faces, not at the edge of the band they wander in."""
     a, b = np.array(start, float), np.array(end, float)
     span = max(float(np.hypot(*(b - a))), 1e-9)
     along = (b - a) / span
@@ -144,6 +152,8 @@ def _through_channel(
     if not any(channel):
         return False
     across = -normal if channel[0] else normal  # from the gap, away from the channel
+    if any(_wall_runs_on(near, tip, across, depth) for tip in (a, b)):
+        return True  # a corridor going on past an open space beside it, along one wall
     steps = (a + b) / 2 + np.arange(1, round(2 * span) + 1)[:, None] * across
     return bool(_hits(near, steps).any())
 
@@ -154,6 +164,12 @@ def _walls_run_on(
     """Whether walls run on from both ``a`` and ``b`` along ``direction`` for ``depth`` cells."""
     tips = [tip + t * depth * direction for tip in (a, b) for t in (0.25, 0.5, 0.75, 1.0)]
     return int(_hits(near, np.array(tips)).sum()) >= 7
+
+
+def _wall_runs_on(near: NDArray[np.bool_], tip: NDArray, direction: NDArray, depth: float) -> bool:
+    """Whether a wall runs on from ``tip`` along ``direction`` for ``depth`` cells."""
+    tips = [tip + t * depth * direction for t in (0.25, 0.5, 0.75, 1.0)]
+    return int(_hits(near, np.array(tips)).sum()) >= len(tips) - 1
 
 
 def _hits(near: NDArray[np.bool_], points: NDArray) -> NDArray[np.bool_]:

@@ -129,3 +129,18 @@ def test_a_gap_is_closed_alike_one_cell_over(seed, left, top):
     assert closed[55:66, 70:94].any()  # the door is closed but for its hole
     # the same closing line, give or take a cell at its ends (the Hough lines' ends)
     assert (closed_moved[top:, left:] != closed).sum() <= 0.2 * closed.sum()
+
+
+def test_a_corridor_going_on_past_an_open_area_beside_it_is_not_cut():
+    # rooms' walls on one line across a corridor that has an open area along its south side
+    # on one side of the line: its north wall, broken by a door, goes on past the line
+    free = np.zeros((140, 200), bool)  # 0.1 m cells
+    free[50:65, 5:195] = True  # a 1.5 m corridor
+    free[5:49, 20:99] = free[5:49, 101:180] = True  # rooms north, their wall at column 99-100
+    free[49, 60:70] = True  # a 1 m door into the west room
+    free[65:130, 20:99] = True  # an open area along the corridor's west half, no wall between
+    free[66:130, 101:180] = True  # a room south of the east half, its wall on the same line
+    free[65, 130:140] = True  # behind a door
+    closed = wall_gaps(~free, free, 0.1)
+    assert not closed[50:65, 95:105].any()  # the corridor across the line stays open
+    assert closed[48:51, 60:70].any() or closed[64:67, 130:140].any()  # doors still close
