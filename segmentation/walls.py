@@ -161,15 +161,22 @@ def _through_channel(
 def _walls_run_on(
     near: NDArray[np.bool_], a: NDArray, b: NDArray, direction: NDArray, depth: float
 ) -> bool:
-    """Whether walls run on from both ``a`` and ``b`` along ``direction`` for ``depth`` cells."""
-    tips = [tip + t * depth * direction for tip in (a, b) for t in (0.25, 0.5, 0.75, 1.0)]
-    return int(_hits(near, np.array(tips)).sum()) >= 7
+    """Whether walls run on from both ``a`` and ``b`` along ``direction`` for ``depth`` cells
+    (all but one of their :func:`_run_on` points on a wall)."""
+    return _run_on(near, a, direction, depth) + _run_on(near, b, direction, depth) >= 7
 
 
 def _wall_runs_on(near: NDArray[np.bool_], tip: NDArray, direction: NDArray, depth: float) -> bool:
-    """Whether a wall runs on from ``tip`` along ``direction`` for ``depth`` cells."""
-    tips = [tip + t * depth * direction for t in (0.25, 0.5, 0.75, 1.0)]
-    return int(_hits(near, np.array(tips)).sum()) >= len(tips) - 1
+    """Whether a wall runs on from ``tip`` along ``direction`` for ``depth`` cells (all but one
+    of its :func:`_run_on` points on a wall)."""
+    return _run_on(near, tip, direction, depth) >= 3
+
+
+def _run_on(near: NDArray[np.bool_], tip: NDArray, direction: NDArray, depth: float) -> int:
+    """How many of four points a quarter of ``depth`` cells apart from ``tip`` along
+    ``direction`` are on a wall."""
+    points = [tip + t * depth * direction for t in (0.25, 0.5, 0.75, 1.0)]
+    return int(_hits(near, np.array(points)).sum())
 
 
 def _hits(near: NDArray[np.bool_], points: NDArray) -> NDArray[np.bool_]:
