@@ -453,4 +453,9 @@ def clearance_of(space: NDArray[np.bool_], resolution: float) -> NDArray[np.floa
 
     padded = np.pad(space, 1).astype(np.uint8)
     distance = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    # the distance to the nearest outside cell's centre is the root of a whole number of
+    # cells squared; OpenCV's last bits are not (on small images they differ from one call
+    # to the next), so the squares are rounded to it: the same map gives the same places
+    np.multiply(distance, distance, out=distance)
+    np.sqrt(np.rint(distance, out=distance), out=distance)
     return distance[1:-1, 1:-1] * np.float32(resolution)

@@ -48,7 +48,7 @@ from segmentation.conditioning import ConditionedMap, condition, drop_outside
 from segmentation.corridors import join_corridor_cuts
 from segmentation.coverage import Coverage, cover
 from segmentation.errors import ParameterError, SegmentationError
-from segmentation.refine import basins, count_basins, merge_open_boundaries
+from segmentation.refine import PLACE_DEPTH, basins, count_basins, merge_open_boundaries
 from segmentation.regions import Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter, at_most
 from segmentation.virtual import VIRTUAL_LASER, most_open_cells, virtual_keyframes
@@ -174,7 +174,7 @@ class MapSegmenter(Estimator):
     robot_radius: float = 0.2
     clutter_size: float = 2.0
     min_area: float = 1.0
-    place_depth: float = 0.3
+    place_depth: float = PLACE_DEPTH
     spacing: float = 2.0
     cell_size: float = 0.1
     method: str = "spectral"

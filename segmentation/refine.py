@@ -22,9 +22,15 @@ from segmentation.regions import boundary_pairs, consecutive
 
 #: A passage at least this share of the open space on both sides of it is no door.
 OPEN = 0.8
+#: A place's clearance peak rises at least this far above the passage to a higher one,
+#: metres: the space is 0.4 m wider than the passage. Chosen by each data set alone, over
+#: the four phases of ``topomap eval segment --shifts`` (2026-12-03): 0.2 over 0.25 and 0.3 on
+#: the ROSE² maps (spectral MCC 0.744 / 0.737 / 0.710) and on the ipa plans (0.847 / 0.843 /
+#: 0.843, empty and furnished); 0.15 was lower on both (one phase: 0.728; 0.845).
+PLACE_DEPTH = 0.2
 
 
-def basins(grid: OccupancyGrid, depth: float = 0.3) -> NDArray[np.int32]:
+def basins(grid: OccupancyGrid, depth: float = PLACE_DEPTH) -> NDArray[np.int32]:
     """Watershed basins of the clearance whose peaks rise at least ``depth`` metres above the
     passage to any higher basin (the h-maxima basins, found by merging by dynamics).
 

@@ -1,7 +1,7 @@
 """Gaps of straight walls: closed where a wall goes on past them, never elsewhere."""
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
@@ -114,8 +114,9 @@ def test_a_passage_leaving_a_hall_through_its_wall_is_closed():
     assert closed[99:102, 90:100].any()
 
 
-@settings(max_examples=20, deadline=None)
+@settings(max_examples=50, deadline=None)
 @given(st.integers(0, 2**31 - 1), st.integers(0, 1), st.integers(0, 1))
+@example(162797, 1, 0)  # one cell over, the Hough line one cell more tilted
 def test_a_gap_is_closed_alike_one_cell_over(seed, left, top):
     # a SLAM wall at 0.05 m: its face wanders a cell, a cell in seven is missing; a 1.2 m door
     rng = np.random.default_rng(seed)
@@ -126,9 +127,13 @@ def test_a_gap_is_closed_alike_one_cell_over(seed, left, top):
     moved = np.pad(walls, ((top, 0), (left, 0)))
     closed = wall_gaps(walls, ~walls, 0.05)
     closed_moved = wall_gaps(moved, ~moved, 0.05)
+    back = closed_moved[top:, left:]
     assert closed[55:66, 70:94].any()  # the door is closed but for its hole
-    # the same closing line, give or take a cell at its ends (the Hough lines' ends)
-    assert (closed_moved[top:, left:] != closed).sum() <= 0.2 * closed.sum()
+    # the same columns closed and the same hole, give or take a cell at the ends (the Hough
+    # lines' ends), on the same line give or take a cell (a line one cell more tilted)
+    columns, columns_back = closed[:, 70:94].any(axis=0), back[:, 70:94].any(axis=0)
+    assert (columns != columns_back).sum() <= 2
+    assert abs(np.median(np.nonzero(closed)[0]) - np.median(np.nonzero(back)[0])) <= 1
 
 
 def test_a_corridor_going_on_past_an_open_area_beside_it_is_not_cut():
