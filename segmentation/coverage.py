@@ -9,11 +9,12 @@ reach into it. :func:`cover` gives each such cell the region it belongs to:
 - a piece of building left without a region (8-connected) that is at least ``min_area``,
   opens onto the regions over at most a door's width (the span of the cells where it meets
   them, jamb to jamb, :func:`opening_spans`) and shows walls (its cells beside occupied
-  cells, where its rays ended) at least :data:`WALLS_SHOWN` times as long as that opening is a
-  room seen through its door (a fan of rays into an office nobody entered): a region of its
-  own. Rays out through a window into unmapped space end on no wall, and a pocket of a room
-  behind its furniture meets the room over more than the walls it shows: both join the room
-  they leave from;
+  cells that are not clutter, where its rays ended: furniture is no wall) at least
+  :data:`WALLS_SHOWN` times as long as that opening is a room seen through its door (a fan
+  of rays into an office nobody entered): a region of its own. Rays out through a window
+  into unmapped space end on no wall, and a pocket of a room behind its furniture or round
+  a table meets the room over more than the walls it shows: they join the room they leave
+  from;
 - every other cell joins the region it reaches first through the building (grown a ring at
   a time, :func:`~segmentation.working.grow`): the furniture of a room joins the room, a ray
   joins the room it leaves from.
@@ -89,8 +90,10 @@ def cover(
         contact = np.bincount(pieces[touching & left], minlength=count + 1) * grid.resolution
         large = area >= min_area
         span = opening_spans(pieces, touching & left & large[pieces], count) * grid.resolution
-        walls = cv2.dilate(grid.occupied.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-        shown = np.bincount(pieces[walls & left], minlength=count + 1) * grid.resolution
+        fixed = grid.occupied & ~clutter  # furniture is no wall: a pocket round it is no room
+        walls = cv2.dilate(fixed.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        shown = np.bincount(pieces[walls & left & ~clutter], minlength=count + 1)
+        shown = shown * grid.resolution
         rooms = large & (span <= door_width) & (shown >= WALLS_SHOWN * contact)
         rooms[0] = False
         seen = int(rooms.sum())

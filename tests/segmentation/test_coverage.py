@@ -19,3 +19,19 @@ def test_a_room_seen_through_a_diagonal_door_is_a_region_of_its_own():
     found = cover(OccupancyGrid.from_masks(free, 0.05), labels, np.zeros_like(free))
     assert found.seen_rooms == 1
     assert found.labels[200, 200] != found.labels[50, 50] == 1
+
+
+def test_the_free_cells_round_a_table_join_the_room_they_are_in():
+    # 0.1 m cells: a 4 m room with a 1 m table in it (clutter), the regions stopping 0.2 m
+    # short of it. The ring round the table opens onto the room over less than double doors
+    # and the table's edges are long beside it; a table is no wall, so it is no room.
+    free = np.zeros((42, 42), bool)
+    free[1:41, 1:41] = True
+    table = np.zeros_like(free)
+    table[16:26, 16:26] = True
+    free &= ~table
+    labels = np.where(free, 1, 0).astype(np.int32)
+    labels[14:28, 14:28] = 0
+    found = cover(OccupancyGrid.from_masks(free, 0.1), labels, table)
+    assert found.seen_rooms == 0
+    assert (found.labels[14:28, 14:28] == 1).all()
