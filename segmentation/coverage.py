@@ -42,6 +42,12 @@ DOOR_WIDTH = 2.0
 #: not rooms (ray fans out of windows, pockets behind furniture) 2.0 times or less (third
 #: quartile): 2 keeps every room.
 WALLS_SHOWN = 2.0
+#: A room seen through its door is at most this many times as long as it is wide (the sides
+#: of its smallest rectangle). A longer piece is a strip of rays along a wall, seen through
+#: the wall's breaks: the room it lies in is the one it opens onto. Rooms are rarely over 2.5
+#: times as long as wide; their fans of rays, which stop at furniture, widen that: on the
+#: ROSE² maps every room so seen was under 5 times, every such strip but one over 5.
+ROOM_ASPECT = 5.0
 
 
 @dataclass(frozen=True)
@@ -92,10 +98,11 @@ def cover(
         span = opening_spans(pieces, touching & left & large[pieces], count) * grid.resolution
         fixed = grid.occupied & ~clutter  # furniture is no wall: a pocket round it is no room
         walls = cv2.dilate(fixed.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-        shown = np.bincount(pieces[walls & left & ~clutter], minlength=count + 1)
-        shown = shown * grid.resolution
+        beside = pieces[walls & left & ~clutter]
+        shown = np.bincount(beside, minlength=count + 1) * grid.resolution
         rooms = large & (span <= door_width) & (shown >= WALLS_SHOWN * contact)
         rooms[0] = False
+        rooms[rooms] = aspects(pieces, np.flatnonzero(rooms)) <= ROOM_ASPECT
         seen = int(rooms.sum())
         if seen:
             new_id = np.zeros(count + 1, np.int32)
@@ -134,3 +141,26 @@ def opening_spans(
         gaps = hull[:, None, :] - hull[None, :, :]
         spans[piece] = float(np.sqrt((gaps**2).sum(axis=2).max())) + 1.0
     return spans
+
+
+def aspects(pieces: NDArray[np.integer], which: NDArray[np.integer]) -> NDArray[np.float64]:
+    """How many times as long as wide each of the labelled ``pieces`` in ``which`` is: the
+    sides of the smallest rectangle round its cells (:func:`cv2.minAreaRect`), a cell wide
+    at least.
+
+    Examples
+    --------
+    >>> pieces = np.zeros((10, 30), np.int32)
+    >>> pieces[1:3, 1:29] = 1  # a strip 2 x 28 cells
+    >>> pieces[4:9, 5:10] = 2  # a square of 5 x 5
+    >>> aspects(pieces, np.array([1, 2])).round(1).tolist()
+    [14.0, 1.0]
+    """
+    boxes = ndimage.find_objects(pieces)
+    found = np.ones(len(which))
+    for i, piece in enumerate(which.tolist()):
+        rows, cols = np.nonzero(pieces[boxes[piece - 1]] == piece)
+        points = np.column_stack([cols, rows]).astype(np.float32)
+        _, sides, _ = cv2.minAreaRect(points)
+        found[i] = (max(sides) + 1.0) / (min(sides) + 1.0)
+    return found

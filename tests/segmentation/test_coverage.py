@@ -35,3 +35,19 @@ def test_the_free_cells_round_a_table_join_the_room_they_are_in():
     found = cover(OccupancyGrid.from_masks(free, 0.1), labels, table)
     assert found.seen_rooms == 0
     assert (found.labels[14:28, 14:28] == 1).all()
+
+
+def test_a_strip_of_rays_along_a_corridor_wall_is_no_room():
+    # 0.05 m cells: a corridor the robot drove along, its wall broken over 0.45 m, and
+    # behind the break a strip 0.65 m by 13 m that the rays reached, ended by walls on
+    # every side. It opens onto the corridor like a door and shows walls like a room, but
+    # it is 20 times as long as wide: the corridor's own rays, not a room.
+    free = np.zeros((60, 310), bool)
+    free[10:41, 5:300] = True  # the corridor
+    free[41:43, 100:109] = True  # the break in its wall
+    free[43:56, 20:280] = True  # the strip behind it
+    labels = np.where(free, 1, 0).astype(np.int32)
+    labels[41:] = 0
+    found = cover(OccupancyGrid.from_masks(free, 0.05), labels, np.zeros_like(free))
+    assert found.seen_rooms == 0
+    assert (found.labels[43:56, 20:280] == 1).all()
