@@ -10,9 +10,12 @@ junction. :func:`join_corridor_cuts` joins two places where their boundary is a 
 channel: straight across the free space from wall to wall, at least a corridor wide
 (:data:`CORRIDOR_WIDTH`), the space keeping that width (its clearance within
 :data:`~segmentation.refine.OPEN` of the cut's, and the inverse) for
-:data:`~segmentation.walls.CHANNEL` metres on both sides. A door, a room opening onto a corridor,
-a corridor leaving a hall: the space widens or narrows within those metres, and the places stay
-apart for the partition to decide.
+:data:`~segmentation.walls.CHANNEL` metres on both sides; or where a corridor enters a
+wider space: on one side the space keeps the cut's width, between walls on both hands, for
+:data:`CORRIDOR_LENGTH` times that width (longer than a room is for its width), and on the
+other it never narrows. A door, a room opening onto a corridor, a narrow room entered through
+its full width: the space widens or narrows within those metres, and the places stay apart
+for the partition to decide.
 """
 
 from __future__ import annotations
@@ -32,6 +35,9 @@ from segmentation.walls import CHANNEL
 CORRIDOR_WIDTH = 1.2
 #: Where the width is checked on each side of a cut, as shares of :data:`CHANNEL`.
 STEPS = (0.25, 0.5, 0.75, 1.0)
+#: A corridor is at least this many times as long as it is wide; a room is rarely over 2.5
+#: times (the names' ``corridor_length``, :class:`topomap.classifiers.RuleClassifier`).
+CORRIDOR_LENGTH = 4.0
 
 
 def corridor_cuts(
@@ -98,16 +104,63 @@ def _across_corridor(
     length = (float(extent.max() - extent.min()) + 1) * resolution
     most = int(np.argmax(open_at))
     width = 2 * float(open_at[most])  # the space's width at the cut's most open cell
-    if length < CORRIDOR_WIDTH or length * OPEN > width:  # a door, or not wall to wall
+    # not wall to wall, or narrower than a corridor even where a jagged wall took a cell off
+    # each side (SLAM maps' corridors measure 1.1 m on the working cells)
+    if length * OPEN > width or length < CORRIDOR_WIDTH - 2 * resolution:
         return False
     normal = np.array([-along[1], along[0]])
     steps = np.array(STEPS) * CHANNEL / resolution
-    samples = middle[most] + np.concatenate([steps, -steps])[:, None] * normal
-    cells = np.rint(samples).astype(int)
+    there = _clearance_at(
+        clearance, middle[most] + np.concatenate([steps, -steps])[:, None] * normal
+    )
+    holds = (there >= OPEN * width / 2) & (there * OPEN <= width / 2)
+    half = len(STEPS)
+    both_sides = holds.sum() >= 2 * half - 1 and holds[:half].any() and holds[half:].any()
+    if length >= CORRIDOR_WIDTH and both_sides:
+        return True
+    return _corridor_into_wider(middle[most], normal, width, clearance, resolution)
+
+
+def _corridor_into_wider(
+    start: NDArray[np.float64],
+    normal: NDArray[np.float64],
+    width: float,
+    clearance: NDArray[np.float32],
+    resolution: float,
+) -> bool:
+    """Whether a cut ``width`` metres wide at ``start`` (x, y cells) is where a corridor
+    enters a wider space: on one side along ``normal`` the space keeps the cut's width for
+    :data:`CORRIDOR_LENGTH` times that width (a room is rarely over 2.5 times as long as wide,
+    so this is a corridor, not a narrow room entered through its full width), on the other it
+    never narrows over :data:`~segmentation.walls.CHANNEL` metres."""
+    step = 0.25 / resolution  # a sample every 0.25 m
+    across = np.array([normal[1], -normal[0]]) * width / 2 / resolution
+
+    def along(sign: float, metres: float, aside: float = 0.0) -> NDArray[np.float64]:
+        offsets = np.arange(1, int(metres / 0.25) + 1) * step * sign
+        return _clearance_at(clearance, start + offsets[:, None] * normal + aside * across)
+
+    half, slack = width / 2, resolution  # a cell of slack: SLAM maps' walls are jagged
+    for sign in (1.0, -1.0):
+        length = CORRIDOR_LENGTH * width
+        channel = along(sign, length)
+        walls = np.maximum(along(sign, length, 1.0), along(sign, length, -1.0))
+        wider = along(-sign, CHANNEL)
+        if (
+            (channel >= OPEN * half - slack).all()
+            and (channel * OPEN <= half + slack).all()
+            and (walls * OPEN <= half).all()  # walls on both hands: no room along a wall
+            and (wider >= OPEN * half - slack).all()
+        ):
+            return True
+    return False
+
+
+def _clearance_at(clearance: NDArray[np.float32], points: NDArray[np.float64]) -> NDArray:
+    """``clearance`` at the cells nearest ``points`` (x, y in cells); 0 off the map."""
+    cells = np.rint(points).astype(int)
     height, wide = clearance.shape
     inside = (cells[:, 0] >= 0) & (cells[:, 0] < wide) & (cells[:, 1] >= 0) & (cells[:, 1] < height)
     there = np.zeros(len(cells))
     there[inside] = clearance[cells[inside, 1], cells[inside, 0]]
-    holds = (there >= OPEN * width / 2) & (there * OPEN <= width / 2)
-    half = len(STEPS)
-    return bool(holds.sum() >= 2 * half - 1 and holds[:half].any() and holds[half:].any())
+    return there

@@ -52,6 +52,30 @@ def test_a_passage_narrower_than_a_corridor_is_no_corridor_cut():
     assert len(a) == 0
 
 
+def _hall_with_arm(arm_length: int) -> tuple[np.ndarray, np.ndarray]:
+    """A 6 x 6 m hall and, off its side, an arm 1.1 m wide (under building codes' 1.2 m, as
+    on SLAM maps whose walls are jagged) of ``arm_length`` cells, split in two places."""
+    free = np.zeros((80, 100 + arm_length), bool)
+    free[10:70, 10:70] = True
+    free[35:46, 70 : 70 + arm_length] = True
+    places = np.where(free, 1 + (np.arange(free.shape[1]) >= 73), 0)
+    return free, places
+
+
+def test_a_corridor_that_opens_into_a_hall_is_one_with_the_cut_off_piece():
+    # 8 m of corridor, cut 0.3 m from the hall: the corridor keeps its width over 4 times
+    # its width on one side, the hall never narrows on the other
+    free, places = _hall_with_arm(80)
+    a, b = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert (a.tolist(), b.tolist()) == ([1], [2])
+
+
+def test_a_narrow_room_entered_through_its_full_width_stays_apart():
+    free, places = _hall_with_arm(30)  # 3 m deep: a room, under 4 times its width
+    a, _ = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert len(a) == 0
+
+
 @settings(max_examples=20, deadline=None)
 @given(st.integers(0, 2**31 - 1))
 def test_joining_only_unites_whole_places(seed):
@@ -67,3 +91,15 @@ def test_joining_only_unites_whole_places(seed):
     for place in np.unique(places[places > 0]):
         assert len(np.unique(joined[places == place])) == 1  # a place is never split
     assert len(np.unique(joined[joined > 0])) <= len(np.unique(places[places > 0]))
+
+
+def test_a_door_in_a_rooms_corner_is_no_corridor_cut():
+    # a 1.1 m door flush with the room's wall: through it, the line into the room runs
+    # along that wall at the door's half width for metres, but the room opens beside it
+    free = np.zeros((130, 130), bool)
+    free[10:60, 10:80] = True  # a 7 x 5 m room
+    free[49:60, 80:85] = True  # the door, in its corner
+    free[0:130, 85:115] = True  # a 3 m corridor
+    places = np.where(free, 1 + (np.arange(130) >= 83), 0)
+    a, _ = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert len(a) == 0
