@@ -146,12 +146,11 @@ def _corridor_into_wider(
         channel = along(sign, length)
         walls = np.maximum(along(sign, length, 1.0), along(sign, length, -1.0))
         wider = along(-sign, CHANNEL)
-        if (
-            (channel >= OPEN * half - slack).all()
-            and (channel * OPEN <= half + slack).all()
-            and (walls * OPEN <= half).all()  # walls on both hands: no room along a wall
-            and (wider >= OPEN * half - slack).all()
-        ):
+        holds = (channel >= OPEN * half - slack) & (channel * OPEN <= half + slack)
+        holds &= walls * OPEN <= half  # walls on both hands: no room along a wall
+        # as across a cut (7 of 8 samples), one in eight may miss: a curved corridor leaves
+        # the straight line
+        if holds.sum() >= len(holds) - len(holds) // 8 and (wider >= OPEN * half - slack).all():
             return True
     return False
 
