@@ -141,8 +141,8 @@ def _corridor_into_wider(
         return _clearance_at(clearance, start + offsets[:, None] * normal + aside * across)
 
     half, slack = width / 2, resolution  # a cell of slack: SLAM maps' walls are jagged
+    length = CORRIDOR_LENGTH * width
     for sign in (1.0, -1.0):
-        length = CORRIDOR_LENGTH * width
         channel = along(sign, length)
         walls = np.maximum(along(sign, length, 1.0), along(sign, length, -1.0))
         wider = along(-sign, CHANNEL)
@@ -155,7 +155,9 @@ def _corridor_into_wider(
     return False
 
 
-def _clearance_at(clearance: NDArray[np.float32], points: NDArray[np.float64]) -> NDArray:
+def _clearance_at(
+    clearance: NDArray[np.float32], points: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """``clearance`` at the cells nearest ``points`` (x, y in cells); 0 off the map."""
     cells = np.rint(points).astype(int)
     height, wide = clearance.shape

@@ -10,11 +10,12 @@ reach into it. :func:`cover` gives each such cell the region it belongs to:
   opens onto the regions over at most a door's width (the span of the cells where it meets
   them, jamb to jamb, :func:`opening_spans`) and shows walls (its cells beside occupied
   cells that are not clutter, where its rays ended: furniture is no wall) at least
-  :data:`WALLS_SHOWN` times as long as that opening is a room seen through its door (a fan
-  of rays into an office nobody entered): a region of its own. Rays out through a window
-  into unmapped space end on no wall, and a pocket of a room behind its furniture or round
-  a table meets the room over more than the walls it shows: they join the room they leave
-  from;
+  :data:`WALLS_SHOWN` times as long as that opening, and at most :data:`ROOM_ASPECT` times
+  as long as wide (:func:`aspects`), is a room seen through its door (a fan of rays into an
+  office nobody entered): a region of its own. Rays out through a window into unmapped space
+  end on no wall, a pocket of a room behind its furniture or round a table meets the room
+  over more than the walls it shows, and a strip of rays along a wall is long and thin: they
+  join the room they leave from;
 - every other cell joins the region it reaches first through the building (grown a ring at
   a time, :func:`~segmentation.working.grow`): the furniture of a room joins the room, a ray
   joins the room it leaves from.
@@ -46,7 +47,7 @@ WALLS_SHOWN = 2.0
 #: of its smallest rectangle). A longer piece is a strip of rays along a wall, seen through
 #: the wall's breaks: the room it lies in is the one it opens onto. Rooms are rarely over 2.5
 #: times as long as wide; their fans of rays, which stop at furniture, widen that: on the
-#: ROSE² maps every room so seen was under 5 times, every such strip but one over 5.
+#: ROSE² maps every room so seen was 4.7 times or less, every such strip 5.0 or more.
 ROOM_ASPECT = 5.0
 
 
