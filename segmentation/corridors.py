@@ -9,9 +9,10 @@ so the places, and the partition that votes with them, would cut the corridor sy
 junction. :func:`join_corridor_cuts` joins two places where their boundary is a cut across a
 channel: straight across the free space from wall to wall, at least a corridor wide
 (:data:`CORRIDOR_WIDTH`), the space keeping that width (its clearance within
-:data:`~segmentation.refine.OPEN` of the cut's, and the inverse) for
-:data:`~segmentation.walls.CHANNEL` metres on both sides; or where a corridor enters a
-wider space: on one side the space keeps the cut's width, between walls on both hands, for
+:data:`~segmentation.refine.OPEN` of the cut's, and the inverse, with a cell of slack for
+jagged walls) between walls on both hands for :data:`~segmentation.walls.CHANNEL` metres on
+both sides; or where a corridor enters a wider space: on one side the space keeps the cut's
+width so for
 :data:`CORRIDOR_LENGTH` times that width (longer than a room is for its width), and on the
 other it never narrows. A door, a room opening onto a corridor, a narrow room entered through
 its full width: the space widens or narrows within those metres, and the places stay apart
@@ -110,10 +111,9 @@ def _across_corridor(
         return False
     normal = np.array([-along[1], along[0]])
     steps = np.array(STEPS) * CHANNEL / resolution
-    there = _clearance_at(
-        clearance, middle[most] + np.concatenate([steps, -steps])[:, None] * normal
-    )
-    holds = (there >= OPEN * width / 2) & (there * OPEN <= width / 2)
+    points = middle[most] + np.concatenate([steps, -steps])[:, None] * normal
+    across = np.array([normal[1], -normal[0]]) * width / 2 / resolution
+    holds = _keeps_width(clearance, points, across, width, resolution)
     half = len(STEPS)
     both_sides = holds.sum() >= 2 * half - 1 and holds[:half].any() and holds[half:].any()
     if length >= CORRIDOR_WIDTH and both_sides:
@@ -136,23 +136,42 @@ def _corridor_into_wider(
     step = 0.25 / resolution  # a sample every 0.25 m
     across = np.array([normal[1], -normal[0]]) * width / 2 / resolution
 
-    def along(sign: float, metres: float, aside: float = 0.0) -> NDArray[np.float64]:
+    def along(sign: float, metres: float) -> NDArray[np.float64]:
         offsets = np.arange(1, int(metres / 0.25) + 1) * step * sign
-        return _clearance_at(clearance, start + offsets[:, None] * normal + aside * across)
+        return start + offsets[:, None] * normal
 
-    half, slack = width / 2, resolution  # a cell of slack: SLAM maps' walls are jagged
     length = CORRIDOR_LENGTH * width
     for sign in (1.0, -1.0):
-        channel = along(sign, length)
-        walls = np.maximum(along(sign, length, 1.0), along(sign, length, -1.0))
-        wider = along(-sign, CHANNEL)
-        holds = (channel >= OPEN * half - slack) & (channel * OPEN <= half + slack)
-        holds &= walls * OPEN <= half  # walls on both hands: no room along a wall
+        holds = _keeps_width(clearance, along(sign, length), across, width, resolution)
+        wider = _clearance_at(clearance, along(-sign, CHANNEL))
         # as across a cut (7 of 8 samples), one in eight may miss: a curved corridor leaves
         # the straight line
-        if holds.sum() >= len(holds) - len(holds) // 8 and (wider >= OPEN * half - slack).all():
+        if (
+            holds.sum() >= len(holds) - len(holds) // 8
+            and (wider >= OPEN * width / 2 - resolution).all()
+        ):
             return True
     return False
+
+
+def _keeps_width(
+    clearance: NDArray[np.float32],
+    points: NDArray[np.float64],
+    across: NDArray[np.float64],
+    width: float,
+    resolution: float,
+) -> NDArray[np.bool_]:
+    """Whether the space at each of ``points`` (x, y cells) is ``width`` metres wide between
+    walls on both hands (``across``, cells, reaches from the middle to a wall): the clearance
+    in the middle is half the width, with a cell of slack (SLAM maps' walls are jagged), and
+    at ``points ± across`` it is no more than that (no room opens along a wall)."""
+    half = width / 2
+    there = _clearance_at(clearance, points)
+    walls = np.maximum(
+        _clearance_at(clearance, points + across), _clearance_at(clearance, points - across)
+    )
+    holds = (there >= OPEN * half - resolution) & (there * OPEN <= half + resolution)
+    return holds & (walls * OPEN <= half)
 
 
 def _clearance_at(

@@ -115,3 +115,14 @@ def test_a_gently_curving_corridor_into_a_hall_is_joined_too():
         free[centre - 5 : centre + 6, col] = True
     a, b = corridor_cuts(places * free, OccupancyGrid.from_masks(free, RESOLUTION))
     assert (a.tolist(), b.tolist()) == ([1], [2])
+
+
+def test_a_corridor_cut_at_a_slightly_narrower_spot_is_joined():
+    # 1.6 m wide, 7 m long, the basins meeting where its walls come 0.2 m closer (as a
+    # jagged SLAM wall does): a cell of slack on the widths, walls on both hands
+    free = np.zeros((40, 200), bool)
+    free[12:28, 65:135] = True
+    free[12:14, 99:102] = free[26:28, 99:102] = False
+    places = np.where(free, 1 + (np.arange(200) >= 100), 0)
+    a, b = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert (a.tolist(), b.tolist()) == ([1], [2])
