@@ -276,15 +276,6 @@ def tqdm_bar(total: int) -> Bar:
     return tqdm(total=total, desc="inputs", unit="input", file=sys.stderr, dynamic_ncols=True)
 
 
-def worker_count(text: str) -> int:
-    """``--workers``: a whole number of at least 1."""
-    import argparse
-
-    if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
-    return int(text)
-
-
 def check_batch(
     inputs: Sequence[str], out: str | Path, *, force: bool = False, scheduler: str | None = None
 ) -> list[Job]:

@@ -11,14 +11,13 @@ from topomap.cli.commands.common import (
     add_output_options,
     add_segmenter_options,
     segmenter_options,
+    worker_count,
 )
 from topomap.cli.tables import markdown_table
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Add the command to the subcommands ``sub``."""
-    from topomap.cli.batch import worker_count
-
     batch = sub.add_parser("batch", help="segment many maps, logs and bags on a Dask cluster")
     batch.add_argument("inputs", nargs="+", help="map YAMLs, logs, bags, folders or globs")
     add_output_options(

@@ -12,14 +12,13 @@ from topomap.cli.commands.common import (
     add_robot_options,
     refuse_existing,
     robot_spec,
+    worker_count,
 )
 from topomap.cli.tables import markdown_table
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Add the command to the subcommands ``sub``."""
-    from topomap.cli.batch import worker_count
-
     bench = sub.add_parser("bench", help="benchmarks: print a table, write results.json")
     bench_sub = bench.add_subparsers(dest="bench", required=True)
     sim = bench_sub.add_parser("sim", help="laser simulator speed")
