@@ -53,7 +53,10 @@ def grid_from_keyframes(
     builder = MapBuilder(resolution, max_range=max_range, occupied_ratio=occupied_ratio)
     ends = [builder.end_points(frame) for frame in keyframes]
     every = np.vstack([p[k] for p, k in ends] + [[frame.pose[:2] for frame in keyframes]])
-    lo, hi = every.min(axis=0) - margin, every.max(axis=0) + margin
+    # the corner on the lattice of the cells, as MapBuilder.add puts it: a map built keyframe
+    # by keyframe has the same cells
+    lo = np.floor((every.min(axis=0) - margin) / resolution) * resolution
+    hi = every.max(axis=0) + margin
     try:
         builder.reserve(lo, hi)
     except MapTooLargeError as err:
@@ -104,6 +107,32 @@ class MapBuilder:
         self._corner = np.zeros(2, np.int64)  # (row, column) of its top-left cell in the tiles
         # (tile row, tile column) -> visits and hits of its cells
         self._tiles: dict[tuple[int, int], NDArray[np.uint32]] = {}
+        self._shared: set[tuple[int, int]] = set()  # tiles a snapshot holds: copied on write
+        self._seen: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None  # of add
+
+    def snapshot(self) -> MapBuilder:
+        """A copy of the counts so far that later keyframes do not change, made in the time
+        of copying the index of the tiles: a tile is copied when a later keyframe first
+        writes to it. It may be read on another thread while keyframes are added here.
+
+        Examples
+        --------
+        >>> from maps.scan import LaserScan
+        >>> builder = MapBuilder(0.1)
+        >>> builder.add(Keyframe((0.0, 0.0, 0.0), LaserScan(np.full(180, 2.0), -np.pi, 0.035)))
+        >>> before = builder.snapshot()
+        >>> builder.add(Keyframe((1.0, 0.0, 0.0), LaserScan(np.full(180, 2.0), -np.pi, 0.035)))
+        >>> bool(before.grid().is_free(2.5, 0.0)), bool(builder.grid().is_free(2.5, 0.0))
+        (False, True)
+        """
+        copy = MapBuilder(
+            self.resolution, max_range=self.max_range, occupied_ratio=self.occupied_ratio
+        )
+        copy._low, copy._shape, copy._corner = self._low.copy(), self._shape, self._corner.copy()
+        copy._tiles, copy._seen = dict(self._tiles), self._seen
+        copy._shared = set(self._tiles)
+        self._shared = set(self._tiles)
+        return copy
 
     def end_points(self, frame: Keyframe) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """The beams' end points in the map frame and which of them count."""
@@ -119,8 +148,12 @@ class MapBuilder:
         points, keep = self.end_points(frame)
         every = np.vstack([points[keep], [frame.pose[:2]]])
         lattice = np.floor((every.min(axis=0) - 1.0) / self.resolution) * self.resolution
-        self.reserve(lattice, every.max(axis=0) + 1.0)
+        high = every.max(axis=0) + 1.0
+        self.reserve(lattice, high)
         self.count(np.asarray(frame.pose[:2]), points, keep)
+        if self._seen is not None:
+            lattice, high = np.minimum(lattice, self._seen[0]), np.maximum(high, self._seen[1])
+        self._seen = (lattice, high)
 
     def reserve(self, low: NDArray[np.float64], high: NDArray[np.float64]) -> None:
         """Grow the counts to cover map points ``low`` to ``high`` (by half again at least, so
@@ -223,23 +256,31 @@ class MapBuilder:
             tile = self._tiles.get(key)
             if tile is None:
                 tile = self._tiles[key] = np.zeros((2, TILE, TILE), np.uint32)
+            elif key in self._shared:
+                tile = self._tiles[key] = tile.copy()
+                self._shared.discard(key)
             tile[0][in_tile] += seen[part]
             tile[1][in_tile] += hit[part]
 
     def grid(
         self, low: NDArray[np.float64] | None = None, high: NDArray[np.float64] | None = None
     ) -> OccupancyGrid:
-        """The occupancy grid of everything counted, or of the part between map points
-        ``low`` and ``high``."""
+        """The occupancy grid of everything counted (what :meth:`add` saw, 1 m around: the
+        grid :func:`grid_from_keyframes` makes of the same keyframes), or of the part between
+        map points ``low`` and ``high``."""
         res = self.resolution
         height, width = self._shape
         first_col, last_row = 0, height
         last_col, first_row = width, 0
+        if (low is None or high is None) and self._seen is not None:
+            low, high = self._seen
         if low is not None and high is not None:
-            first_col = max(0, int(np.floor((low[0] - self._low[0]) / res)))
-            last_col = min(width, int(np.ceil((high[0] - self._low[0]) / res)))
-            last_row = min(height, height - int(np.floor((low[1] - self._low[1]) / res)))
-            first_row = max(0, height - int(np.ceil((high[1] - self._low[1]) / res)))
+            # a point on the lattice is on it, whatever the rounding of its metres; the cells
+            # counted from it as grid_from_keyframes counts them
+            start = np.floor((np.asarray(low) - self._low) / res + 1e-6).astype(int)
+            end = start + np.ceil((np.asarray(high) - low) / res).astype(int)
+            first_col, last_col = max(0, int(start[0])), min(width, int(end[0]))
+            last_row, first_row = min(height, height - int(start[1])), max(0, height - int(end[1]))
         visits, hits = self._read(first_row, first_col, last_row - first_row, last_col - first_col)
         cells = np.full(visits.shape, UNKNOWN, np.int8)
         seen_any = visits > 0

@@ -15,11 +15,22 @@ pipeline runs on what the robot has seen so far, around where it is:
    are partitioned by the offline stages on the online map around them: conditioning, places,
    the spectral partition on the kept similarities weighed by the passages, the places voting
    (:meth:`~segmentation.pipeline.MapSegmenter.partition`). The inner part of the window (the
-   ``inner`` share nearest to the robot, whose neighbourhood the window holds whole) takes the
-   new partition, under the ids it continues (:func:`~segmentation.growing.carry_ids`: a
-   region kept, merged into the oldest id, split with the id on its larger piece, or new).
+   ``inner`` share nearest to the robot, whose neighbourhood the window holds whole), but for
+   the keyframes the last whole-map partition holds (below), takes the new partition under
+   the ids it continues (:func:`~segmentation.growing.carry_ids`: a region kept, merged into
+   the oldest id, split with the id on its larger piece, or new).
+3. **Whole map** (each time the keyframes number ``whole`` times those of the last whole
+   partition, the seed the first). Every keyframe is partitioned on the whole online map, as
+   the offline pipeline would partition them (the online map has the cells of the offline
+   one), and all take the new partition under the ids they continue; the windows then give
+   regions only to the keyframes that arrived since. What a window cannot see (a corridor
+   system longer than a window, two rooms found to be one from far apart) is settled here.
+   It runs in its own worker thread, beside the arrivals and the windows, and is taken when
+   the next one starts (or at :meth:`~IncrementalSegmenter.flush`); on a geometric schedule
+   its cost over a run is ``whole / (whole - 1)`` times that of one offline partition of the
+   final keyframes.
 
-Each step costs what the window holds, not what the robot has seen. Every change is an
+An arrival costs what the window holds, not what the robot has seen. Every change is an
 :class:`~segmentation.events.Event`: ``created``, ``grown``, ``split``, ``merged``, and
 ``moved`` for the keyframes a re-partition gave to another region (replaying the events from
 the arrivals gives the regions now).
@@ -83,10 +94,14 @@ class IncrementalSegmenter(OnlineEstimator):
     churn_age
         A keyframe this many keyframes old counts in :attr:`late_changes_` when its region
         changes.
+    whole
+        The whole map is partitioned again each time the keyframes number this many times
+        those of its last partition (``0``: never, the windows alone).
     background
         Run each re-partition in a worker thread beside the arrivals; its keyframes take
-        their new regions when the next one starts or at :meth:`flush` (the same keyframes
-        for the same run, so the same regions). ``False``: at once, on the caller's thread.
+        their new regions when the next one of its kind starts or at :meth:`flush` (the same
+        keyframes for the same run, so the same regions). ``False``: at once, on the caller's
+        thread.
 
     Attributes
     ----------
@@ -121,11 +136,12 @@ class IncrementalSegmenter(OnlineEstimator):
     renew: float = 0.15
     reach: float = 4.0
     region_resolution: float = 0.2
-    resolution: float = 0.1
+    resolution: float = 0.05
     margin: float = 8.0
     max_gap: float = 10.0
     random_state: int = 0
     churn_age: int = 50
+    whole: float = 1.25
     background: bool = True
     pipeline_: MapSegmenter = field(init=False, repr=False)
     events_: list[Event] = field(init=False, repr=False)
@@ -141,6 +157,9 @@ class IncrementalSegmenter(OnlineEstimator):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and 0 < value <= 1):
                 raise ParameterError(f"{name} must lie in (0, 1], got {value!r}")
+        whole = self.whole
+        if not (isinstance(whole, int | float) and (whole == 0 or 1 < whole < np.inf)):
+            raise ParameterError(f"whole must be 0 or a finite number > 1, got {whole!r}")
         check_lengths(self, "reach", "region_resolution", "resolution", "margin", "max_gap")
         self.pipeline._validate_params()
 
@@ -160,10 +179,11 @@ class IncrementalSegmenter(OnlineEstimator):
         if len(keyframes) < 2:
             raise SegmentationError(f"{len(keyframes)} keyframe(s) cannot seed: give two or more")
         self._fitted = False
-        previous = getattr(self, "_pending", None)
-        if previous is not None:
-            previous.worker.join()  # a re-partition of the previous run: dropped
+        for previous in (getattr(self, "_pending", None), getattr(self, "_whole", None)):
+            if previous is not None and previous.worker is not None:
+                previous.worker.join()  # a re-partition of the previous run: dropped
         self._pending: _Pending | None = None
+        self._whole: _Pending | None = None
         self._work: list[float] = []
         self.pipeline_ = clone(self.pipeline)
         self._criterion = as_criterion(self.pipeline_.spectral.criterion)
@@ -183,9 +203,9 @@ class IncrementalSegmenter(OnlineEstimator):
         for keyframe in keyframes:
             distance = self._check(keyframe, len(self._keyframes))
             self._add(keyframe, self._similar(keyframe, distance), 1)
-        self._repartition(np.arange(len(keyframes)), seeding=True)
+        self._start(np.arange(len(keyframes)), len(keyframes), seeding=True)
         self._arrival[: len(keyframes)] = self._labels[: len(keyframes)]
-        self.n_seed_ = len(keyframes)
+        self.n_seed_ = self._whole_at = self._settled = len(keyframes)
         self._since = 0
         self._fitted = True
         return self
@@ -272,60 +292,98 @@ class IncrementalSegmenter(OnlineEstimator):
             region = self._new_id()
             self.events_.append(Event("created", index, region))
         self._add(keyframe, row, region)
+        if self.whole and self._n >= self.whole * self._whole_at:
+            self._take(self._whole)
+            self._whole_at = self._n
+            self._whole = self._start(np.arange(self._n), self._n)
         self._since += 1
         if self._since >= self.renew * min(self.window, index + 1):
             self._since = 0
             size = min(self.window, index + 1)
             nearest = np.argsort(np.append(distance, 0.0), kind="stable")[:size]
-            self._repartition(nearest)
+            self._take(self._pending)
+            self._pending = self._start(nearest, max(1, round(self.inner * size)))
         return int(self._labels[index])
 
     def _new_id(self) -> int:
         self._next_id += 1
         return self._next_id - 1
 
-    def _repartition(self, window: NDArray[np.int64], seeding: bool = False) -> None:
-        """Partition the keyframes ``window`` (nearest to the robot first) and give the inner
-        ones the new regions under the ids they continue: at once when seeding or without
-        ``background``, else in a worker thread whose result :meth:`flush` takes."""
-        self.flush()
+    def _start(
+        self, window: NDArray[np.int64], take: int, seeding: bool = False
+    ) -> _Pending | None:
+        """Partition the keyframes ``window`` (nearest to the robot first) for the first
+        ``take`` of them to take the new regions under the ids they continue: at once when
+        seeding or without ``background``, else in a worker thread (returned, for
+        :meth:`_take`). The map is a snapshot (the arrivals beside it do not change it), of
+        the window with ``margin`` around, or whole when every keyframe takes part."""
         keyframes = [self._keyframes[i] for i in window.tolist()]
         poses = self._poses[window]
-        grid = self._map.grid(poses.min(axis=0) - self.margin, poses.max(axis=0) + self.margin)
+        low, high = poses.min(axis=0) - self.margin, poses.max(axis=0) + self.margin
+        if take == self._n:  # every keyframe: the whole map, as offline
+            low = high = None
+        pending = _Pending(window, take, self._n, self._map.snapshot())
         kept = KeptSimilarities(self._rows, self._index)  # lists that only grow
-        if seeding or not self.background:
-            clock = time.thread_time()
-            found = self._partition(self.pipeline_, kept, keyframes, poses, grid)
-            self._work.append(time.thread_time() - clock)
-            self._carry(window, found, seeding)
-            return
-        pending = _Pending(window, self._n)
         pipeline = self.pipeline_
 
         def work() -> None:
             clock = time.thread_time()
             try:
+                grid = pending.map.grid(low, high)
                 pending.found = self._partition(pipeline, kept, keyframes, poses, grid)
             except BaseException as err:  # a bug: raised again on the caller's thread
                 pending.error = err
             pending.seconds = time.thread_time() - clock
 
-        pending.worker = threading.Thread(target=work, name="repartition", daemon=True)
+        if seeding or not self.background:
+            work()
+            if seeding:
+                self._finish(pending, seeding=True)
+            else:
+                self._take(pending)
+            return None
+        # not a daemon: the interpreter waits for it at exit (native code of a daemon thread
+        # still running when the interpreter is torn down aborts the process)
+        pending.worker = threading.Thread(target=work, name="repartition")
         pending.worker.start()
-        self._pending = pending
+        return pending
 
-    def flush(self) -> None:
-        """Wait for the re-partition under way (if any) and give its keyframes their new
-        regions; :attr:`labels_` then holds every re-partition started so far."""
-        pending, self._pending = getattr(self, "_pending", None), None
+    def _take(self, pending: _Pending | None) -> None:
+        """Wait for the re-partition ``pending`` (if any) and give its keyframes their new
+        regions; the keyframes that arrived beside a window join again, those that arrived
+        beside the whole map's follow its merges."""
         if pending is None:
             return
-        pending.worker.join()
+        if pending.worker is not None:
+            pending.worker.join()
+        before = self._labels[: pending.arrived].copy()
+        whole = pending.take == pending.arrived  # every keyframe then: the whole map
+        self._finish(pending, settled=0 if whole else self._settled)
+        if pending.found is None:
+            return
+        if whole:
+            self._settled = pending.arrived
+            self._follow(pending.arrived, before)
+        else:
+            self._replay(max(pending.arrived, self._settled))
+
+    def _finish(self, pending: _Pending, seeding: bool = False, settled: int = 0) -> None:
         if pending.error is not None:
             raise pending.error
         self._work.append(pending.seconds)
-        self._carry(pending.window, pending.found, seeding=False)
-        self._replay(pending.arrived)
+        self._carry(pending.window[: pending.take], pending.found, seeding, settled)
+
+    def flush(self) -> None:
+        """Wait for the re-partitions under way and give their keyframes their new regions,
+        the one that started later last (the whole map's last of two started together: it
+        saw as much and more); :attr:`labels_` then holds every re-partition started so
+        far."""
+        whole, self._whole = getattr(self, "_whole", None), None
+        pending, self._pending = getattr(self, "_pending", None), None
+        if whole is not None and pending is not None and whole.arrived < pending.arrived:
+            whole, pending = pending, whole
+        self._take(pending)
+        self._take(whole)
 
     def _replay(self, first: int) -> None:
         """The keyframes from ``first`` on, which arrived while a re-partition ran, join
@@ -337,6 +395,18 @@ class IncrementalSegmenter(OnlineEstimator):
             if row:  # a keyframe like none before it keeps the region it started
                 labels[index] = labels[max(row, key=row.__getitem__)]
         self._apply(np.arange(first, self._n), labels[first:], [], seeding=False)
+
+    def _follow(self, first: int, before: NDArray[np.int64]) -> None:
+        """The keyframes from ``first`` on keep their regions (the windows gave them), but
+        for those whose region the re-partition of the earlier ones (``before`` it) took
+        away: they follow it into the region that took most of it."""
+        now = self._labels[:first]
+        labels = self._labels[first : self._n].copy()
+        for gone in set(np.unique(labels).tolist()) - set(np.unique(now).tolist()):
+            was = before == gone
+            if was.any():
+                labels[labels == gone] = np.bincount(now[was]).argmax()
+        self._apply(np.arange(first, self._n), labels, [], seeding=False)
 
     def _partition(
         self,
@@ -371,21 +441,31 @@ class IncrementalSegmenter(OnlineEstimator):
         return found.astype(np.int64)
 
     def _carry(
-        self, window: NDArray[np.int64], found: NDArray[np.int64] | None, seeding: bool
+        self,
+        inner: NDArray[np.int64],
+        found: NDArray[np.int64] | None,
+        seeding: bool,
+        settled: int = 0,
     ) -> None:
-        """The inner keyframes of ``window`` take the clusters ``found`` under the ids they
-        continue (the seed all of them; nothing found: the seed is one region)."""
+        """The keyframes ``inner`` take the clusters ``found`` (the first of them) under the
+        ids they continue, but for those before ``settled`` (nothing found: the seed is one
+        region)."""
         if found is None:
             if seeding:
-                self._labels[window] = self._new_id()
+                self._labels[inner] = self._new_id()
             return
-        inner = window if seeding else window[: max(1, round(self.inner * len(window)))]
         new = found[: len(inner)]
         old = np.zeros_like(new) if seeding else self._labels[inner]
         carried = carry_ids(old.reshape(1, -1), new.reshape(1, -1), self._next_id)
         self._next_id = carried.next_id
         labels = carried.labels.ravel().astype(np.int64)
-        self._apply(inner, labels, carried.events, seeding)
+        events = carried.events
+        if settled:  # the keyframes of the last whole-map partition keep its regions
+            fresh = inner >= settled
+            inner, labels = inner[fresh], labels[fresh]
+            given = set(labels.tolist())
+            events = [e for e in events if e["event"] == "removed" or e["region"] in given]
+        self._apply(inner, labels, events, seeding)
 
     def _apply(
         self, inner: NDArray[np.int64], labels: NDArray[np.int64], events: list, seeding: bool
@@ -421,12 +501,15 @@ class IncrementalSegmenter(OnlineEstimator):
 
 @dataclass
 class _Pending:
-    """A re-partition under way: its window, the first keyframe that arrived beside it, its
-    worker, what it found (or raised) and its CPU time."""
+    """A re-partition under way: its window, how many of them take its result, the first
+    keyframe that arrived beside it, the map it reads, its worker (none when run at once),
+    what it found (or raised) and its CPU time."""
 
     window: NDArray[np.int64]
+    take: int
     arrived: int
-    worker: threading.Thread = field(init=False)
+    map: MapBuilder
+    worker: threading.Thread | None = None
     found: NDArray[np.int64] | None = None
     error: BaseException | None = None
     seconds: float = 0.0

@@ -118,12 +118,10 @@ def test_a_map_built_keyframe_by_keyframe_equals_one_built_at_once(office_run):
     for keyframe in keyframes:
         grown.add(keyframe)
     whole = grown.grid()
-    at_once = MapBuilder(0.1)
+    at_once = grid_from_keyframes(keyframes, 0.1)  # the offline map: the same cells
+    assert np.array_equal(at_once.cells, whole.cells)
+    assert np.allclose(at_once.origin, whole.origin, atol=1e-9)
     low = np.array(whole.origin[:2])
-    at_once.reserve(low, low + np.array(whole.shape[::-1]) * 0.1)
-    for keyframe in keyframes:
-        at_once.count(np.asarray(keyframe.pose[:2]), *at_once.end_points(keyframe))
-    assert np.array_equal(at_once.grid().cells, whole.cells)
     part = grown.grid(low + 2.0, low + 6.0)
     rows, cols = np.nonzero(part.free | part.occupied)
     x, y = part.cell_to_world(rows, cols)
@@ -191,12 +189,57 @@ def test_a_re_partition_beside_the_arrivals_gives_the_regions_of_one_taken_at_on
     taken = found[True].repartition_seconds_
     assert len(taken) == len(found[False].repartition_seconds_) > 5 and np.all(taken > 0)
     # the re-partition under way is not in labels_ until flush takes it
-    online = IncrementalSegmenter().fit(keyframes[:70])
+    online = IncrementalSegmenter(whole=0).fit(keyframes[:70])
     online.partial_fit(keyframes[70:101])  # 70 + 31 > 0.15 * 101 arrivals: one under way
     assert online._pending is not None
     before = len(online.repartition_seconds_)
     online.flush()
     assert online._pending is None and len(online.repartition_seconds_) == before + 1
+
+
+def test_the_whole_map_is_partitioned_again_as_the_keyframes_grow_geometrically(office_run):
+    keyframes = office_run[1][:400]
+    whole = IncrementalSegmenter(whole=1.25).fit(keyframes[:70])
+    windows = IncrementalSegmenter(whole=0).fit(keyframes[:70])
+    started = []
+    for index, keyframe in enumerate(keyframes[70:], start=71):
+        whole.partial_fit(keyframe)
+        windows.partial_fit(keyframe)
+        if whole._whole is not None and whole._whole.arrived == index:
+            started.append(index)
+    # 70 x 1.25 = 87.5, then 88 x 1.25 = 110, ...: each start takes the one before it
+    assert started == [88, 110, 138, 173, 217, 272, 340]
+    whole.flush()
+    windows.flush()
+    assert len(whole.repartition_seconds_) == len(windows.repartition_seconds_) + len(started)
+
+
+def test_windows_leave_the_keyframes_of_the_last_whole_map_partition_as_it_left_them(
+    office_run,
+):
+    keyframes = office_run[1][:172]
+    online = IncrementalSegmenter().fit(keyframes[:70])
+    online.partial_fit(keyframes[70:138])  # the 138th takes the partition started at 110
+    settled = online.labels_[:110]
+    moved = online.labels_[110:].copy()
+    online.partial_fit(keyframes[138:172])  # windows taken, the next whole one at 173
+    assert len(online.repartition_seconds_) > 3
+    assert np.array_equal(online.labels_[:110], settled)
+    assert not np.array_equal(online.labels_[110:138], moved[:28])  # the windows did work
+
+
+def test_a_whole_map_partition_taken_last_gives_the_offline_regions(office_run):
+    keyframes = office_run[1][:340]  # the whole map's partition starts at the 340th
+    online = IncrementalSegmenter().fit(keyframes[:70])
+    online.partial_fit(keyframes[70:])
+    assert online._whole is not None and online._whole.arrived == 340
+    online.flush()
+    grid = grid_from_keyframes(keyframes, online.resolution)
+    offline = MapSegmenter().segment(grid, keyframes, random_state=0).keyframe_regions()
+    # the same stages on the same map; the similarities kept on arrival (12 nearest) are
+    # the ones the offline affinity keeps
+    assert adjusted_rand_score(offline, online.labels_) > 0.95
+    assert np.array_equal(replay(online), online.labels_)
 
 
 def test_a_bug_in_a_re_partition_is_raised_on_the_callers_thread(office_run, monkeypatch):
