@@ -116,11 +116,17 @@ class OnlineRegions:
         old = self._region_of[indices].copy()
         self._region_of[indices] = regions
         after = self._labels(box)
+        # only the cells whose region changed, and the cell sides they touch, are recounted
+        changed = before != after
+        touch = (changed[1:] | changed[:-1], changed[:, 1:] | changed[:, :-1])
         for labels, sign in ((before, -1), (after, 1)):
-            found, counts = np.unique(labels[labels > 0], return_counts=True)
+            cells = labels[changed]
+            found, counts = np.unique(cells[cells > 0], return_counts=True)
             for region, count in zip(found.tolist(), counts.tolist(), strict=True):
                 self._cells[region] = self._cells.get(region, 0) + sign * count
-            for a, b in ((labels[1:], labels[:-1]), (labels[:, 1:], labels[:, :-1])):
+            sides = ((labels[1:], labels[:-1]), (labels[:, 1:], labels[:, :-1]))
+            for (a, b), near in zip(sides, touch, strict=True):
+                a, b = a[near], b[near]
                 keep = (a != b) & (a > 0) & (b > 0)
                 low, high = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
                 pairs, counts = np.unique((low << 32) + high, return_counts=True)
