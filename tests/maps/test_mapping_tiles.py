@@ -56,3 +56,30 @@ def test_any_tiles_hold_the_map_of_one_tile(flat_keyframes, tile, shift, order):
     assert len(rows) > 0
     r, c = one.world_to_cell(*part.cell_to_world(rows, cols))
     assert np.array_equal(part.cells[rows, cols], one.cells[r, c])
+
+
+@settings(max_examples=15, deadline=None)
+@given(tile=st.integers(3, 40), cut=st.integers(1, 39), shift=st.floats(-50, 50))
+def test_a_snapshot_keeps_the_map_of_its_keyframes_as_later_ones_arrive(
+    flat_keyframes, tile, cut, shift
+):
+    """The snapshot's grid is the map of the keyframes before it (the grid
+    grid_from_keyframes makes of them, on the same cells), however many tiles later keyframes
+    write to, and the builder's own grid is the map of all of them."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(maps.mapping, "TILE", tile)
+        moved = [
+            dataclasses.replace(k, pose=(k.pose[0] + shift, k.pose[1] - shift, k.pose[2]))
+            for k in flat_keyframes
+        ]
+        builder = MapBuilder(0.1)
+        for keyframe in moved[:cut]:
+            builder.add(keyframe)
+        before = builder.snapshot()
+        for keyframe in moved[cut:]:
+            builder.add(keyframe)
+        for found, keyframes in ((before, moved[:cut]), (builder, moved)):
+            grid = found.grid()
+            expected = maps.grid_from_keyframes(keyframes, 0.1)
+            assert np.array_equal(grid.cells, expected.cells)
+            assert np.allclose(grid.origin, expected.origin, atol=1e-6)

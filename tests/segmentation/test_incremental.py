@@ -110,6 +110,9 @@ def test_refused_keyframes_leave_the_state_unchanged(office_run):
         IncrementalSegmenter(window=1).fit(keyframes[:40])  # stored as given, checked by fit
     with pytest.raises(ParameterError, match="inner"):
         IncrementalSegmenter(inner=0.0).fit(keyframes[:40])
+    for whole in (1.0, 0.5, -1, float("inf"), float("nan"), "2"):
+        with pytest.raises(ParameterError, match="whole must be 0 or a finite number > 1"):
+            IncrementalSegmenter(whole=whole).fit(keyframes[:40])
 
 
 def test_a_map_built_keyframe_by_keyframe_equals_one_built_at_once(office_run):
