@@ -203,7 +203,7 @@ class IncrementalSegmenter(OnlineEstimator):
         for keyframe in keyframes:
             distance = self._check(keyframe, len(self._keyframes))
             self._add(keyframe, self._similar(keyframe, distance), 1)
-        self._start(np.arange(len(keyframes)), len(keyframes), seeding=True)
+        self._start(np.arange(len(keyframes)), len(keyframes), whole=True, seeding=True)
         self._arrival[: len(keyframes)] = self._labels[: len(keyframes)]
         self.n_seed_ = self._whole_at = self._settled = len(keyframes)
         self._since = 0
@@ -295,7 +295,7 @@ class IncrementalSegmenter(OnlineEstimator):
         if self.whole and self._n >= self.whole * self._whole_at:
             self._take(self._whole)
             self._whole_at = self._n
-            self._whole = self._start(np.arange(self._n), self._n)
+            self._whole = self._start(np.arange(self._n), self._n, whole=True)
         self._since += 1
         if self._since >= self.renew * min(self.window, index + 1):
             self._since = 0
@@ -310,19 +310,19 @@ class IncrementalSegmenter(OnlineEstimator):
         return self._next_id - 1
 
     def _start(
-        self, window: NDArray[np.int64], take: int, seeding: bool = False
+        self, window: NDArray[np.int64], take: int, whole: bool = False, seeding: bool = False
     ) -> _Pending | None:
         """Partition the keyframes ``window`` (nearest to the robot first) for the first
         ``take`` of them to take the new regions under the ids they continue: at once when
         seeding or without ``background``, else in a worker thread (returned, for
         :meth:`_take`). The map is a snapshot (the arrivals beside it do not change it), of
-        the window with ``margin`` around, or whole when every keyframe takes part."""
+        the window with ``margin`` around, or all of it for a ``whole`` partition."""
         keyframes = [self._keyframes[i] for i in window.tolist()]
         poses = self._poses[window]
         low, high = poses.min(axis=0) - self.margin, poses.max(axis=0) + self.margin
-        if take == self._n:  # every keyframe: the whole map, as offline
+        if whole:  # every keyframe on the whole map, as offline
             low = high = None
-        pending = _Pending(window, take, self._n, self._map.snapshot())
+        pending = _Pending(window, take, self._n, self._map.snapshot(), whole)
         kept = KeptSimilarities(self._rows, self._index)  # lists that only grow
         pipeline = self.pipeline_
 
@@ -356,12 +356,11 @@ class IncrementalSegmenter(OnlineEstimator):
             return
         if pending.worker is not None:
             pending.worker.join()
-        before = self._labels[: pending.arrived].copy()
-        whole = pending.take == pending.arrived  # every keyframe then: the whole map
-        self._finish(pending, settled=0 if whole else self._settled)
+        before = self._labels[: pending.arrived].copy() if pending.whole else None
+        self._finish(pending, settled=0 if pending.whole else self._settled)
         if pending.found is None:
             return
-        if whole:
+        if before is not None:
             self._settled = pending.arrived
             self._follow(pending.arrived, before)
         else:
@@ -502,13 +501,14 @@ class IncrementalSegmenter(OnlineEstimator):
 @dataclass
 class _Pending:
     """A re-partition under way: its window, how many of them take its result, the first
-    keyframe that arrived beside it, the map it reads, its worker (none when run at once),
-    what it found (or raised) and its CPU time."""
+    keyframe that arrived beside it, the map it reads, whether it is the whole map's, its
+    worker (none when run at once), what it found (or raised) and its CPU time."""
 
     window: NDArray[np.int64]
     take: int
     arrived: int
     map: MapBuilder
+    whole: bool
     worker: threading.Thread | None = None
     found: NDArray[np.int64] | None = None
     error: BaseException | None = None

@@ -231,6 +231,17 @@ def test_windows_leave_the_keyframes_of_the_last_whole_map_partition_as_it_left_
     assert not np.array_equal(online.labels_[110:138], moved[:28])  # the windows did work
 
 
+def test_keyframes_beside_a_whole_map_partition_follow_its_merges(office_run):
+    online = IncrementalSegmenter(whole=0).fit(office_run[1][:60])
+    labels = np.r_[np.full(30, 1), np.full(20, 2), np.full(5, 2), np.full(5, 3)]
+    online._apply(np.arange(60), labels, [], seeding=False)  # 1, 2 before 50; 2, 3 after
+    before = online.labels_[:50].copy()
+    online._apply(np.arange(50), np.full(50, 1), [], seeding=False)  # 2 merged into 1
+    online._follow(50, before)
+    # the keyframes after 50 in the merged region follow it; region 3 is theirs alone
+    assert online.labels_[50:].tolist() == [1] * 5 + [3] * 5
+
+
 def test_a_whole_map_partition_taken_last_gives_the_offline_regions(office_run):
     keyframes = office_run[1][:340]  # the whole map's partition starts at the 340th
     online = IncrementalSegmenter().fit(keyframes[:70])
