@@ -44,7 +44,9 @@ class RuleClassifier:
       long for its width (slenderness under :attr:`corridor_length`): such a long open space
       is a wide corridor, walked along;
     - ``corridor``: passable but narrow (width from :attr:`corridor_min_width_m` to
-      :attr:`corridor_width_m`: narrower strips are laser rays or gaps) and either long for
+      :attr:`corridor_width_m`: narrower strips are laser rays or gaps; and at least
+      :attr:`corridor_axis_min_m` wide along most of its medial axis: a strip of floor
+      between furniture is narrower than any door) and either long for
       its width (slenderness :attr:`corridor_length` or more) or opening onto
       :attr:`hub_doors` regions or more (a room has one or two entrances), and not a dead
       end behind a door (one neighbour, that leads on to others, through an opening
@@ -100,6 +102,9 @@ class RuleClassifier:
     corridor_min_width_m: float = _threshold(
         1.2, 0.6, 2.0, "building codes: corridors 1.2 m or wider; narrower is rays or gaps"
     )
+    corridor_axis_min_m: float = _threshold(
+        0.8, 0.6, 1.0, "the narrowest door: narrower along most of its axis is clutter or rays"
+    )
     corridor_width_m: float = _threshold(
         4.0, 2.0, 6.0, "corridors are 1.2-3 m, alcoves and junctions widen the measure"
     )
@@ -152,8 +157,10 @@ class RuleClassifier:
         none = np.zeros(len(long), bool)
         wide_corridor = open_space & long if "wide corridor" not in self.off else none
         hall = open_space & ~wide_corridor
-        narrow = (f["width_m"] >= self.corridor_min_width_m) & (
-            f["width_m"] <= self.corridor_width_m
+        narrow = (
+            (f["width_m"] >= self.corridor_min_width_m)
+            & (f["width_m"] <= self.corridor_width_m)
+            & (f["axis_width_median_m"] >= self.corridor_axis_min_m)
         )
         behind_a_door = (
             (f["doors"] == 1)

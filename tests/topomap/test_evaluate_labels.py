@@ -6,6 +6,7 @@ import itertools
 import json
 
 import cv2
+import networkx as nx
 import numpy as np
 import pytest
 from matplotlib.image import imread
@@ -22,6 +23,7 @@ from topomap.cli.label_sources import (
     drawn_truth,
     labelled_map,
     read_room_types,
+    rose2,
 )
 from topomap.errors import LabelError
 from topomap.features import FEATURES
@@ -272,3 +274,16 @@ def test_a_rule_is_kept_unless_the_other_buildings_say_it_does_harm():
     maps[1] = _table_map("room", "B")  # now two of three call it a room
     found = ev.predict(maps, ev.METHODS["rules, each rule chosen"], held_out=True)
     assert found == [["corridor"], ["corridor"], ["room"]]
+
+
+def test_the_peoples_rooms_meet_at_their_doors(data_dir, tmp_path):
+    # people close their rooms with a line of unlabelled cells at each door: as regions they
+    # must still meet there, or the corridor has no neighbour and no rule can call it one
+    rows = [r for r in LABELS.joinpath("rose2_partial.csv").read_text().splitlines()[1:]]
+    one = tmp_path / "map13.csv"
+    one.write_text("map,colour,type\n" + "\n".join(r for r in rows if r.startswith("map13,")))
+    _, people = rose2(data_dir / "rose2_partial", one)
+    assert people.source == "rose2-rooms"
+    corridor = people.truth.index("corridor")
+    assert people.features["doors"][corridor] >= 10  # the offices along it
+    assert nx.number_connected_components(people.graph) <= 2

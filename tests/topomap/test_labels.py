@@ -312,3 +312,25 @@ def test_a_long_narrow_room_behind_a_door_is_a_room():
         "dead_ends": np.array([0.0, 0.0]),
     }
     assert rule_classifier(table) == ["room", "corridor"]
+
+
+def test_a_strip_of_floor_between_furniture_is_no_corridor():
+    # two 1.4 x 6 m strips, each one neighbour through an opening wider than a door (no
+    # dead end behind a door): a clear one, its axis as wide as its floor, is a corridor's
+    # end; one between furniture, 0.7 m along most of its axis (narrower than any door), is
+    # the floor of a furnished room (ROSE²'s map8-map14 show one)
+    table = {
+        "id": np.array([1.0, 2.0]),
+        "area_m2": np.array([8.4, 8.4]),
+        "width_m": np.array([1.4, 1.4]),
+        "slenderness": np.array([4.3, 4.3]),
+        "doors": np.array([1.0, 1.0]),
+        "extent_m": np.array([1.4, 1.4]),
+        "solidity": np.array([1.0, 0.56]),
+        "axis_width_median_m": np.array([1.4, 0.7]),
+        "corridor_axis_m": np.array([5.0, 3.6]),
+        "door_width_max_m": np.array([1.85, 1.85]),
+        "dead_ends": np.array([0.0, 0.0]),
+    }
+    assert rule_classifier(table) == ["corridor", "room"]
+    assert rule_classifier.corridor_axis_min_m < 1.4

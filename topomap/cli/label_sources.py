@@ -40,11 +40,15 @@ from maps.map_server import grid_from_image
 from maps.sim.floorplan import generate_floor_plan
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
+from segmentation.working import grow
 from topomap.classifiers import PLACE_TYPES
 from topomap.cli.evaluate import ROSE2_MAP
 from topomap.features import region_features
 from topomap.topomap import TopoMap
 
+#: The widest line of unlabelled cells people draw between two of their rooms at a door, m
+#: (ROSE²'s ground truth: one or two cells of 5 cm).
+DOOR_LINE_M = 0.1
 #: Grey levels of ``*_places.png``: room, corridor, doorway.
 PLACE_GREYS = {77: "room", 115: "corridor", 179: "doorway"}
 #: Cell size of the ipa_places images, metres.
@@ -201,7 +205,7 @@ def rose2(
             rooms[cells] = number
         names = {"building": "rose2-cartesium", "name": name}
         found.append(_segmented(grid, truth, source="rose2", **names))
-        people = _connected_rooms(Regions(grid, rooms))
+        people = _joined_rooms(_connected_rooms(Regions(grid, rooms)))
         found.append(
             labelled_map(people, region_graph(people), truth, source="rose2-rooms", **names)
         )
@@ -216,6 +220,24 @@ def _connected_rooms(regions: Regions) -> Regions:
         if count > 1:
             sizes = np.bincount(pieces.ravel())[1:]
             labels[pieces == 1 + int(sizes.argmax())] = region
+    return Regions(regions.grid, labels)
+
+
+def _joined_rooms(regions: Regions) -> Regions:
+    """``regions`` grown over the free cells within :data:`DOOR_LINE_M` of them: people
+    close each room at its doors with a line of unlabelled cells, so their rooms do not touch
+    and their graph would have no doors (a corridor with no neighbour is no corridor).
+
+    Examples
+    --------
+    >>> grid = OccupancyGrid(np.zeros((3, 5), np.int8), 0.05)
+    >>> labels = np.array([[1, 1, 0, 2, 2]] * 3, np.int32)  # a door line between two rooms
+    >>> _joined_rooms(Regions(grid, labels)).labels[0].tolist()
+    [1, 1, 2, 2, 2]
+    """
+    reach = max(1, round(DOOR_LINE_M / regions.grid.resolution))
+    near = cv2.dilate((regions.labels > 0).astype(np.uint8), np.ones((2 * reach + 1,) * 2))
+    labels = grow(regions.labels.copy(), regions.grid.free & near.astype(bool))
     return Regions(regions.grid, labels)
 
 
