@@ -28,7 +28,12 @@ pipeline runs on what the robot has seen so far, around where it is:
    It runs in its own worker thread, beside the arrivals and the windows, and is taken when
    the next one starts (or at :meth:`~IncrementalSegmenter.flush`); on a geometric schedule
    its cost over a run is ``whole / (whole - 1)`` times that of one offline partition of the
-   final keyframes.
+   final keyframes. A window that puts :data:`UNITED_KEYFRAMES` or more keyframes of each of
+   two settled regions in one cluster (a loop closed, a door found open) is evidence the
+   whole map's regions are out of date: the whole map is partitioned again out of turn, as
+   soon as none is running and the keyframes number ``sqrt(whole)`` times those of the last
+   whole partition (at most once between two in turn: the cost at most doubles), or at
+   :meth:`~IncrementalSegmenter.flush` if the run ends first.
 
 An arrival costs what the window holds, not what the robot has seen. Every change is an
 :class:`~segmentation.events.Event`: ``created``, ``grown``, ``split``, ``merged``, and
@@ -58,6 +63,10 @@ from segmentation.growing import carry_ids
 from segmentation.online_regions import OnlineRegions
 from segmentation.pipeline import MapSegmenter, by_place
 from segmentation.similarity import ByFieldOfView, as_criterion
+
+#: Keyframes of each of two settled regions a window puts in one cluster before the whole map
+#: is partitioned again out of turn (2.5 m of travel at the keyframes' 0.5 m: not a stray one).
+UNITED_KEYFRAMES = 5
 
 log = logging.getLogger(__name__)
 
@@ -96,7 +105,8 @@ class IncrementalSegmenter(OnlineEstimator):
         changes.
     whole
         The whole map is partitioned again each time the keyframes number this many times
-        those of its last partition (``0``: never, the windows alone).
+        those of its last partition in turn (``0``: never, the windows alone), and out of
+        turn when a window finds two settled regions to be one (see the module docstring).
     background
         Run each re-partition in a worker thread beside the arrivals; its keyframes take
         their new regions when the next one of its kind starts or at :meth:`flush` (the same
@@ -184,6 +194,7 @@ class IncrementalSegmenter(OnlineEstimator):
                 previous.worker.join()  # a re-partition of the previous run: dropped
         self._pending: _Pending | None = None
         self._whole: _Pending | None = None
+        self._owed = False  # a window found two settled regions to be one
         self._work: list[float] = []
         self.pipeline_ = clone(self.pipeline)
         self._criterion = as_criterion(self.pipeline_.spectral.criterion)
@@ -205,7 +216,7 @@ class IncrementalSegmenter(OnlineEstimator):
             self._add(keyframe, self._similar(keyframe, distance), 1)
         self._start(np.arange(len(keyframes)), len(keyframes), whole=True, seeding=True)
         self._arrival[: len(keyframes)] = self._labels[: len(keyframes)]
-        self.n_seed_ = self._whole_at = self._settled = len(keyframes)
+        self.n_seed_ = self._whole_at = self._last_whole = self._settled = len(keyframes)
         self._since = 0
         self._fitted = True
         return self
@@ -293,9 +304,8 @@ class IncrementalSegmenter(OnlineEstimator):
             self.events_.append(Event("created", index, region))
         self._add(keyframe, row, region)
         if self.whole and self._n >= self.whole * self._whole_at:
-            self._take(self._whole)
             self._whole_at = self._n
-            self._whole = self._start(np.arange(self._n), self._n, whole=True)
+            self._repartition_whole()
         self._since += 1
         if self._since >= self.renew * min(self.window, index + 1):
             self._since = 0
@@ -303,7 +313,20 @@ class IncrementalSegmenter(OnlineEstimator):
             nearest = np.argsort(np.append(distance, 0.0), kind="stable")[:size]
             self._take(self._pending)
             self._pending = self._start(nearest, max(1, round(self.inner * size)))
+        if self._owed and self._whole_idle() and self._n >= self.whole**0.5 * self._last_whole:
+            self._repartition_whole()  # out of turn: at most once between two in turn
         return int(self._labels[index])
+
+    def _repartition_whole(self) -> None:
+        """Take the whole map's re-partition under way and start the next on every keyframe."""
+        self._take(self._whole)
+        self._last_whole, self._owed = self._n, False
+        self._whole = self._start(np.arange(self._n), self._n, whole=True)
+
+    def _whole_idle(self) -> bool:
+        """Whether no whole-map re-partition is running (one done is taken at no wait)."""
+        worker = self._whole.worker if self._whole is not None else None
+        return worker is None or not worker.is_alive()
 
     def _new_id(self) -> int:
         self._next_id += 1
@@ -383,6 +406,10 @@ class IncrementalSegmenter(OnlineEstimator):
             whole, pending = pending, whole
         self._take(pending)
         self._take(whole)
+        if self._owed and self.whole:  # what a robot going on would have run by now
+            self._repartition_whole()
+            self._take(self._whole)
+            self._whole = None
 
     def _replay(self, first: int) -> None:
         """The keyframes from ``first`` on, which arrived while a re-partition ran, join
@@ -460,6 +487,7 @@ class IncrementalSegmenter(OnlineEstimator):
         labels = carried.labels.ravel().astype(np.int64)
         events = carried.events
         if settled:  # the keyframes of the last whole-map partition keep its regions
+            self._owed |= bool(self.whole) and _unites(old[inner < settled], new[inner < settled])
             fresh = inner >= settled
             inner, labels = inner[fresh], labels[fresh]
             given = set(labels.tolist())
@@ -513,3 +541,18 @@ class _Pending:
     found: NDArray[np.int64] | None = None
     error: BaseException | None = None
     seconds: float = 0.0
+
+
+def _unites(old: NDArray[np.int64], new: NDArray[np.int64]) -> bool:
+    """Whether one cluster of ``new`` holds :data:`UNITED_KEYFRAMES` keyframes or more of each
+    of two regions of ``old`` (the same keyframes): evidence the regions are one.
+
+    Examples
+    --------
+    >>> old = np.array([1] * 6 + [2] * 6)
+    >>> _unites(old, np.ones(12, np.int64)), _unites(old, old + 10)
+    (True, False)
+    """
+    pairs, counts = np.unique(np.column_stack([new, old]), axis=0, return_counts=True)
+    held = pairs[counts >= UNITED_KEYFRAMES, 0]
+    return len(held) > len(np.unique(held))

@@ -279,3 +279,30 @@ def test_auto_on_narrow_scans_is_compared_one_to_many_as_its_matrix_has_it(offic
     assert np.allclose(one.similarities(keyframes[0], list(range(12))), matrix[0, 1:])
     assert matrix[0, 1:].max() > 0.3
     assert one_to_many(SharedView()) is None
+
+
+def test_a_window_that_finds_two_settled_regions_one_partitions_the_whole_map_out_of_turn(
+    office_run,
+):
+    keyframes = office_run[1][:130]
+    online = IncrementalSegmenter(background=False).fit(keyframes[:100])
+    settled = online.labels_[:100].copy()
+    ids, counts = np.unique(settled, return_counts=True)
+    a, b = ids[np.argsort(counts)[-2:]]  # the two largest settled regions
+    apart = np.where(settled == b, 1000 + settled, settled)  # a window that keeps them apart
+    online._carry(np.arange(100), apart, seeding=False, settled=100)
+    assert not online._owed
+    one = np.where(settled == b, a, settled)  # a window that finds them one region
+    online._carry(np.arange(100), one, seeding=False, settled=100)
+    assert online._owed and np.array_equal(online.labels_[:100], settled)  # settled kept
+    online.partial_fit(keyframes[100:111])  # out of turn from 100 x 1.25 ** 0.5 = 111.8 on
+    assert online._owed and online._last_whole == 100
+    online.partial_fit(keyframes[111])
+    assert not online._owed and online._last_whole == 112
+    assert online._whole_at == 100  # the turns stay where they were: 125, then 157
+    runs = len(online.repartition_seconds_)
+    online.flush()
+    assert len(online.repartition_seconds_) == runs  # nothing owed, nothing run
+    online._owed = True  # owed when the run ends: the flush partitions the whole map
+    online.flush()
+    assert not online._owed and len(online.repartition_seconds_) == runs + 1
