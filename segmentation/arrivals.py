@@ -11,6 +11,7 @@ from scipy import sparse
 
 from maps.scan import Keyframe
 from segmentation.closeness import Closeness
+from segmentation.distinct import distinct
 from segmentation.similarity import (
     ByFieldOfView,
     Criterion,
@@ -69,7 +70,7 @@ class OneToMany:
     def cells(self, keyframe: Keyframe) -> NDArray[np.int64]:
         """Keys of the cells the keyframe's beams ended in."""
         cells = np.floor(keyframe.points() / self.field.resolution).astype(np.int64)
-        return np.unique(cell_keys(cells))
+        return distinct(cell_keys(cells))
 
     def keep(self, keyframe: Keyframe) -> None:
         """Remember a keyframe's cells (the next index)."""

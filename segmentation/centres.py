@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 
 from maps.scan import Keyframe, LaserScan
 from segmentation.closeness import Closeness
+from segmentation.distinct import distinct
 from segmentation.similarity import cell_keys
 
 
@@ -57,7 +58,7 @@ def decode(keys: NDArray[np.int64]) -> NDArray[np.int64]:
 
 def cells_of(points: NDArray[np.float64], resolution: float) -> NDArray[np.int64]:
     """Keys of the unique cells hit by ``points``."""
-    return np.unique(cell_keys(np.floor(points / resolution).astype(np.int64)))
+    return distinct(cell_keys(np.floor(points / resolution).astype(np.int64)))
 
 
 @dataclass(frozen=True, eq=False)

@@ -42,6 +42,7 @@ from segmentation.centres import (
     decode,
 )
 from segmentation.closeness import Closeness
+from segmentation.distinct import distinct
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.events import Event, OnlineEstimator
 from segmentation.online_regions import OnlineRegions
@@ -263,7 +264,7 @@ class OnlineSegmenter(OnlineEstimator):
                 f"keyframe {index} (scan_index {keyframe.scan_index}) has no valid beam"
             )
         keys = cells_of(points, self._resolution)
-        return keys, np.unique(cell_keys(decode(keys) >> self._tile_bits)), points
+        return keys, distinct(cell_keys(decode(keys) >> self._tile_bits)), points
 
     def _arrive(self, keyframe: Keyframe) -> int:
         index = self._n

@@ -14,6 +14,7 @@ from shapely import affinity
 from shapely.geometry.base import BaseGeometry
 
 from maps.grid import OccupancyGrid
+from segmentation.distinct import distinct
 from segmentation.errors import SegmentationError
 
 
@@ -235,7 +236,7 @@ class Regions:
             return {}
         # every rectangle corner on each horizontal line of cell edges of each region, sorted
         lines = _line_key(np.tile(value, 4), np.concatenate([top, top, bottom, bottom]), height)
-        corners = np.unique(lines * (width + 1) + np.concatenate([left, right, left, right]))
+        corners = distinct(lines * (width + 1) + np.concatenate([left, right, left, right]))
 
         def inner_corners(line: NDArray[np.int64]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
             """Where the corners strictly between each rectangle's two ends on ``line`` lie

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.grid import OccupancyGrid, clearance_of
+from segmentation.distinct import distinct
 
 
 def pool_factor(resolution: float, cell_size: float) -> int:
@@ -120,7 +121,7 @@ def grow(
         ]
         r, c = np.concatenate([b[0] for b in beside]), np.concatenate([b[1] for b in beside])
         ahead = missing[r, c]
-        rows, cols = np.divmod(np.unique(r[ahead].astype(np.int64) * width + c[ahead]), width)
+        rows, cols = np.divmod(distinct(r[ahead].astype(np.int64) * width + c[ahead]), width)
     return labels
 
 

@@ -13,6 +13,7 @@ from shapely import affinity
 
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, LaserScan
+from segmentation.distinct import distinct
 from segmentation.regions import Regions
 from segmentation.views import SharedView, view_cells
 from segmentation.virtual import most_open_cells
@@ -170,3 +171,16 @@ def test_the_free_cells_distance_transform_is_computed_once_per_grid(monkeypatch
     for space in (grid.free, topo.regions.grid.free):
         padded = np.pad(space, 1).astype(np.uint8)
         assert sum(np.array_equal(image, padded) for image in seen) == 1
+
+
+@given(
+    arrays(
+        st.sampled_from([np.int32, np.int64]),
+        st.tuples(st.integers(0, 30), st.integers(1, 3)),
+        elements=st.integers(-(2**31), 2**31 - 1),
+    )
+)
+def test_distinct_is_numpys_unique(values):
+    found = distinct(values)
+    expected = np.unique(values)
+    assert found.dtype == values.dtype and np.array_equal(found, expected)
