@@ -44,14 +44,17 @@ def view_cells(keyframe: Keyframe, resolution: float, reach: float) -> NDArray[n
     x, y, yaw = keyframe.pose
     angles = scan.angles + yaw
     corner = np.floor((np.array([x, y]) - reach) / resolution).astype(np.int64) - 1
-    size = int(math.ceil(2 * reach / resolution)) + 3
     ends = np.column_stack([x + length * np.cos(angles), y + length * np.sin(angles)])
     polygon = np.vstack([[x, y], ends]) / resolution - corner - 0.5  # pixel centres at integers
-    seen = np.zeros((size, size), np.uint8)
     pixels = np.round(polygon * (1 << SHIFT)).astype(np.int32)
-    cv2.fillPoly(seen, [pixels], 1, lineType=cv2.LINE_8, shift=SHIFT)
+    # drawn on the polygon's own box, a whole number of cells in from the reach's square (a
+    # scan in a room fills a fraction of it): the same cells, a tenth of the pixels to scan
+    low = (pixels.min(axis=0) >> SHIFT) - 1
+    width, height = (pixels.max(axis=0) >> SHIFT) - low + 2
+    seen = np.zeros((height, width), np.uint8)
+    cv2.fillPoly(seen, [pixels - (low << SHIFT).astype(np.int32)], 1, cv2.LINE_8, shift=SHIFT)
     j, i = np.nonzero(seen)
-    return np.column_stack([i, j]).astype(np.int64) + corner
+    return np.column_stack([i, j]).astype(np.int64) + corner + low
 
 
 @dataclass(frozen=True)

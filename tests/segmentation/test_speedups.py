@@ -2,6 +2,7 @@
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 import shapely
@@ -184,3 +185,46 @@ def test_distinct_is_numpys_unique(values):
     found = distinct(values)
     expected = np.unique(values)
     assert found.dtype == values.dtype and np.array_equal(found, expected)
+
+
+def view_cells_plain(keyframe, resolution, reach):
+    """The scan's polygon drawn on the whole square its reach spans, which
+    :func:`~segmentation.views.view_cells` replaced (by the polygon's own box)."""
+    scan = keyframe.scan
+    length = np.where(
+        scan.valid, np.minimum(scan.ranges, reach), np.where(scan.no_return, reach, 0.0)
+    )
+    x, y, yaw = keyframe.pose
+    angles = scan.angles + yaw
+    corner = np.floor((np.array([x, y]) - reach) / resolution).astype(np.int64) - 1
+    size = int(math.ceil(2 * reach / resolution)) + 3
+    ends = np.column_stack([x + length * np.cos(angles), y + length * np.sin(angles)])
+    polygon = np.vstack([[x, y], ends]) / resolution - corner - 0.5
+    seen = np.zeros((size, size), np.uint8)
+    pixels = np.round(polygon * 16).astype(np.int32)
+    cv2.fillPoly(seen, [pixels], 1, lineType=cv2.LINE_8, shift=4)
+    j, i = np.nonzero(seen)
+    return np.column_stack([i, j]).astype(np.int64) + corner
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    x=st.floats(-50, 50),
+    y=st.floats(-50, 50),
+    yaw=st.floats(-4, 4),
+    ranges=st.lists(
+        st.one_of(st.floats(0.0, 20.0), st.just(math.inf), st.just(math.nan)),
+        min_size=3,
+        max_size=90,
+    ),
+    fov=st.floats(0.5, 2 * math.pi),
+    resolution=st.sampled_from([0.05, 0.1, 0.2]),
+    reach=st.floats(1.0, 12.0),
+)
+def test_view_cells_on_the_polygons_box_are_the_cells_on_the_whole_square(
+    x, y, yaw, ranges, fov, resolution, reach
+):
+    scan = LaserScan(np.array(ranges), -fov / 2, fov / len(ranges), 0.0, 15.0)
+    keyframe = Keyframe((x, y, yaw), scan)
+    found = view_cells(keyframe, resolution, reach)
+    assert np.array_equal(found, view_cells_plain(keyframe, resolution, reach))
