@@ -2,11 +2,16 @@
 
 A door is a passage narrower than the open space on both sides of it. Between two touching
 places (clearance basins, :func:`segmentation.refine.basins`) the *openness* of their boundary
-is the clearance at its most open cell over the smaller of the two places' clearance peaks
-(1 where nothing narrows the space, small at a door). Between any two places, the openness is
-that of the narrowest boundary on the most open route between them (the bottleneck of the
-maximum spanning tree of the place graph): a keyframe pair in one room never crosses a door;
-a pair in two rooms always does.
+is the clearance at its most open cell over the geometric mean of the two places' clearance
+peaks (1 where nothing narrows the space, small at a door): the mean, in ratios, of how much
+each side sees the space narrow. Over the smaller peak alone, a closet's door, nearly as wide
+as the closet, was no narrowing, and the closet joined the room it opens off (ipa lab_d); over
+the geometric mean the ipa plans score MCC 0.875 empty / 0.841 furnished against 0.857 / 0.829
+(five of the fourteen buildings better, one 0.002 worse, none else moved), ROSE²'s maps the
+same (0.774 against 0.775), the generated offices 0.900 against 0.906 (docs/segmentation.md).
+Between any two places, the openness is that of the narrowest boundary on the most open
+route between them (the bottleneck of the maximum spanning tree of the place graph): a
+keyframe pair in one room never crosses a door; a pair in two rooms always does.
 """
 
 from __future__ import annotations
@@ -49,7 +54,9 @@ def boundary_openness(
         widest, index, np.minimum(clearance[ra, ca], clearance[rb, cb]).astype(np.float64)
     )
     a, b = np.divmod(pair, count)
-    side = np.maximum(np.minimum(peak[a], peak[b]), grid.resolution)
+    # against both sides: the geometric mean of the narrowing each side sees (the smaller
+    # side alone calls a closet's door, as wide as the closet, no narrowing)
+    side = np.maximum(np.sqrt(peak[a] * peak[b]), grid.resolution)
     return a, b, np.clip(widest / side, grid.resolution / side, 1.0)
 
 

@@ -75,6 +75,18 @@ def test_a_door_is_less_open_than_a_cut_across_a_corridor():
     assert max(v for k, v in by_pair.items() if 3 in k) < 0.6
 
 
+def test_a_closets_door_is_a_narrowing_though_the_closet_is_hardly_wider():
+    free = np.zeros((70, 80), bool)
+    free[2:68, 2:62] = True  # a 6 x 6.6 m room
+    free[30:39, 62:66] = True  # a 0.9 m door east
+    free[26:43, 66:78] = True  # a 1.2 x 1.7 m closet behind it
+    places = np.where(free, np.where(np.arange(80) < 64, 1, 2), 0).astype(np.int32)
+    _, _, openness = boundary_openness(OccupancyGrid.from_masks(free, 0.1), places)
+    # the door's half width (0.45 m) over the closet's peak (0.6 m) alone would be 0.75: no
+    # door; against both sides (the room's 3 m) it is 0.45 / sqrt(0.6 * 3) = 0.34
+    assert openness.tolist() == pytest.approx([0.45 / math.sqrt(0.6 * 3.0)], abs=0.03)
+
+
 def test_passage_affinity_weakens_only_pairs_across_narrow_passages():
     free = np.zeros((40, 90), bool)
     free[2:38, 2:40] = free[2:38, 50:88] = True
