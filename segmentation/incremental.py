@@ -22,9 +22,12 @@ pipeline runs on what the robot has seen so far, around where it is:
 3. **Whole map** (each time the keyframes number ``whole`` times those of the last whole
    partition, the seed the first). Every keyframe is partitioned on the whole online map, as
    the offline pipeline would partition them (the online map has the cells of the offline
-   one), and all take the new partition under the ids they continue; the windows then give
-   regions only to the keyframes that arrived since. What a window cannot see (a corridor
-   system longer than a window, two rooms found to be one from far apart) is settled here.
+   one, and the similarity is the offline one over all pairs, not the pairs kept on
+   arrival: with those, Freiburg 079's whole partition agreed with the offline one at ARI
+   0.84, with all pairs 0.999), and all take the new partition under the ids they
+   continue; the windows then give regions only to the keyframes that arrived since. What a
+   window cannot see (a corridor system longer than a window, two rooms found to be one from
+   far apart) is settled here.
    It runs in its own worker thread, beside the arrivals and the windows, and is taken when
    the next one starts (or at :meth:`~IncrementalSegmenter.flush`); on a geometric schedule
    its cost over a run is ``whole / (whole - 1)`` times that of one offline partition of the
@@ -353,7 +356,8 @@ class IncrementalSegmenter(OnlineEstimator):
             clock = time.thread_time()
             try:
                 grid = pending.map.grid(low, high)
-                pending.found = self._partition(pipeline, kept, keyframes, poses, grid)
+                similarity = None if whole else kept  # the whole map's: all pairs, as offline
+                pending.found = self._partition(pipeline, similarity, keyframes, poses, grid)
             except BaseException as err:  # a bug: raised again on the caller's thread
                 pending.error = err
             pending.seconds = time.thread_time() - clock
@@ -437,7 +441,7 @@ class IncrementalSegmenter(OnlineEstimator):
     def _partition(
         self,
         pipeline: MapSegmenter,
-        kept: KeptSimilarities,
+        kept: KeptSimilarities | None,
         keyframes: list[Keyframe],
         poses: NDArray[np.float64],
         grid: OccupancyGrid,
@@ -448,11 +452,9 @@ class IncrementalSegmenter(OnlineEstimator):
         arrivals."""
         try:
             _, space, places = pipeline.places(pipeline.condition(grid))
-            spectral = replace(
-                pipeline.spectral,
-                criterion=kept,
-                random_state=self.random_state,
-            )
+            spectral = replace(pipeline.spectral, random_state=self.random_state)
+            if kept is not None:
+                spectral = replace(spectral, criterion=kept)
             fitted = pipeline.partition(space, places, keyframes, spectral)
         except SegmentationError as err:  # too little seen yet: keep the regions as they are
             log.info("re-partition of %d keyframes skipped: %s", len(keyframes), err)
