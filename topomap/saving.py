@@ -24,6 +24,7 @@ import json
 import logging
 import math
 from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -113,15 +114,20 @@ def save(
     names = [*SAVED, "map.yaml", "map.pgm"]
     caches = [door_graph_name(radius) for radius in door_graphs]
     folder = OutputFolder(out, [*names, *caches], overwrite=overwrite, last="topomap.json")
-    with folder as work:
+    with folder as work, ThreadPoolExecutor(1, "save") as beside:
         for radius, name in zip(door_graphs, caches, strict=True):
             _write_door_graph(topo, radius, work / name, progress)
+        # the images are encoded beside the graph files (OpenCV lets the other thread run)
+        images = [
+            beside.submit(write_label_image, topo.regions.labels, work / "regions.png"),
+            beside.submit(write_colour_image, topo.regions.labels, work / "regions_colour.png"),
+        ]
         topo.grid.save(work / "map.yaml")
-        write_label_image(topo.regions.labels, work / "regions.png")
-        write_colour_image(topo.regions.labels, work / "regions_colour.png")
         write_graphml(topo.graph, work / "graph.graphml")
         write_node_link(topo.graph, work / "graph.json")
         write_geojson(topo.graph, work / "regions.geojson")
+        for image in images:
+            image.result()  # raises what writing it raised
         about: dict[str, Any] = {
             "format": "topomap",
             "version": VERSION,
