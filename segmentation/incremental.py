@@ -32,10 +32,12 @@ pipeline runs on what the robot has seen so far, around where it is:
    the next one starts (or at :meth:`~IncrementalSegmenter.flush`); on a geometric schedule
    its cost over a run is ``whole / (whole - 1)`` times that of one offline partition of the
    final keyframes. A window that puts :data:`UNITED_KEYFRAMES` or more keyframes of each of
-   two settled regions in one cluster (a loop closed, a door found open) is evidence the
-   whole map's regions are out of date: the whole map is partitioned again out of turn, as
-   soon as none is running and the keyframes number ``sqrt(whole)`` times those of the last
-   whole partition (at most once between two in turn: the cost at most doubles), or at
+   two settled regions in one cluster (a loop closed, a door found open), or as many of one
+   settled region in each of two clusters (a door seen), is evidence the whole map's regions
+   are out of date: the whole map is partitioned again out of turn once
+   the keyframes number ``sqrt(whole)`` times those of the last whole partition (at most once
+   between two in turn: the cost at most doubles; the one running is taken first, as in turn,
+   so the same keyframes give the same regions however fast they come), or at
    :meth:`~IncrementalSegmenter.flush` if the run ends first.
 
 An arrival costs what the window holds, not what the robot has seen. Every change is an
@@ -67,8 +69,9 @@ from segmentation.online_regions import OnlineRegions
 from segmentation.pipeline import MapSegmenter, by_place
 from segmentation.similarity import ByFieldOfView, as_criterion
 
-#: Keyframes of each of two settled regions a window puts in one cluster before the whole map
-#: is partitioned again out of turn (2.5 m of travel at the keyframes' 0.5 m: not a stray one).
+#: Keyframes of each of two settled regions a window puts in one cluster (or of one settled
+#: region in each of two) before the whole map is partitioned again out of turn (2.5 m of
+#: travel at the keyframes' 0.5 m: not a stray one).
 UNITED_KEYFRAMES = 5
 
 log = logging.getLogger(__name__)
@@ -109,7 +112,8 @@ class IncrementalSegmenter(OnlineEstimator):
     whole
         The whole map is partitioned again each time the keyframes number this many times
         those of its last partition in turn (``0``: never, the windows alone), and out of
-        turn when a window finds two settled regions to be one (see the module docstring).
+        turn when a window finds two settled regions to be one, or one to be two (see the
+        module docstring).
     background
         Run each re-partition in a worker thread beside the arrivals; its keyframes take
         their new regions when the next one of its kind starts or at :meth:`flush` (the same
@@ -316,7 +320,7 @@ class IncrementalSegmenter(OnlineEstimator):
             nearest = np.argsort(np.append(distance, 0.0), kind="stable")[:size]
             self._take(self._pending)
             self._pending = self._start(nearest, max(1, round(self.inner * size)))
-        if self._owed and self._whole_idle() and self._n >= self.whole**0.5 * self._last_whole:
+        if self._owed and self._n >= self.whole**0.5 * self._last_whole:
             self._repartition_whole()  # out of turn: at most once between two in turn
         return int(self._labels[index])
 
@@ -325,11 +329,6 @@ class IncrementalSegmenter(OnlineEstimator):
         self._take(self._whole)
         self._last_whole, self._owed = self._n, False
         self._whole = self._start(np.arange(self._n), self._n, whole=True)
-
-    def _whole_idle(self) -> bool:
-        """Whether no whole-map re-partition is running (one done is taken at no wait)."""
-        worker = self._whole.worker if self._whole is not None else None
-        return worker is None or not worker.is_alive()
 
     def _new_id(self) -> int:
         self._next_id += 1
@@ -489,7 +488,8 @@ class IncrementalSegmenter(OnlineEstimator):
         labels = carried.labels.ravel().astype(np.int64)
         events = carried.events
         if settled:  # the keyframes of the last whole-map partition keep its regions
-            self._owed |= bool(self.whole) and _unites(old[inner < settled], new[inner < settled])
+            before, after = old[inner < settled], new[inner < settled]
+            self._owed |= bool(self.whole) and (_unites(before, after) or _unites(after, before))
             fresh = inner >= settled
             inner, labels = inner[fresh], labels[fresh]
             given = set(labels.tolist())

@@ -292,6 +292,12 @@ def test_a_window_that_finds_two_settled_regions_one_partitions_the_whole_map_ou
     apart = np.where(settled == b, 1000 + settled, settled)  # a window that keeps them apart
     online._carry(np.arange(100), apart, seeding=False, settled=100)
     assert not online._owed
+    split = settled.copy()
+    members = np.flatnonzero(settled == a)
+    split[members[: len(members) // 2]] = 2000  # a window that finds region a two regions
+    online._carry(np.arange(100), split, seeding=False, settled=100)
+    assert online._owed and np.array_equal(online.labels_[:100], settled)
+    online._owed = False
     one = np.where(settled == b, a, settled)  # a window that finds them one region
     online._carry(np.arange(100), one, seeding=False, settled=100)
     assert online._owed and np.array_equal(online.labels_[:100], settled)  # settled kept
