@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -113,22 +114,23 @@ def cmd_segment(args: argparse.Namespace) -> int:
         )
         source = args.map
     folder = OutputFolder(out, written_names, overwrite=args.force, how="--force", last=SAVED[-1])
-    with folder as work:  # every file appears at once; an interrupted run leaves none
+    count = topo.graph.number_of_nodes()
+    # every file appears at once (an interrupted run leaves none); the picture is drawn in a
+    # worker thread beside the other files (OpenCV lets it run), which only read ``topo``
+    with folder as work, ThreadPoolExecutor(1, "picture") as beside:
+        picture = None
+        if not args.no_picture:
+            args.progress.stage("writing the files and drawing segmentation.png")
+            title = f"{Path(source).name}: {count} regions"
+            labels, graph = topo.regions.labels, topo.graph
+            picture = beside.submit(
+                draw_regions, work / "segmentation.png", topo.grid, labels, graph, title=title
+            )
         written = topo.save(work, door_graphs=[])
         if args.scans is not None:
             written.append(topo.save_keyframes(work / "keyframes.csv"))
-        count = topo.graph.number_of_nodes()
-        if not args.no_picture:
-            args.progress.stage("drawing segmentation.png")
-            written.append(
-                draw_regions(
-                    work / "segmentation.png",
-                    topo.grid,
-                    topo.regions.labels,
-                    topo.graph,
-                    title=f"{Path(source).name}: {count} regions",
-                )
-            )
+        if picture is not None:
+            written.append(picture.result())  # raises what drawing it raised
         summary = _write_summary(work / "summary.json", topo, source, count)
         if previous is not None:
             write_text(work / "changes.json", json.dumps(topo.changes, indent=1))
