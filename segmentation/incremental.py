@@ -201,7 +201,7 @@ class IncrementalSegmenter(OnlineEstimator):
                 previous.worker.join()  # a re-partition of the previous run: dropped
         self._pending: _Pending | None = None
         self._whole: _Pending | None = None
-        self._owed = False  # a window found two settled regions to be one
+        self._owed = False  # a window found two settled regions one, or one two
         self._work: list[float] = []
         self.pipeline_ = clone(self.pipeline)
         self._criterion = as_criterion(self.pipeline_.spectral.criterion)
@@ -489,6 +489,7 @@ class IncrementalSegmenter(OnlineEstimator):
         events = carried.events
         if settled:  # the keyframes of the last whole-map partition keep its regions
             before, after = old[inner < settled], new[inner < settled]
+            # two settled regions in one cluster, or (the other way round) one in two
             self._owed |= bool(self.whole) and (_unites(before, after) or _unites(after, before))
             fresh = inner >= settled
             inner, labels = inner[fresh], labels[fresh]

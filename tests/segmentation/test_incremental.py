@@ -281,7 +281,7 @@ def test_auto_on_narrow_scans_is_compared_one_to_many_as_its_matrix_has_it(offic
     assert one_to_many(SharedView()) is None
 
 
-def test_a_window_that_finds_two_settled_regions_one_partitions_the_whole_map_out_of_turn(
+def test_a_window_that_finds_settled_regions_joined_or_split_partitions_the_whole_map_again(
     office_run,
 ):
     keyframes = office_run[1][:130]

@@ -279,7 +279,7 @@ def test_a_rule_is_kept_unless_the_other_buildings_say_it_does_harm():
 def test_the_peoples_rooms_meet_at_their_doors(data_dir, tmp_path):
     # people close their rooms with a line of unlabelled cells at each door: as regions they
     # must still meet there, or the corridor has no neighbour and no rule can call it one
-    rows = [r for r in LABELS.joinpath("rose2_partial.csv").read_text().splitlines()[1:]]
+    rows = LABELS.joinpath("rose2_partial.csv").read_text().splitlines()[1:]
     one = tmp_path / "map13.csv"
     one.write_text("map,colour,type\n" + "\n".join(r for r in rows if r.startswith("map13,")))
     _, people = rose2(data_dir / "rose2_partial", one)
