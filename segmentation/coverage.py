@@ -58,6 +58,8 @@ class Coverage:
     labels: NDArray[np.int32]
     filled_cells: int
     seen_rooms: int
+    #: Pockets joined to the space they open onto (:mod:`segmentation.pockets`).
+    pockets: int = 0
 
 
 def cover(

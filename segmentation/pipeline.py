@@ -22,7 +22,9 @@ Stages, each timed in :attr:`Segmentation.seconds`:
    opening between them is not a door (:func:`~segmentation.refine.merge_open_boundaries`)
    instead.
 6. ``cover``: every building cell gets a region (:func:`~segmentation.coverage.cover`):
-   furniture, thin rays, rooms seen only through their doors.
+   furniture, thin rays, rooms seen only through their doors; regions open to the others only
+   through gaps narrower than a door join the space they open onto
+   (:func:`~segmentation.pockets.join_pockets`).
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ from segmentation.conditioning import ConditionedMap, condition, drop_outside
 from segmentation.corridors import join_corridor_cuts
 from segmentation.coverage import Coverage, cover
 from segmentation.errors import ParameterError, SegmentationError
+from segmentation.pockets import join_pockets
 from segmentation.refine import PLACE_DEPTH, basins, count_basins, merge_open_boundaries
 from segmentation.regions import Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter, at_most
@@ -355,7 +358,10 @@ class MapSegmenter(Estimator):
         return at_most(spectral, min(len(keyframes), count)).fit(keyframes)
 
     def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
-        return cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
+        covered = cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
+        robot_regions = set(np.unique(covered.labels[labels > 0]).tolist())  # not seen rooms
+        joined, pockets = join_pockets(conditioned.grid, covered.labels, robot_regions)
+        return replace(covered, labels=joined, pockets=pockets)
 
 
 def by_place(

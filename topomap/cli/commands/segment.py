@@ -182,6 +182,7 @@ def _write_summary(path: Path, topo: Any, source: str, count: int) -> str:
         "coverage": {
             "filled_cells": topo.found.coverage.filled_cells,
             "rooms_seen_through_doors": topo.found.coverage.seen_rooms,
+            "pockets_joined": topo.found.coverage.pockets,
         },
         "doors": sum(len(d) for _, _, d in topo.graph.edges(data="doors")),
         "names": {int(r): name for r, name in sorted(topo.graph.nodes(data="name"))},
