@@ -55,7 +55,7 @@ from segmentation.refine import PLACE_DEPTH, basins, count_basins, merge_open_bo
 from segmentation.regions import Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter, at_most
 from segmentation.virtual import VIRTUAL_LASER, most_open_cells, virtual_keyframes
-from segmentation.walls import wall_gaps
+from segmentation.walls import seen_walls, wall_gaps
 from segmentation.working import pool, pool_factor, unpool
 
 log = logging.getLogger(__name__)
@@ -320,13 +320,14 @@ class MapSegmenter(Estimator):
         ``cell_size``, those bounded by unknown space dropped; returns the conditioned map
         without them, the working grid and the places on it.
 
-        The gaps of straight walls (:func:`~segmentation.walls.wall_gaps`) are wall on the
-        working grid: places, keyframes and passages end at them like at a wall with a door.
+        The gaps of straight walls (:func:`~segmentation.walls.wall_gaps` of the walls the
+        map shows, :func:`~segmentation.walls.seen_walls`) are wall on the working grid:
+        places, keyframes and passages end at them like at a wall with a door.
         The cover gives their cells a region. Basins that meet at a cut across a corridor are
         one place (:func:`~segmentation.corridors.join_corridor_cuts`)."""
         grid = conditioned.grid
         factor = pool_factor(grid.resolution, self.cell_size)
-        walls = grid.occupied & ~conditioned.clutter
+        walls = seen_walls(grid, conditioned.space, conditioned.clutter)
         closed = wall_gaps(walls, conditioned.space, grid.resolution)  # on the map's cells
         space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
         places = basins(space, self.place_depth)

@@ -23,6 +23,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from maps.grid import OccupancyGrid
 from segmentation.coverage import DOOR_WIDTH
 
 #: The widest gap closed: double doors, metres (the coverage's widest door).
@@ -49,6 +50,40 @@ MIN_LENGTH = 2.5
 #: degrees) carrying less than ``SHARE`` of all line length is a ray's end or clutter's edge.
 TOLERANCE = 3
 SHARE = 0.1
+
+
+def seen_walls(
+    grid: OccupancyGrid, space: NDArray[np.bool_], clutter: NDArray[np.bool_]
+) -> NDArray[np.bool_]:
+    """The walls whose lines and gaps :func:`wall_gaps` looks for: the occupied cells, and the
+    unknown cells of strips at most 2 :data:`JAGGED` wide between parts of the robot's
+    ``space`` (a floor plan's walls drawn in grey, which a map_server threshold reads as
+    unknown; a glass wall seen from both sides), furniture (``clutter``) left out. Unknown
+    space beside the robot's space on one side only is unexplored, not a wall; the unknown
+    streaks between a fan's rays lie between thin rays, not between robot space.
+
+    Examples
+    --------
+    >>> free = np.zeros((20, 41), bool)
+    >>> free[1:19, 1:20] = free[1:19, 21:40] = True  # two rooms, a grey wall between them
+    >>> cells = np.where(free, 0, -1).astype(np.int8)
+    >>> walls = seen_walls(OccupancyGrid(cells, 0.05), free, np.zeros_like(free))
+    >>> bool(walls[10, 20]), bool(walls[10, 0])  # the wall between, not the unknown outside
+    (True, False)
+    """
+    size = 2 * max(1, round(JAGGED / grid.resolution)) + 1
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+    between = (
+        cv2.morphologyEx(
+            space.astype(np.uint8),
+            cv2.MORPH_CLOSE,
+            disc,
+            borderType=cv2.BORDER_CONSTANT,
+            borderValue=0,
+        )
+        > 0
+    )  # beyond the map's edge is no robot space
+    return (grid.occupied | (grid.unknown & between)) & ~clutter
 
 
 def wall_gaps(

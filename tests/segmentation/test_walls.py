@@ -8,7 +8,7 @@ from scipy import ndimage
 from maps.grid import OccupancyGrid
 from segmentation.pipeline import MapSegmenter
 from segmentation.spectral import SpectralSegmenter
-from segmentation.walls import wall_gaps
+from segmentation.walls import seen_walls, wall_gaps
 
 
 def _wall_with_gap(gap_cells: int) -> np.ndarray:
@@ -149,3 +149,40 @@ def test_a_corridor_going_on_past_an_open_area_beside_it_is_not_cut():
     closed = wall_gaps(~free, free, 0.1)
     assert not closed[50:65, 95:105].any()  # the corridor across the line stays open
     assert closed[48:51, 60:70].any() or closed[64:67, 130:140].any()  # doors still close
+
+
+def _two_rooms(wall: int) -> OccupancyGrid:
+    """Two 3 x 4 m rooms (0.05 m cells) with a 0.1 m wall between them drawn as ``wall``
+    cells (occupied, or unknown as a floor plan's grey line reads), a 1.5 m gap in its
+    middle, and unknown space all round."""
+    cells = np.full((90, 130), -1, np.int8)
+    cells[5:85, 2:62] = cells[5:85, 64:124] = 0
+    cells[5:85, 62:64] = wall
+    cells[30:60, 62:64] = 0  # the gap
+    return OccupancyGrid(cells, 0.05)
+
+
+def test_a_gap_in_a_wall_drawn_grey_is_closed_as_in_a_wall_drawn_black():
+    for wall in (100, -1):
+        grid = _two_rooms(wall)
+        clutter = np.zeros(grid.shape, bool)
+        walls = seen_walls(grid, grid.free, clutter)
+        assert walls[8:30, 62:64].all() and walls[60:82, 62:64].all()
+        closed = wall_gaps(walls, grid.free, grid.resolution)
+        assert closed[30:60, 62:64].any(), wall
+
+
+def test_unexplored_space_and_the_streaks_between_rays_are_no_walls():
+    grid = _two_rooms(-1)
+    walls = seen_walls(grid, grid.free, np.zeros(grid.shape, bool))
+    assert not walls[:5].any() and not walls[85:].any()  # unknown beside one room only
+    # a fan of thin free rays (one cell each, 0.15 m apart) into unknown space: not robot
+    # space, so the unknown between them is not between robot space
+    cells = np.full((40, 80), -1, np.int8)
+    cells[5:35, 2:40] = 0
+    cells[8:32:3, 40:78] = 0  # the rays
+    fan = OccupancyGrid(cells, 0.05)
+    space = np.zeros(fan.shape, bool)
+    space[5:35, 2:40] = True
+    walls = seen_walls(fan, space, np.zeros(fan.shape, bool))
+    assert not walls[:, 44:].any()
