@@ -56,16 +56,17 @@ def seen_walls(
     grid: OccupancyGrid, space: NDArray[np.bool_], clutter: NDArray[np.bool_]
 ) -> NDArray[np.bool_]:
     """The walls whose lines and gaps :func:`wall_gaps` looks for: the occupied cells, and the
-    unknown cells of strips at most 2 :data:`JAGGED` wide between parts of the robot's
-    ``space`` (a floor plan's walls drawn in grey, which a map_server threshold reads as
-    unknown; a glass wall seen from both sides), furniture (``clutter``) left out. Unknown
-    space beside the robot's space on one side only is unexplored, not a wall; the unknown
-    streaks between a fan's rays lie between thin rays, not between robot space.
+    unknown strips at most 2 :data:`JAGGED` wide between parts of the robot's ``space`` and
+    at least :data:`FLANK` long (a floor plan's walls drawn in grey, which a map_server
+    threshold reads as unknown; a glass wall seen from both sides), furniture (``clutter``)
+    left out. Unknown space beside the robot's space on one side only is unexplored, not a
+    wall; the unknown streaks between a fan's rays lie between thin rays, not between robot
+    space; the cells no beam crossed between two that did are specks, not a wall's length.
 
     Examples
     --------
-    >>> free = np.zeros((20, 41), bool)
-    >>> free[1:19, 1:20] = free[1:19, 21:40] = True  # two rooms, a grey wall between them
+    >>> free = np.zeros((30, 41), bool)
+    >>> free[1:29, 1:20] = free[1:29, 21:40] = True  # two rooms, a grey wall between them
     >>> cells = np.where(free, 0, -1).astype(np.int8)
     >>> walls = seen_walls(OccupancyGrid(cells, 0.05), free, np.zeros_like(free))
     >>> bool(walls[10, 20]), bool(walls[10, 0])  # the wall between, not the unknown outside
@@ -83,7 +84,12 @@ def seen_walls(
         )
         > 0
     )  # beyond the map's edge is no robot space
-    return (grid.occupied | (grid.unknown & between)) & ~clutter
+    strips = (grid.unknown & between).astype(np.uint8)
+    count, pieces, stats, _ = cv2.connectedComponentsWithStats(strips, connectivity=8)
+    extent = np.maximum(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT])
+    long = extent * grid.resolution >= FLANK  # a wall, not the unseen cells between beams
+    long[0] = False
+    return (grid.occupied | long[pieces]) & ~clutter
 
 
 def wall_gaps(

@@ -186,3 +186,10 @@ def test_unexplored_space_and_the_streaks_between_rays_are_no_walls():
     space[5:35, 2:40] = True
     walls = seen_walls(fan, space, np.zeros(fan.shape, bool))
     assert not walls[:, 44:].any()
+    # cells no beam crossed inside a room (a map built from scans): specks, not a wall
+    cells = np.zeros((60, 60), np.int8)
+    cells[10:50:7, 10:50:5] = -1
+    cells[30, 20:26] = -1  # 0.3 m of unseen cells in a row
+    room = OccupancyGrid(cells, 0.05)
+    walls = seen_walls(room, room.free, np.zeros(room.shape, bool))
+    assert room.unknown.sum() > 40 and not walls.any()
