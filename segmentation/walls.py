@@ -85,7 +85,7 @@ def seen_walls(
         > 0
     )  # beyond the map's edge is no robot space
     strips = (grid.unknown & between).astype(np.uint8)
-    count, pieces, stats, _ = cv2.connectedComponentsWithStats(strips, connectivity=8)
+    _, pieces, stats, _ = cv2.connectedComponentsWithStats(strips, connectivity=8)
     extent = np.maximum(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT])
     long = extent * grid.resolution >= FLANK  # a wall, not the unseen cells between beams
     long[0] = False
