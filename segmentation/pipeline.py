@@ -322,8 +322,9 @@ class MapSegmenter(Estimator):
 
         The gaps of straight walls (:func:`~segmentation.walls.wall_gaps` of the walls the
         map shows, :func:`~segmentation.walls.seen_walls`) are wall on the working grid:
-        places, keyframes and passages end at them like at a wall with a door.
-        The cover gives their cells a region. Basins that meet at a cut across a corridor are
+        places, keyframes and passages end at them like at a wall with a door; when places
+        bounded by unknown space are dropped (fans of rays), the walls between what is left
+        are found again. The cover gives their cells a region. Basins that meet at a cut across a corridor are
         one place (:func:`~segmentation.corridors.join_corridor_cuts`)."""
         grid = conditioned.grid
         factor = pool_factor(grid.resolution, self.cell_size)
@@ -334,8 +335,14 @@ class MapSegmenter(Estimator):
         outside = drop_outside(conditioned, unpool(places, factor, conditioned.space))
         if outside is not conditioned:
             conditioned = outside
-            space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
-            places = consecutive(np.where(space.free, places, 0))
+            kept = seen_walls(grid, conditioned.space, conditioned.clutter)
+            if (kept != walls).any():  # strips between fans of rays, which are no robot space
+                closed = wall_gaps(kept, conditioned.space, grid.resolution)
+                space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
+                places = basins(space, self.place_depth)
+            else:
+                space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
+                places = consecutive(np.where(space.free, places, 0))
         return conditioned, space, join_corridor_cuts(places, space)
 
     def partition(
