@@ -324,8 +324,8 @@ class MapSegmenter(Estimator):
         map shows, :func:`~segmentation.walls.seen_walls`) are wall on the working grid:
         places, keyframes and passages end at them like at a wall with a door; when places
         bounded by unknown space are dropped (fans of rays), the walls between what is left
-        are found again. The cover gives their cells a region. Basins that meet at a cut across a corridor are
-        one place (:func:`~segmentation.corridors.join_corridor_cuts`)."""
+        are found again. The cover gives their cells a region. Basins that meet at a cut
+        across a corridor are one place (:func:`~segmentation.corridors.join_corridor_cuts`)."""
         grid = conditioned.grid
         factor = pool_factor(grid.resolution, self.cell_size)
         walls = seen_walls(grid, conditioned.space, conditioned.clutter)
