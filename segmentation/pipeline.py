@@ -336,12 +336,13 @@ class MapSegmenter(Estimator):
         if outside is not conditioned:
             conditioned = outside
             kept = seen_walls(grid, conditioned.space, conditioned.clutter)
-            if (kept != walls).any():  # strips between fans of rays, which are no robot space
+            refound = bool((kept != walls).any())  # strips between fans of rays: no walls
+            if refound:
                 closed = wall_gaps(kept, conditioned.space, grid.resolution)
-                space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
+            space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
+            if refound:
                 places = basins(space, self.place_depth)
             else:
-                space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
                 places = consecutive(np.where(space.free, places, 0))
         return conditioned, space, join_corridor_cuts(places, space)
 

@@ -2,10 +2,11 @@
 
 A room is entered through a door, and the narrowest doors built (closets, WC stalls) are
 :data:`NARROWEST_DOOR` wide. A region whose every opening onto other regions is narrower (its
-clear width: the widest disc that crosses it, :attr:`~segmentation.transitions.Transition.
-passable`) is no room: it is a pocket of the space it opens onto, reached between furniture
-or a cluttered wall's breaks, and people draw it as part of that space. :func:`join_pockets`
-joins each to the neighbour across its widest opening.
+clear width, the widest disc that crosses it:
+:attr:`~segmentation.transitions.Transition.passable`) is no room: it is a pocket of the
+space it opens onto, reached between furniture or a cluttered wall's breaks, and people draw
+it as part of that space. :func:`join_pockets` joins each to the neighbour across its widest
+opening.
 """
 
 from __future__ import annotations
