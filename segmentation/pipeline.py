@@ -368,7 +368,8 @@ class MapSegmenter(Estimator):
 
     def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
         covered = cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
-        robot_regions = set(np.unique(covered.labels[labels > 0]).tolist())  # not seen rooms
+        # the partition's regions, not the rooms the cover saw through doors
+        robot_regions = set(np.flatnonzero(np.bincount(covered.labels[labels > 0])).tolist())
         joined, pockets = join_pockets(conditioned.grid, covered.labels, robot_regions)
         return replace(covered, labels=joined, pockets=pockets)
 

@@ -6,6 +6,7 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid
+from segmentation import pipeline
 from segmentation.pipeline import MapSegmenter
 from segmentation.spectral import SpectralSegmenter
 from segmentation.walls import seen_walls, wall_gaps
@@ -193,3 +194,29 @@ def test_unexplored_space_and_the_streaks_between_rays_are_no_walls():
     room = OccupancyGrid(cells, 0.05)
     walls = seen_walls(room, room.free, np.zeros(room.shape, bool))
     assert room.unknown.sum() > 40 and not walls.any()
+
+
+def test_the_strip_between_two_dropped_fans_of_rays_is_no_wall(monkeypatch):
+    # 0.05 m cells: a 6 m room walled all round; through two 0.6 m gaps in its east wall, two
+    # 1.4 m wide fans of rays into unknown space, a 0.2 m unseen strip between them. The fans
+    # are places bounded by unknown space, dropped; the walls are then found between the
+    # robot space left, where the strip lies beside no robot space.
+    cells = np.full((140, 220), -1, np.int8)
+    cells[8:134, 8:136] = 100
+    cells[10:132, 10:132] = 0
+    cells[40:68, 136:200] = cells[72:100, 136:200] = 0  # the fans
+    cells[50:62, 132:136] = cells[78:90, 132:136] = 0  # their gaps in the wall
+    grid = OccupancyGrid(cells, 0.05)
+    seen: list[np.ndarray] = []
+    real = pipeline.wall_gaps
+
+    def spy(walls: np.ndarray, *args: object, **kwargs: object) -> np.ndarray:
+        seen.append(walls.copy())
+        return real(walls, *args, **kwargs)
+
+    monkeypatch.setattr(pipeline, "wall_gaps", spy)
+    segmenter = MapSegmenter()
+    conditioned, _, _ = segmenter.places(segmenter.condition(grid))
+    assert not conditioned.space[:, 137:].any()  # the fans were dropped
+    assert seen[0][69:71, 140:195].all()  # between robot space at first: a wall
+    assert len(seen) == 2 and not seen[-1][69:71, 140:195].any()
