@@ -13,9 +13,10 @@ from typing import Any
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 
 from maps.errors import MapFileNotFoundError
-from maps.grid import OccupancyGrid
+from maps.grid import UNKNOWN, OccupancyGrid
 from maps.map_server import grid_from_image
 from segmentation.export import read_label_image
 from segmentation.metrics import colour_labels, rose2_score, score
@@ -104,11 +105,39 @@ def _scores(labels: NDArray[np.integer], truth: NDArray[np.integer]) -> dict[str
 SHIFTS = ((0, 0), (1, 0), (0, 1), (1, 1))
 
 
+#: Turns of the building against the cell grid, degrees: a robot's map is rarely square with
+#: its walls, and 17 and 30 degrees put the walls at unlike slants to the cells.
+ROTATIONS = (0.0, 17.0, 30.0, 45.0)
+
+
+def rotated(cells: NDArray[np.integer], degrees: float, fill: int) -> NDArray[np.integer]:
+    """``cells`` turned ``degrees`` counter-clockwise about their centre, nearest cell, on a
+    canvas that holds all of them (``fill`` around).
+
+    Examples
+    --------
+    >>> rotated(np.array([[1, 2], [3, 4]]), 90.0, 0).tolist()
+    [[2, 4], [1, 3]]
+    >>> rotated(np.ones((4, 4), int), 45.0, 0).shape
+    (6, 6)
+    """
+    if degrees == 0:
+        return cells
+    return ndimage.rotate(cells, degrees, order=0, mode="constant", cval=fill, prefilter=False)
+
+
 def evaluate(
-    plan: FloorPlan, *, shifts: tuple[tuple[int, int], ...] = ((0, 0),), **options: Any
+    plan: FloorPlan,
+    *,
+    shifts: tuple[tuple[int, int], ...] = ((0, 0),),
+    rotations: tuple[float, ...] = (0.0,),
+    **options: Any,
 ) -> list[dict[str, Any]]:
     """Segment one map with each method (the spectral partition, the door-rule baseline) and
     score both, and the released segmentation of another system when there is one.
+
+    With ``rotations`` (degrees), the map and its people's rooms are turned alike
+    (:func:`rotated`) and each turn is a record of its own (``rotation``).
 
     With several ``shifts`` (cells added left and on top, :meth:`OccupancyGrid.padded`), each
     method segments the map once per shift and its scores are their means, with
@@ -117,8 +146,24 @@ def evaluate(
     the region graph and names not included, like the anchors' segmentation-only times),
     ``cpu_seconds`` its processor time.
     """
+    return [
+        record
+        for degrees in rotations
+        for record in _evaluate_turned(plan, degrees, shifts, options, released=degrees == 0)
+    ]
+
+
+def _evaluate_turned(
+    plan: FloorPlan,
+    degrees: float,
+    shifts: tuple[tuple[int, int], ...],
+    options: dict[str, Any],
+    released: bool,
+) -> list[dict[str, Any]]:
     grid = plan.grid()
-    truth = plan.rooms()
+    truth = rotated(plan.rooms(), degrees, 0)
+    if degrees:
+        grid = OccupancyGrid(rotated(grid.cells, degrees, UNKNOWN), grid.resolution)
     height, width = truth.shape
     records = []
     for method in ("spectral", "doors"):
@@ -141,6 +186,7 @@ def evaluate(
             "map": plan.name.removesuffix("_furnitures"),
             "furnished": plan.furnished,
             "variant": method,
+            "rotation": degrees,
         }
         for key, value in runs[0].items():
             mean = float(np.mean([run[key] for run in runs]))
@@ -150,7 +196,7 @@ def evaluate(
             mccs = [run["mcc"] for run in runs]
             record["mcc_spread"] = round(max(mccs) - min(mccs), 4)
         records.append(record)
-    if plan.released is not None:
+    if released and plan.released is not None:
         records.append(
             {
                 "map": plan.name,
@@ -209,17 +255,20 @@ def read_anchors(data_dir: str | Path) -> list[dict[str, Any]]:
 
 
 def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Mean scores per (variant, furnished), ours and the anchors', over the maps we ran."""
+    """Mean scores per (variant, furnished, rotation), ours and the anchors', over the maps we
+    ran."""
     ours = {(r["map"], r["furnished"]) for r in records}
     rows = []
     for source in (records, [a for a in anchors if (a["map"], a["furnished"]) in ours]):
-        groups: dict[tuple[str, bool], list[dict[str, Any]]] = {}
+        groups: dict[tuple[str, bool, float], list[dict[str, Any]]] = {}
         for r in source:
-            groups.setdefault((r["variant"], r["furnished"]), []).append(r)
-        for (variant, furnished), group in groups.items():
+            key = (r["variant"], r["furnished"], r.get("rotation", 0.0))
+            groups.setdefault(key, []).append(r)
+        for (variant, furnished, degrees), group in groups.items():
             row: dict[str, Any] = {
                 "method": variant,
                 "furnished": furnished,
+                "rotation": degrees,
                 "maps": len(group),
             }
             for metric in METRICS:
@@ -236,4 +285,4 @@ def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[
             row["max_cpu_s"] = round(float(np.max(cpu)), 2) if cpu else "-"
             row["max_s"] = round(float(np.max(times)), 2) if times else "-"
             rows.append(row)
-    return sorted(rows, key=lambda r: (r["furnished"], r["method"]))
+    return sorted(rows, key=lambda r: (r["furnished"], r["method"], r["rotation"]))

@@ -33,6 +33,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="also segment every map moved one cell right, down and both; scores are the means "
         "over the four (mcc_spread: their largest MCC minus the smallest)",
     )
+    eval_seg.add_argument(
+        "--rotations",
+        action="store_true",
+        help="also segment every map turned 17, 30 and 45 degrees against the cell grid (its "
+        "people's rooms turned alike); each turn is scored apart",
+    )
     add_segmenter_options(eval_seg)
     eval_seg.set_defaults(func=cmd_eval_segment)
 
@@ -59,14 +65,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_eval_segment(args: argparse.Namespace) -> int:
-    from topomap.cli.evaluate import SHIFTS, evaluate_all, means, read_anchors
+    from topomap.cli.evaluate import ROTATIONS, SHIFTS, evaluate_all, means, read_anchors
 
     out = Path(args.out)
     refuse_existing(out, ["results.json"], args.force)
     shifts = SHIFTS if args.shifts else ((0, 0),)
+    rotations = ROTATIONS if args.rotations else (0.0,)
     options = segmenter_options(args)
-    records = evaluate_all(args.data, progress=args.progress, shifts=shifts, **options)
-    columns = ["map", "furnished", "variant", "segments", "rooms", "recall", "precision", "mcc"]
+    records = evaluate_all(
+        args.data, progress=args.progress, shifts=shifts, rotations=rotations, **options
+    )
+    turns = ["rotation"] if args.rotations else []
+    columns = ["map", "furnished", "variant", *turns, "segments", "rooms"]
+    columns += ["recall", "precision", "mcc"]
     columns += ["mcc_spread"] if args.shifts else []
     columns += ["ari", "rose2_precision", "rose2_recall", "rose2_iou", "seconds"]
     print(markdown_table(records, columns))
@@ -76,7 +87,7 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
         markdown_table(
             summary,
             [
-                *["method", "furnished", "maps", "recall", "precision", "mcc", "min_mcc"],
+                *["method", "furnished", *turns, "maps", "recall", "precision", "mcc", "min_mcc"],
                 *(["mcc_spread"] if args.shifts else []),
                 "ari",
                 *["rose2_precision", "rose2_recall", "rose2_iou", "mean_s", "max_s"],
