@@ -8,7 +8,8 @@ crossing of two corridors rises to sqrt(2) times their half width) such a cut lo
 so the places, and the partition that votes with them, would cut the corridor system at every
 junction. :func:`join_corridor_cuts` joins two places where their boundary is a cut across a
 channel: straight across the free space from wall to wall, at least a corridor wide
-(:data:`CORRIDOR_WIDTH`), the space keeping that width (its clearance within
+(:data:`CORRIDOR_WIDTH`; the way across read from the walls, not from the boundary, which
+on a plateau follows the cells), the space keeping that width (its clearance within
 :data:`~segmentation.refine.OPEN` of the cut's, and the inverse, with a cell of slack for
 jagged walls) between walls on both hands for :data:`~segmentation.walls.CHANNEL` metres on
 both sides; or where a corridor enters a wider space: on one side the space keeps the cut's
@@ -100,16 +101,19 @@ def _across_corridor(
     there, metres) is a cut across a corridor of the map whose ``clearance`` is given."""
     centre = middle.mean(axis=0)
     _, axes = np.linalg.eigh(np.cov((middle - centre).T))
-    along = axes[:, 1]
-    extent = (middle - centre) @ along
-    length = (float(extent.max() - extent.min()) + 1) * resolution
     most = int(np.argmax(open_at))
     width = 2 * float(open_at[most])  # the space's width at the cut's most open cell
+    # the way across, wall to wall, is the walls' where there are walls to go by: on a
+    # plateau, the boundary runs along a row or a column of cells whatever the walls' slant
+    walls = _across_walls(clearance, middle[most], axes[:, 1], (width + 0.5) / resolution)
+    way = axes[:, 1] if walls is None else walls
+    extent = (middle - centre) @ way
+    length = (float(extent.max() - extent.min()) + 1) * resolution
     # not wall to wall, or narrower than a corridor even where a jagged wall took a cell off
     # each side (SLAM maps' corridors measure 1.1 m on the working cells)
     if length * OPEN > width or length < CORRIDOR_WIDTH - 2 * resolution:
         return False
-    normal = np.array([-along[1], along[0]])
+    normal = np.array([-way[1], way[0]])
     steps = np.array(STEPS) * CHANNEL / resolution
     points = middle[most] + np.concatenate([steps, -steps])[:, None] * normal
     across = np.array([normal[1], -normal[0]]) * width / 2 / resolution
@@ -119,6 +123,47 @@ def _across_corridor(
     if length >= CORRIDOR_WIDTH and both_sides:
         return True
     return _corridor_into_wider(middle[most], normal, width, clearance, resolution)
+
+
+def _across_walls(
+    clearance: NDArray[np.float32],
+    point: NDArray[np.float64],
+    axis: NDArray[np.float64],
+    reach: float,
+) -> NDArray[np.float64] | None:
+    """The unit way (x, y) across the walls within ``reach`` cells of ``point`` (x, y cells),
+    within 60 degrees of ``axis``: the way along which the wall cells stack into the fewest,
+    fullest rows (a Radon transform at one cell's resolution, every degree); None where
+    there are no walls to go by.
+
+    Examples
+    --------
+    >>> clearance = np.ones((20, 40), np.float32)
+    >>> rows, columns = np.indices(clearance.shape)
+    >>> clearance[np.abs(rows - 10 - (columns - 20) * np.tan(np.radians(20))) > 5] = 0
+    >>> way = _across_walls(clearance, np.array([20.0, 10.0]), np.array([0.0, 1.0]), 12.0)
+    >>> bool(abs(np.degrees(np.arctan2(way[1], way[0])) - 110) <= 2)  # a corridor at 20 degrees
+    True
+    """
+    span = int(np.ceil(reach))
+    x, y = np.rint(point).astype(int)
+    top, left = max(y - span, 0), max(x - span, 0)
+    solid = np.pad(clearance[top : y + span + 1, left : x + span + 1] <= 0, 1, "edge")
+    inner = solid[1:-1, 1:-1]
+    edge = inner & ~(solid[:-2, 1:-1] & solid[2:, 1:-1] & solid[1:-1, :-2] & solid[1:-1, 2:])
+    rows, columns = np.nonzero(edge)
+    cells = np.column_stack([columns + left - point[0], rows + top - point[1]])
+    cells = cells[np.hypot(cells[:, 0], cells[:, 1]) <= reach]
+    if len(cells) < 4:
+        return None
+    angles = np.arctan2(axis[1], axis[0]) + np.radians(np.arange(-60, 61))
+    ways = np.column_stack([np.cos(angles), np.sin(angles)])
+    rows_of = np.floor(cells @ ways.T + reach + 1).astype(np.int64)  # >= 0
+    width = int(rows_of.max()) + 1
+    columns_of = rows_of + width * np.arange(len(angles))
+    counts = np.bincount(columns_of.ravel(), minlength=width * len(angles))
+    fullness = (counts.reshape(len(angles), width).astype(np.float64) ** 2).sum(axis=1)
+    return ways[int(np.argmax(fullness))]
 
 
 def _corridor_into_wider(

@@ -3,6 +3,7 @@
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy import ndimage
 
 from maps.grid import OccupancyGrid
 from segmentation.corridors import corridor_cuts, join_corridor_cuts
@@ -126,3 +127,36 @@ def test_a_corridor_cut_at_a_slightly_narrower_spot_is_joined():
     places = np.where(free, 1 + (np.arange(200) >= 100), 0)
     a, b = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
     assert (a.tolist(), b.tolist()) == ([1], [2])
+
+
+def _turned(cells: np.ndarray, degrees: float) -> np.ndarray:
+    return ndimage.rotate(cells, degrees, order=0, mode="constant", cval=0, prefilter=False)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(0, 90))
+def test_a_slanted_corridor_cut_along_the_cells_is_joined(degrees):
+    # basins meet on a corridor's plateau along a row or a column of cells, whatever the
+    # corridor's slant: its way is read from its walls, not from that boundary
+    free = np.zeros((24, 160), bool)
+    free[2:22, 20:140] = True  # 2 m wide, 12 m long
+    free = _turned(free, degrees)
+    rows, columns = np.indices(free.shape)
+    half = (
+        (rows >= free.shape[0] / 2) if 45 < degrees % 180 < 135 else (columns >= free.shape[1] / 2)
+    )
+    places = np.where(free, 1 + half, 0)
+    a, b = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert (a.tolist(), b.tolist()) == ([1], [2])
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.floats(0, 90))
+def test_rooms_behind_a_slanted_door_stay_apart(degrees):
+    rooms = np.zeros((100, 210), np.int32)
+    rooms[10:90, 10:100], rooms[10:90, 110:200] = 1, 2
+    rooms[45:54, 100:110] = 3  # a 0.9 m door, 1 m deep
+    rooms = _turned(rooms, degrees)
+    free = rooms > 0
+    joined = join_corridor_cuts(_places(free), OccupancyGrid.from_masks(free, RESOLUTION))
+    assert not set(joined[rooms == 1].tolist()) & set(joined[rooms == 2].tolist())

@@ -163,7 +163,7 @@ def _evaluate_turned(
     grid = plan.grid()
     truth = rotated(plan.rooms(), degrees, 0)
     if degrees:
-        grid = OccupancyGrid(rotated(grid.cells, degrees, UNKNOWN), grid.resolution)
+        grid = OccupancyGrid(rotated(grid.cells, degrees, UNKNOWN).astype(np.int8), grid.resolution)
     height, width = truth.shape
     records = []
     for method in ("spectral", "doors"):
