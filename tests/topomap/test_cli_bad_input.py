@@ -318,3 +318,10 @@ def test_footprint_options_that_do_not_fit_the_robot(capsys, plan_map, robot, sh
     assert main(argv) == 2
     line = _error_line(capsys)
     assert shown in line and "unrecognized" not in line and line.startswith("topomap: error:")
+
+
+def test_a_log_given_as_the_map_is_read_as_a_log(tmp_path, capsys):
+    # `topomap segment run.log`: the keyframes of the log, as with --scans, not a map YAML
+    (tmp_path / "run.log").write_text("FLASER 3 1 2\n")
+    assert main(["-q", "segment", str(tmp_path / "run.log"), "--out", str(tmp_path / "o")]) == 2
+    assert "run.log, line 1, field 'ranges'" in _error_line(capsys)

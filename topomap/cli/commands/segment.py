@@ -33,7 +33,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Add the command to the subcommands ``sub``."""
     seg = sub.add_parser("segment", help="segment a map or a laser log into regions")
     source = seg.add_mutually_exclusive_group(required=True)
-    source.add_argument("map", nargs="?", help="map_server YAML")
+    source.add_argument(
+        "map", nargs="?", help="map_server YAML, a bag's map, or a CARMEN log (as --scans)"
+    )
     source.add_argument("--scans", help="CARMEN log or ROS bag instead of a map")
     add_output_options(seg, force="overwrite existing files")
     seg.add_argument("--distance", type=DISTANCE, default=0.5, help="keyframe spacing in a log, m")
@@ -72,9 +74,12 @@ def cmd_segment(args: argparse.Namespace) -> int:
     from maps.grid import OccupancyGrid
     from maps.scan import select_keyframes
     from topomap.cli.drawing import draw_regions
+    from topomap.cli.inputs import input_kind
     from topomap.saving import SAVED
     from topomap.topomap import TopoMap
 
+    if args.map is not None and input_kind(Path(args.map)) == "log":
+        args.scans, args.map = args.map, None  # a log's keyframes are the paper's input
     out = Path(args.out)
     if args.online:
         return _segment_online(args, out)
