@@ -192,6 +192,35 @@ def test_eval_segment_scores_against_ground_truth(tmp_path, data_dir):
     assert [r["mcc"] for r in again] == [r["mcc"] for r in results["maps"]]
 
 
+def test_eval_segment_turns_each_map_and_its_rooms_alike(tmp_path, data_dir):
+    data = tmp_path / "data"
+    data.mkdir()
+    for name in ["lab_ipa.yaml", "lab_ipa.png", "lab_ipa_gt_labels.png"]:
+        (data / name).symlink_to(data_dir / "ipa" / name)
+    out = tmp_path / "out"
+    assert main(["eval", "segment", str(data), "--rotations", "--out", str(out)]) == 0
+    results = json.loads((out / "results.json").read_text())
+    spectral = {r["rotation"]: r for r in results["maps"] if r["variant"] == "spectral"}
+    assert sorted(spectral) == [0.0, 3.0, 17.0, 30.0, 45.0]
+    for found in spectral.values():
+        # the rooms turned with the map: all ten found again, the regions on them
+        assert found["rooms"] == 10 and found["mcc"] > 0.6
+    means = {(m["method"], m["rotation"]) for m in results["means"]}
+    assert {("spectral", 30.0), ("doors", 45.0)} <= means
+
+
+def test_rotated_keeps_every_label_and_holds_the_whole_image():
+    from topomap.cli.evaluate import rotated
+
+    labels = np.zeros((40, 60), np.int32)
+    labels[5:15, 5:25], labels[20:35, 30:55] = 1, 2
+    turned = rotated(labels, 30.0, 0)
+    assert turned.shape[0] > 40 and turned.shape[1] > 60
+    counts = np.bincount(turned.ravel(), minlength=3)
+    assert abs(counts[1] - 200) <= 20 and abs(counts[2] - 375) <= 30  # area kept
+    assert (rotated(rotated(labels, 90.0, 0), -90.0, 0) == labels).all()
+
+
 def test_bench_segment_writes_records(tmp_path, capsys):
     args = [
         "bench",

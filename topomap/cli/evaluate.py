@@ -106,8 +106,8 @@ SHIFTS = ((0, 0), (1, 0), (0, 1), (1, 1))
 
 
 #: Turns of the building against the cell grid, degrees: a robot's map is rarely square with
-#: its walls, and 17 and 30 degrees put the walls at unlike slants to the cells.
-ROTATIONS = (0.0, 17.0, 30.0, 45.0)
+#: its walls (a few degrees off is common), and 17, 30 and 45 put them at unlike slants.
+ROTATIONS = (0.0, 3.0, 17.0, 30.0, 45.0)
 
 
 def rotated(cells: NDArray[np.integer], degrees: float, fill: int) -> NDArray[np.integer]:

@@ -36,7 +36,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     eval_seg.add_argument(
         "--rotations",
         action="store_true",
-        help="also segment every map turned 17, 30 and 45 degrees against the cell grid (its "
+        help="also segment every map turned 3, 17, 30 and 45 degrees against the cell grid (its "
         "people's rooms turned alike); each turn is scored apart",
     )
     add_segmenter_options(eval_seg)
