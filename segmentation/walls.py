@@ -138,10 +138,10 @@ def wall_gaps(
         return out.astype(bool)
     lines = _main_directions(np.asarray(lines, np.int32).reshape(-1, 4))
     near = _within(surface, reach)  # jagged walls
-    for line in lines.tolist():
-        xs, ys, step = _traced(line, (flank + gap) / resolution, free.shape)
-        step *= resolution  # metres a sample
-        n = len(xs)
+    for x0, y0, x1, y1 in lines.tolist():
+        n = max(abs(x1 - x0), abs(y1 - y0)) + 1
+        xs = np.rint(np.linspace(x0, x1, n)).astype(int)
+        ys = np.rint(np.linspace(y0, y1, n)).astype(int)
         on = near[ys, xs]
         starts = np.flatnonzero(np.r_[True, on[1:] != on[:-1]])
         ends = np.r_[starts[1:], n]
@@ -149,10 +149,9 @@ def wall_gaps(
             i, j = starts[run], ends[run]
             wall_ends = (xs[i - 1], ys[i - 1]), (xs[j], ys[j])
             if (
-                HOLE + 2 * resolution < (j - i) * step <= gap  # a narrower gap is a door
-                # the band a jagged wall wanders in reaches past the wall's far end too
-                and (min(ends[run - 1] - starts[run - 1], ends[run + 1] - starts[run + 1]) - reach)
-                * step
+                HOLE + 2 * resolution < (j - i) * resolution <= gap  # a narrower gap is a door
+                and min(ends[run - 1] - starts[run - 1], ends[run + 1] - starts[run + 1])
+                * resolution
                 >= flank
                 and free[ys[i:j], xs[i:j]].mean() > 0.5
                 and not _through_channel(
@@ -164,34 +163,6 @@ def wall_gaps(
             ):
                 _close(out, *wall_ends, HOLE / resolution)
     return out.astype(bool) & free
-
-
-def _traced(
-    line: list[int], beyond: float, shape: tuple[int, ...]
-) -> tuple[NDArray[np.intp], NDArray[np.intp], float]:
-    """The cells (x, y) of a Hough ``line`` (x0, y0, x1, y1) drawn on ``beyond`` cells past
-    both its ends within a grid of ``shape``, and the cells a sample: the probabilistic
-    Hough transform ends a slanted wall's segment short of where its staircase of cells
-    ends, and the wall on past a gap is what the gap is judged by.
-
-    Examples
-    --------
-    >>> xs, ys, step = _traced([2, 3, 6, 3], 2.0, (5, 8))  # cut at the grid's edge
-    >>> xs.tolist(), ys.tolist(), step
-    ([0, 1, 2, 3, 4, 5, 6, 7], [3, 3, 3, 3, 3, 3, 3, 3], 1.0)
-    >>> round(_traced([0, 0, 3, 3], 0.0, (8, 8))[2], 3)  # a diagonal's samples
-    1.414
-    """
-    x0, y0, x1, y1 = line
-    length = max(math.hypot(x1 - x0, y1 - y0), 1e-9)
-    ux, uy = (x1 - x0) / length, (y1 - y0) / length
-    start = np.array([x0 - ux * beyond, y0 - uy * beyond])
-    end = np.array([x1 + ux * beyond, y1 + uy * beyond])
-    n = int(math.ceil(float(np.abs(end - start).max()))) + 1
-    xs = np.rint(np.linspace(start[0], end[0], n)).astype(np.intp)
-    ys = np.rint(np.linspace(start[1], end[1], n)).astype(np.intp)
-    inside = (xs >= 0) & (xs < shape[1]) & (ys >= 0) & (ys < shape[0])
-    return xs[inside], ys[inside], float(np.hypot(*(end - start))) / (n - 1)
 
 
 def _within(cells: NDArray[np.bool_], reach: int) -> NDArray[np.bool_]:
