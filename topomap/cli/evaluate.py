@@ -146,22 +146,23 @@ def evaluate(
     the region graph and names not included, like the anchors' segmentation-only times),
     ``cpu_seconds`` its processor time.
     """
+    grid, rooms = plan.grid(), plan.rooms()
     return [
         record
         for degrees in rotations
-        for record in _evaluate_turned(plan, degrees, shifts, options, released=degrees == 0)
+        for record in _evaluate_turned(plan, grid, rooms, degrees, shifts, options)
     ]
 
 
 def _evaluate_turned(
     plan: FloorPlan,
+    grid: OccupancyGrid,
+    rooms: NDArray[np.int32],
     degrees: float,
     shifts: tuple[tuple[int, int], ...],
     options: dict[str, Any],
-    released: bool,
 ) -> list[dict[str, Any]]:
-    grid = plan.grid()
-    truth = rotated(plan.rooms(), degrees, 0)
+    truth = rotated(rooms, degrees, 0)
     if degrees:
         grid = OccupancyGrid(rotated(grid.cells, degrees, UNKNOWN).astype(np.int8), grid.resolution)
     height, width = truth.shape
@@ -196,7 +197,7 @@ def _evaluate_turned(
             mccs = [run["mcc"] for run in runs]
             record["mcc_spread"] = round(max(mccs) - min(mccs), 4)
         records.append(record)
-    if released and plan.released is not None:
+    if degrees == 0 and plan.released is not None:  # the other system's result, as released
         records.append(
             {
                 "map": plan.name,
