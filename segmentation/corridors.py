@@ -13,10 +13,10 @@ on a plateau follows the cells), the space keeping that width (its clearance wit
 :data:`~segmentation.refine.OPEN` of the cut's, and the inverse, with a cell of slack for
 jagged walls) between walls on both hands for :data:`~segmentation.walls.CHANNEL` metres on
 both sides; or where a corridor enters a wider space: on one side the space keeps the cut's
-width so for
-:data:`CORRIDOR_LENGTH` times that width (longer than a room is for its width), and on the
-other it never narrows. A door, a room opening onto a corridor, a narrow room entered through
-its full width: the space widens or narrows within those metres, and the places stay apart
+width so for :data:`CORRIDOR_LENGTH` times that width (longer than a room is for its width;
+its walls broken only by doors, up to double doors wide), and on the other it never
+narrows. A door, a room opening onto a corridor, a narrow room entered through its full
+width: the space widens or narrows within those metres, and the places stay apart
 for the partition to decide.
 """
 
@@ -28,6 +28,7 @@ from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 
 from maps.grid import OccupancyGrid
+from segmentation.coverage import DOOR_WIDTH
 from segmentation.refine import OPEN
 from segmentation.regions import boundary_pairs, consecutive
 from segmentation.walls import CHANNEL
@@ -176,8 +177,9 @@ def _corridor_into_wider(
     """Whether a cut ``width`` metres wide at ``start`` (x, y cells) is where a corridor
     enters a wider space: on one side along ``normal`` the space keeps the cut's width for
     :data:`CORRIDOR_LENGTH` times that width (a room is rarely over 2.5 times as long as wide,
-    so this is a corridor, not a narrow room entered through its full width), on the other it
-    never narrows over :data:`~segmentation.walls.CHANNEL` metres."""
+    so this is a corridor, not a narrow room entered through its full width; its walls may
+    break for doors along it, up to double doors), on the other it never narrows over
+    :data:`~segmentation.walls.CHANNEL` metres."""
     step = 0.25 / resolution  # a sample every 0.25 m
     across = np.array([normal[1], -normal[0]]) * width / 2 / resolution
 
@@ -187,7 +189,9 @@ def _corridor_into_wider(
 
     length = CORRIDOR_LENGTH * width
     for sign in (1.0, -1.0):
-        holds = _keeps_width(clearance, along(sign, length), across, width, resolution)
+        holds = _keeps_width(
+            clearance, along(sign, length), across, width, resolution, doors=0.25 / DOOR_WIDTH
+        )
         wider = _clearance_at(clearance, along(-sign, CHANNEL))
         # as across a cut (7 of 8 samples), one in eight may miss: a curved corridor leaves
         # the straight line
@@ -205,18 +209,55 @@ def _keeps_width(
     across: NDArray[np.float64],
     width: float,
     resolution: float,
+    doors: float = 0.0,
 ) -> NDArray[np.bool_]:
     """Whether the space at each of ``points`` (x, y cells) is ``width`` metres wide between
     walls on both hands (``across``, cells, reaches from the middle to a wall): the clearance
     in the middle is half the width, with a cell of slack (SLAM maps' walls are jagged), and
-    at ``points ± across`` it is no more than that (no room opens along a wall)."""
+    at ``points ± across`` it is no more than that (no room opens along a wall). With
+    ``doors`` (the points' spacing over the widest door), a wall's break over consecutive
+    points no wider than a door is a door along the corridor, not a room opening onto it.
+
+    Examples
+    --------
+    >>> from scipy.ndimage import distance_transform_edt
+    >>> free = np.zeros((60, 100), bool)
+    >>> free[30:42, :] = True  # a 1.2 m corridor (0.1 m cells) along a room's wall (row 29)
+    >>> free[5:29, :] = True; free[29, 40:60] = True  # the room, double doors (2 m) in the wall
+    >>> clearance = (distance_transform_edt(free) * 0.1).astype(np.float32)
+    >>> points = np.column_stack([np.arange(20, 80, 2.5), np.full(24, 35.5)])  # every 0.25 m
+    >>> across = np.array([0.0, 6.0])
+    >>> int(_keeps_width(clearance, points, across, 1.2, 0.1).sum())
+    21
+    >>> int(_keeps_width(clearance, points, across, 1.2, 0.1, doors=0.25 / 2.0).sum())
+    24
+    """
     half = width / 2
     there = _clearance_at(clearance, points)
     walls = np.maximum(
         _clearance_at(clearance, points + across), _clearance_at(clearance, points - across)
     )
-    holds = (there >= OPEN * half - resolution) & (there * OPEN <= half + resolution)
-    return holds & (walls * OPEN <= half)
+    keeps = (there >= OPEN * half - resolution) & (there * OPEN <= half + resolution)
+    on_walls = walls * OPEN <= half
+    if doors > 0:
+        on_walls |= _short_breaks(on_walls, int(1 / doors))
+    return keeps & on_walls
+
+
+def _short_breaks(holds: NDArray[np.bool_], longest: int) -> NDArray[np.bool_]:
+    """The runs of False in ``holds`` at most ``longest`` long with True on both sides.
+
+    Examples
+    --------
+    >>> _short_breaks(np.array([1, 0, 0, 1, 0, 0, 0, 1, 0], bool), 2).astype(int).tolist()
+    [0, 1, 1, 0, 0, 0, 0, 0, 0]
+    """
+    edges = np.flatnonzero(np.diff(np.r_[1, holds.astype(np.int8), 1]))
+    out = np.zeros(len(holds), bool)
+    for start, end in zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True):
+        if start > 0 and end < len(holds) and end - start <= longest:
+            out[start:end] = True
+    return out
 
 
 def _clearance_at(

@@ -77,6 +77,24 @@ def test_a_narrow_room_entered_through_its_full_width_stays_apart():
     assert len(a) == 0
 
 
+def test_a_corridor_with_doors_along_it_that_opens_into_a_hall_is_joined():
+    # 8 m of corridor with double doors (2 m) into rooms on either side: a door along a
+    # corridor is no room opening onto it
+    free, places = _hall_with_arm(80)
+    free[10:35, 90:110] = free[46:70, 120:140] = True  # the rooms behind
+    places = np.where(free, 1 + (np.arange(free.shape[1]) >= 73), 0)
+    a, b = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert (a.tolist(), b.tolist()) == ([1], [2])
+
+
+def test_a_corridor_whose_wall_is_open_for_more_than_double_doors_is_no_corridor():
+    free, places = _hall_with_arm(80)
+    free[10:35, 85:125] = True  # a 4 m opening: a room beside it, not a door
+    places = np.where(free, 1 + (np.arange(free.shape[1]) >= 73), 0)
+    a, _ = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert len(a) == 0
+
+
 @settings(max_examples=20, deadline=None)
 @given(st.integers(0, 2**31 - 1))
 def test_joining_only_unites_whole_places(seed):
