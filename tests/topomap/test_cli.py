@@ -209,6 +209,23 @@ def test_eval_segment_turns_each_map_and_its_rooms_alike(tmp_path, data_dir):
     assert {("spectral", 30.0), ("doors", 45.0)} <= means
 
 
+def test_eval_segment_resamples_each_map_and_its_rooms_alike(tmp_path, data_dir):
+    data = tmp_path / "data"
+    data.mkdir()
+    for name in ["office_a.yaml", "office_a.png", "office_a_gt_labels.png"]:
+        (data / name).symlink_to(data_dir / "ipa" / name)
+    out = tmp_path / "out"
+    assert main(["eval", "segment", str(data), "--resolutions", "--out", str(out)]) == 0
+    results = json.loads((out / "results.json").read_text())
+    spectral = {r["cell_factor"]: r for r in results["maps"] if r["variant"] == "spectral"}
+    assert sorted(spectral) == [0.5, 1.0, 2.0]
+    for found in spectral.values():
+        # the rooms resampled with the map: all 27 found again, the regions on them
+        assert found["rooms"] == 27 and found["mcc"] > 0.9
+    means = {(m["method"], m["cell_factor"]) for m in results["means"]}
+    assert {("spectral", 2.0), ("doors", 0.5)} <= means
+
+
 def test_rotated_keeps_every_label_and_holds_the_whole_image():
     from topomap.cli.evaluate import rotated
 

@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from maps.errors import MapFileNotFoundError
-from maps.grid import UNKNOWN, OccupancyGrid
+from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from maps.map_server import grid_from_image
 from segmentation.export import read_label_image
 from segmentation.metrics import colour_labels, rose2_score, score
@@ -110,6 +110,52 @@ SHIFTS = ((0, 0), (1, 0), (0, 1), (1, 1))
 ROTATIONS = (0.0, 3.0, 17.0, 30.0, 45.0)
 
 
+#: Cell sizes against the map's own, each a map of its own: the same building mapped with cells
+#: twice as large (a 0.05 m map as a 0.1 m one) and half as large; users' maps are 0.02-0.1 m.
+CELL_FACTORS = (1.0, 2.0, 0.5)
+
+
+def resampled(
+    grid: OccupancyGrid, rooms: NDArray[np.int32], factor: float
+) -> tuple[OccupancyGrid, NDArray[np.int32]]:
+    """``grid`` and its people's ``rooms`` on cells ``factor`` (2 or 0.5) times as large.
+
+    Twice as large as a mapper would make the cell from the scans it had: occupied when a beam
+    ended in one of its four cells, free when one crossed it and none ended there, unknown
+    else; a room's cell takes the room of its first (top left) cell. Half as large: each cell
+    split in four.
+
+    Examples
+    --------
+    >>> cells = np.array([[0, 0, 100, -1], [0, 0, -1, -1], [0, 100, -1, -1]], np.int8)
+    >>> rooms = np.array([[3, 3, 3, 3], [1, 1, 2, 2], [1, 1, 2, 2]])
+    >>> grid, rooms = resampled(OccupancyGrid(cells, 0.05), rooms, 2.0)  # the top row goes:
+    >>> grid.cells.tolist(), grid.resolution, rooms.tolist()  # the origin is at the bottom
+    ([[100, -1]], 0.1, [[1, 2]])
+    >>> resampled(OccupancyGrid(cells, 0.05), np.ones((3, 4), int), 0.5)[0].cells.shape
+    (6, 8)
+    """
+    if factor == 1:
+        return grid, rooms
+    if factor == 0.5:
+        finer = np.repeat(np.repeat(grid.cells, 2, axis=0), 2, axis=1)
+        return (
+            OccupancyGrid(finer, grid.resolution / 2, grid.origin),
+            np.repeat(np.repeat(rooms, 2, axis=0), 2, axis=1),
+        )
+    if factor != 2:
+        raise ValueError(f"cells are resampled 2 or 0.5 times as large, not {factor}")
+    top, width = grid.shape[0] % 2, grid.shape[1] // 2 * 2  # the bottom row stays at the origin
+
+    def any_of_four(mask: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        blocks = mask[top:, :width]
+        return np.asarray(blocks.reshape(blocks.shape[0] // 2, 2, width // 2, 2).any(axis=(1, 3)))
+
+    occupied, free = any_of_four(grid.occupied), any_of_four(grid.free)
+    cells = np.where(occupied, OCCUPIED, np.where(free, FREE, UNKNOWN)).astype(np.int8)
+    return OccupancyGrid(cells, grid.resolution * 2, grid.origin), rooms[top::2, :width:2]
+
+
 def rotated(cells: NDArray[np.integer], degrees: float, fill: int) -> NDArray[np.integer]:
     """``cells`` turned ``degrees`` counter-clockwise about their centre, nearest cell, on a
     canvas that holds all of them (``fill`` around).
@@ -131,13 +177,16 @@ def evaluate(
     *,
     shifts: tuple[tuple[int, int], ...] = ((0, 0),),
     rotations: tuple[float, ...] = (0.0,),
+    cell_factors: tuple[float, ...] = (1.0,),
     **options: Any,
 ) -> list[dict[str, Any]]:
     """Segment one map with each method (the spectral partition, the door-rule baseline) and
     score both, and the released segmentation of another system when there is one.
 
     With ``rotations`` (degrees), the map and its people's rooms are turned alike
-    (:func:`rotated`) and each turn is a record of its own (``rotation``).
+    (:func:`rotated`) and each turn is a record of its own (``rotation``); so with
+    ``cell_factors``, the map on cells that many times as large (:func:`resampled`,
+    ``cell_factor``).
 
     With several ``shifts`` (cells added left and on top, :meth:`OccupancyGrid.padded`), each
     method segments the map once per shift and its scores are their means, with
@@ -149,8 +198,11 @@ def evaluate(
     grid, rooms = plan.grid(), plan.rooms()
     return [
         record
+        for factor in cell_factors
         for degrees in rotations
-        for record in _evaluate_turned(plan, grid, rooms, degrees, shifts, options)
+        for record in _evaluate_turned(
+            plan, *resampled(grid, rooms, factor), degrees, shifts, options, factor
+        )
     ]
 
 
@@ -161,6 +213,7 @@ def _evaluate_turned(
     degrees: float,
     shifts: tuple[tuple[int, int], ...],
     options: dict[str, Any],
+    factor: float = 1.0,
 ) -> list[dict[str, Any]]:
     truth = rotated(rooms, degrees, 0)
     if degrees:
@@ -188,6 +241,7 @@ def _evaluate_turned(
             "furnished": plan.furnished,
             "variant": method,
             "rotation": degrees,
+            "cell_factor": factor,
         }
         for key, value in runs[0].items():
             mean = float(np.mean([run[key] for run in runs]))
@@ -197,7 +251,7 @@ def _evaluate_turned(
             mccs = [run["mcc"] for run in runs]
             record["mcc_spread"] = round(max(mccs) - min(mccs), 4)
         records.append(record)
-    if degrees == 0 and plan.released is not None:  # the other system's result, as released
+    if degrees == 0 and factor == 1 and plan.released is not None:  # the other's, as released
         records.append(
             {
                 "map": plan.name,
@@ -256,20 +310,21 @@ def read_anchors(data_dir: str | Path) -> list[dict[str, Any]]:
 
 
 def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Mean scores per (variant, furnished, rotation), ours and the anchors', over the maps we
-    ran."""
+    """Mean scores per (variant, furnished, rotation, cell factor), ours and the anchors', over
+    the maps we ran."""
     ours = {(r["map"], r["furnished"]) for r in records}
     rows = []
     for source in (records, [a for a in anchors if (a["map"], a["furnished"]) in ours]):
-        groups: dict[tuple[str, bool, float], list[dict[str, Any]]] = {}
+        groups: dict[tuple[str, bool, float, float], list[dict[str, Any]]] = {}
         for r in source:
-            key = (r["variant"], r["furnished"], r.get("rotation", 0.0))
+            key = (r["variant"], r["furnished"], r.get("rotation", 0.0), r.get("cell_factor", 1.0))
             groups.setdefault(key, []).append(r)
-        for (variant, furnished, degrees), group in groups.items():
+        for (variant, furnished, degrees, factor), group in groups.items():
             row: dict[str, Any] = {
                 "method": variant,
                 "furnished": furnished,
                 "rotation": degrees,
+                "cell_factor": factor,
                 "maps": len(group),
             }
             for metric in METRICS:
@@ -286,4 +341,6 @@ def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[
             row["max_cpu_s"] = round(float(np.max(cpu)), 2) if cpu else "-"
             row["max_s"] = round(float(np.max(times)), 2) if times else "-"
             rows.append(row)
-    return sorted(rows, key=lambda r: (r["furnished"], r["method"], r["rotation"]))
+    return sorted(
+        rows, key=lambda r: (r["furnished"], r["method"], r["cell_factor"], r["rotation"])
+    )

@@ -39,6 +39,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="also segment every map turned 3, 17, 30 and 45 degrees against the cell grid (its "
         "people's rooms turned alike); each turn is scored apart",
     )
+    eval_seg.add_argument(
+        "--resolutions",
+        action="store_true",
+        help="also segment every map on cells twice as large (as a mapper would make them: "
+        "occupied where a beam ended, free where one passed) and half as large, its people's "
+        "rooms alike; each scored apart (cell_factor)",
+    )
     add_segmenter_options(eval_seg)
     eval_seg.set_defaults(func=cmd_eval_segment)
 
@@ -65,7 +72,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_eval_segment(args: argparse.Namespace) -> int:
-    from topomap.cli.evaluate import ROTATIONS, SHIFTS, evaluate_all, means, read_anchors
+    from topomap.cli.evaluate import (
+        CELL_FACTORS,
+        ROTATIONS,
+        SHIFTS,
+        evaluate_all,
+        means,
+        read_anchors,
+    )
 
     out = Path(args.out)
     refuse_existing(out, ["results.json"], args.force)
@@ -73,9 +87,14 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
     rotations = ROTATIONS if args.rotations else (0.0,)
     options = segmenter_options(args)
     records = evaluate_all(
-        args.data, progress=args.progress, shifts=shifts, rotations=rotations, **options
+        args.data,
+        progress=args.progress,
+        shifts=shifts,
+        rotations=rotations,
+        cell_factors=CELL_FACTORS if args.resolutions else (1.0,),
+        **options,
     )
-    turns = ["rotation"] if args.rotations else []
+    turns = (["rotation"] if args.rotations else []) + (["cell_factor"] if args.resolutions else [])
     columns = ["map", "furnished", "variant", *turns, "segments", "rooms"]
     columns += ["recall", "precision", "mcc"]
     columns += ["mcc_spread"] if args.shifts else []
