@@ -3,7 +3,8 @@
 A room is entered through a door, and the narrowest doors built (closets, WC stalls) are
 :data:`NARROWEST_DOOR` wide. A region whose every opening onto other regions is narrower (its
 clear width, the widest disc that crosses it:
-:attr:`~segmentation.transitions.Transition.passable`) is no room: it is a pocket of the
+:attr:`~segmentation.transitions.Transition.passable`, and what a map's cells take off it,
+:data:`SHORT_BY`) is no room: it is a pocket of the
 space it opens onto, reached between furniture or a cluttered wall's breaks, and people draw
 it as part of that space. :func:`join_pockets` joins each to the neighbour across its widest
 opening.
@@ -21,10 +22,16 @@ from maps.grid import OccupancyGrid
 from segmentation.regions import consecutive
 from segmentation.transitions import find_transitions
 
-#: The narrowest door, metres (closets, WC stalls): the clear width of an opening people walk
-#: through into a room. On the ipa and ROSE² maps every room's widest opening measured 0.65 m
-#: or more (a furnished plan's door), every pocket's 0.55 m or less.
-NARROWEST_DOOR = 0.6
+#: The narrowest door, metres: door leaves of closets and WC stalls are 0.6-0.7 m. An opening
+#: is narrower for certain when even its widest reading (:data:`SHORT_BY`) is: on the ipa and
+#: ROSE² maps (0.05 m cells) every room's widest opening measured 0.65 m or more (a furnished
+#: plan's door), every pocket's 0.55 m or less, so 0.6 m as measured there.
+NARROWEST_DOOR = 0.7
+#: Cells by which a clear width measured on a map may fall short of the opening: a jamb's
+#: cell is occupied wherever a beam ended in it, so each jamb may stand a cell into the
+#: opening. A door measures 0.1-0.15 m less on a 0.1 m map than on a 0.05 m map of the same
+#: building (ROSE²'s maps, ``topomap eval segment --resolutions``).
+SHORT_BY = 2.0
 
 
 def join_pockets(
@@ -34,7 +41,9 @@ def join_pockets(
     door: float = NARROWEST_DOOR,
 ) -> tuple[NDArray[np.int32], int]:
     """``labels`` with every pocket among ``candidates`` joined to the neighbour across its
-    widest opening, when that neighbour is larger, and the number of regions so lost.
+    widest opening, when that neighbour is larger, and the number of regions so lost. An
+    opening's width is its clear width on ``grid``'s cells and :data:`SHORT_BY` cells: a
+    region is a pocket when every opening is narrower than ``door`` for certain.
 
     Only the ``candidates`` (the regions of the robot's space) may be pockets: a room seen
     through its door (:func:`~segmentation.coverage.cover`) is a room, however narrow the
@@ -60,10 +69,11 @@ def join_pockets(
             if opening.passable > widest.get(region, (-1.0, 0))[0]:
                 widest[region] = (opening.passable, other)
     sizes = np.bincount(np.asarray(labels, np.int64).ravel())
+    short = SHORT_BY * grid.resolution
     pockets = {
         region: other
         for region, (width, other) in widest.items()
-        if width < door and region in candidates and sizes[region] < sizes[other]
+        if width + short < door and region in candidates and sizes[region] < sizes[other]
     }
     if not pockets:
         return np.asarray(labels, np.int32), 0

@@ -53,7 +53,24 @@ def test_the_threshold_is_a_door_in_metres_at_any_resolution():
         labels[:, 172:] *= 2
         _, count = join_pockets(OccupancyGrid.from_masks(free, 0.025), labels, {1, 2})
         assert (count == 1) is joins
-    assert 0.5 < NARROWEST_DOOR < 0.7
+    assert 0.5 < NARROWEST_DOOR <= 0.7
+
+
+def test_a_door_on_a_coarse_map_is_no_pocket():
+    # a 0.7 m door on 0.1 m cells, its jambs' cells occupied where beams ended in them: six
+    # free cells across, a clear width of 0.5 m measured (0.6 m on 0.05 m cells: a door)
+    free = np.zeros((45, 65), bool)
+    free[3:42, 3:42] = True
+    free[13:32, 44:63] = True
+    free[19:25, 42:44] = True
+    labels = np.where(free, 1, 0).astype(np.int32)
+    labels[:, 43:] *= 2
+    _, count = join_pockets(OccupancyGrid.from_masks(free, 0.1), labels, {1, 2})
+    assert count == 0
+    free[19:25, 42:44] = False
+    free[20:24, 42:44] = True  # four cells, 0.3 m measured: between furniture
+    _, count = join_pockets(OccupancyGrid.from_masks(free, 0.1), labels * free, {1, 2})
+    assert count == 1
 
 
 @settings(max_examples=30, deadline=None)
