@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import sparse
 from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from maps.grid import OccupancyGrid
 from segmentation.coverage import DOOR_WIDTH
@@ -70,12 +71,15 @@ def corridor_cuts(
     ends = np.cumsum(cells)
     middle = np.column_stack([(ca + cb) / 2.0, (ra + rb) / 2.0])[order]  # x, y
     open_at = np.minimum(clearance[ra, ca], clearance[rb, cb])[order]
-    found = [
-        p
-        for p, end, n in zip(pair.tolist(), ends.tolist(), cells.tolist(), strict=True)
-        if n >= 3
-        and _across_corridor(middle[end - n : end], open_at[end - n : end], clearance, resolution)
-    ]
+    found = []
+    for p, end, n in zip(pair.tolist(), ends.tolist(), cells.tolist(), strict=True):
+        if n < 3:
+            continue
+        cut = _cut_piece(middle[end - n : end], open_at[end - n : end])
+        if len(cut) >= 3 and _across_corridor(
+            middle[end - n : end][cut], open_at[end - n : end][cut], clearance, resolution
+        ):
+            found.append(p)
     a, b = np.divmod(np.array(found, np.int64), count)
     return a, b
 
@@ -90,6 +94,34 @@ def join_corridor_cuts(places: NDArray[np.int32], grid: OccupancyGrid) -> NDArra
     links = sparse.coo_matrix((np.ones(len(a)), (a, b)), shape=(count, count))
     _, component = connected_components(links, directed=False)
     return consecutive(np.where(places > 0, component[places] + 1, 0))
+
+
+def _cut_piece(middle: NDArray[np.float64], open_at: NDArray[np.float32]) -> NDArray[np.intp]:
+    """The boundary cells (midpoints, x and y in cells) in one piece with its most open one,
+    when the other pieces lie off its line (two places may also touch elsewhere, through a
+    gap between clutter: another passage, not part of the cut); all of them when one lies on
+    it (a dotted wall's gaps, which together are no cut from wall to wall).
+
+    Examples
+    --------
+    >>> cut = [[5.5, 0.0], [5.5, 1.0], [5.5, 2.0]]
+    >>> _cut_piece(np.array([*cut, [30.0, 9.5]]), np.array([0.1, 0.3, 0.1, 0.1])).tolist()
+    [0, 1, 2]
+    >>> _cut_piece(np.array([*cut, [5.5, 9.0]]), np.array([0.1, 0.3, 0.1, 0.1])).tolist()
+    [0, 1, 2, 3]
+    """
+    near = cKDTree(middle).query_pairs(1.5, output_type="ndarray")
+    links = sparse.coo_matrix(
+        (np.ones(len(near)), (near[:, 0], near[:, 1])), shape=(len(middle), len(middle))
+    )
+    _, piece = connected_components(links, directed=False)
+    cut = piece == piece[int(np.argmax(open_at))]
+    if cut.all() or cut.sum() < 2:
+        return np.flatnonzero(cut)
+    centre = middle[cut].mean(axis=0)
+    axis = np.linalg.svd(middle[cut] - centre, full_matrices=False)[2][0]
+    off_line = np.abs((middle[~cut] - centre) @ np.array([-axis[1], axis[0]]))
+    return np.flatnonzero(cut) if (off_line > 2).all() else np.arange(len(middle))
 
 
 def _across_corridor(

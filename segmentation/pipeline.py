@@ -370,7 +370,9 @@ class MapSegmenter(Estimator):
         covered = cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
         # the partition's regions, not the rooms the cover saw through doors
         robot_regions = set(np.flatnonzero(np.bincount(covered.labels[labels > 0])).tolist())
-        joined, pockets = join_pockets(conditioned.grid, covered.labels, robot_regions)
+        joined, pockets = join_pockets(
+            conditioned.grid, covered.labels, robot_regions, robot_radius=self.robot_radius
+        )
         return replace(covered, labels=joined, pockets=pockets)
 
 

@@ -39,11 +39,15 @@ def join_pockets(
     labels: NDArray[np.integer],
     candidates: Collection[int],
     door: float = NARROWEST_DOOR,
+    robot_radius: float = 0.0,
 ) -> tuple[NDArray[np.int32], int]:
     """``labels`` with every pocket among ``candidates`` joined to the neighbour across its
     widest opening, when that neighbour is larger, and the number of regions so lost. An
     opening's width is its clear width on ``grid``'s cells and :data:`SHORT_BY` cells: a
-    region is a pocket when every opening is narrower than ``door`` for certain.
+    region is a pocket when every opening is narrower than ``door`` for certain, and its
+    widest one wide enough for a robot of ``robot_radius`` metres (the planner's rule): a
+    space the robot cannot enter is a room seen through its door (on a coarse map, where the
+    rays through a door fill the cells behind it), not a pocket it reaches between furniture.
 
     Only the ``candidates`` (the regions of the robot's space) may be pockets: a room seen
     through its door (:func:`~segmentation.coverage.cover`) is a room, however narrow the
@@ -73,7 +77,9 @@ def join_pockets(
     pockets = {
         region: other
         for region, (width, other) in widest.items()
-        if width + short < door and region in candidates and sizes[region] < sizes[other]
+        if 2 * robot_radius < width < door - short
+        and region in candidates
+        and sizes[region] < sizes[other]
     }
     if not pockets:
         return np.asarray(labels, np.int32), 0

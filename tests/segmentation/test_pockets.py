@@ -35,6 +35,17 @@ def test_a_closet_behind_a_narrow_door_stays_a_room():
     assert joined[45, 100] == 2 and joined[45, 40] == 1
 
 
+def test_a_space_the_robot_cannot_enter_is_a_room_seen_not_a_pocket():
+    # on a coarse map the rays through a half-open door fill the cells behind it: robot
+    # space, reached only through a gap narrower than the robot
+    grid, labels = _room_and_side(6)  # 0.3 m
+    joined, count = join_pockets(grid, labels, {1, 2}, robot_radius=0.2)
+    assert count == 0 and joined[45, 100] == 2
+    grid, labels = _room_and_side(9)  # 0.45 m: the robot passes between the furniture
+    joined, count = join_pockets(grid, labels, {1, 2}, robot_radius=0.2)
+    assert count == 1 and joined[45, 100] == 1
+
+
 def test_a_room_seen_through_a_door_gap_is_not_a_pocket():
     grid, labels = _room_and_side(9)
     joined, count = join_pockets(grid, labels, {1})  # region 2 is not of the robot's space

@@ -122,16 +122,17 @@ def resampled(
 
     Twice as large as a mapper would make the cell from the scans it had: occupied when a beam
     ended in one of its four cells, free when one crossed it and none ended there, unknown
-    else; a room's cell takes the room of its first (top left) cell. Half as large: each cell
-    split in four.
+    else; a room's cell takes the room most of its four cells are in (cells in no room left
+    out: a laser ray people drew in a room is one cell of four), and none where it is
+    occupied (people draw rooms on the free space). Half as large: each cell split in four.
 
     Examples
     --------
-    >>> cells = np.array([[0, 0, 100, -1], [0, 0, -1, -1], [0, 100, -1, -1]], np.int8)
-    >>> rooms = np.array([[3, 3, 3, 3], [1, 1, 2, 2], [1, 1, 2, 2]])
-    >>> grid, rooms = resampled(OccupancyGrid(cells, 0.05), rooms, 2.0)  # the top row goes:
-    >>> grid.cells.tolist(), grid.resolution, rooms.tolist()  # the origin is at the bottom
-    ([[100, -1]], 0.1, [[1, 2]])
+    >>> cells = np.array([[0, 0, 100, -1], [0, 0, -1, -1], [0, 100, -1, 0]], np.int8)
+    >>> rooms = np.array([[3, 3, 3, 3], [0, 1, 2, 2], [0, 0, 2, 0]])
+    >>> grid, rooms = resampled(OccupancyGrid(cells, 0.05), rooms, 2.0)  # the top row goes
+    >>> grid.cells.tolist(), grid.resolution, rooms.tolist()  # (the origin is at the bottom)
+    ([[100, 0]], 0.1, [[0, 2]])
     >>> resampled(OccupancyGrid(cells, 0.05), np.ones((3, 4), int), 0.5)[0].cells.shape
     (6, 8)
     """
@@ -147,13 +148,17 @@ def resampled(
         raise ValueError(f"cells are resampled 2 or 0.5 times as large, not {factor}")
     top, width = grid.shape[0] % 2, grid.shape[1] // 2 * 2  # the bottom row stays at the origin
 
-    def any_of_four(mask: NDArray[np.bool_]) -> NDArray[np.bool_]:
-        blocks = mask[top:, :width]
-        return np.asarray(blocks.reshape(blocks.shape[0] // 2, 2, width // 2, 2).any(axis=(1, 3)))
+    def four(cells: NDArray) -> NDArray:  # each block's four cells along the last axis
+        blocks = cells[top:, :width]
+        shape = (blocks.shape[0] // 2, 2, width // 2, 2)
+        return blocks.reshape(shape).transpose(0, 2, 1, 3).reshape(*shape[::2], 4)
 
-    occupied, free = any_of_four(grid.occupied), any_of_four(grid.free)
+    occupied, free = four(grid.occupied).any(axis=-1), four(grid.free).any(axis=-1)
     cells = np.where(occupied, OCCUPIED, np.where(free, FREE, UNKNOWN)).astype(np.int8)
-    return OccupancyGrid(cells, grid.resolution * 2, grid.origin), rooms[top::2, :width:2]
+    labels = four(rooms)
+    votes = (labels[..., :, None] == labels[..., None, :]).sum(axis=-1) * (labels > 0)
+    most = np.take_along_axis(labels, votes.argmax(axis=-1)[..., None], axis=-1)[..., 0]
+    return OccupancyGrid(cells, grid.resolution * 2, grid.origin), np.where(occupied, 0, most)
 
 
 def rotated(cells: NDArray[np.integer], degrees: float, fill: int) -> NDArray[np.integer]:
