@@ -100,7 +100,7 @@ def _cut_piece(middle: NDArray[np.float64], open_at: NDArray[np.float32]) -> NDA
     """The boundary cells (midpoints, x and y in cells) in one piece with its most open one,
     when the other pieces lie off its line (two places may also touch elsewhere, through a
     gap between clutter: another passage, not part of the cut); all of them when one lies on
-    it (a dotted wall's gaps, which together are no cut from wall to wall).
+    it, within two cells (a dotted wall's gaps, which together are no cut from wall to wall).
 
     Examples
     --------
