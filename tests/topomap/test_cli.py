@@ -6,6 +6,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import maps
 from maps.grid import OccupancyGrid
@@ -224,6 +226,47 @@ def test_eval_segment_resamples_each_map_and_its_rooms_alike(tmp_path, data_dir)
         assert found["rooms"] == 27 and found["mcc"] > 0.9
     means = {(m["method"], m["cell_factor"]) for m in results["means"]}
     assert {("spectral", 2.0), ("doors", 0.5)} <= means
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.integers(1, 9),
+    st.integers(1, 9),
+    st.data(),
+)
+def test_resampled_cells_are_what_a_mapper_makes_and_a_split_map_comes_back(
+    height: int, width: int, data: st.DataObject
+) -> None:
+    from topomap.cli.evaluate import resampled
+
+    cells = np.array(
+        data.draw(
+            st.lists(
+                st.sampled_from([-1, 0, 100]),
+                min_size=4 * height * width,
+                max_size=4 * height * width,
+            )
+        ),
+        np.int8,
+    ).reshape(2 * height, 2 * width)
+    rooms = np.array(
+        data.draw(st.lists(st.integers(0, 3), min_size=cells.size, max_size=cells.size))
+    ).reshape(cells.shape)
+    grid = OccupancyGrid(cells, 0.05)
+    coarse, coarse_rooms = resampled(grid, rooms, 2.0)
+    blocks = cells.reshape(height, 2, width, 2)
+    occupied = (blocks == 100).any(axis=(1, 3))
+    assert coarse.resolution == 0.1 and coarse.shape == (height, width)
+    assert (coarse.occupied == occupied).all()
+    assert (coarse.free == (~occupied & (blocks == 0).any(axis=(1, 3)))).all()
+    assert (coarse_rooms[occupied] == 0).all()
+    room_blocks = rooms.reshape(height, 2, width, 2)
+    for r, c in zip(*np.nonzero(coarse_rooms), strict=True):  # a room of the block, the most
+        counts = np.bincount(room_blocks[r, :, c, :].ravel(), minlength=4)[1:]
+        assert counts[coarse_rooms[r, c] - 1] == counts.max() > 0
+    split, split_rooms = resampled(grid, rooms, 0.5)
+    back, back_rooms = resampled(split, split_rooms, 2.0)
+    assert (back.cells == cells).all() and (back_rooms == np.where(grid.occupied, 0, rooms)).all()
 
 
 def test_rotated_keeps_every_label_and_holds_the_whole_image():
