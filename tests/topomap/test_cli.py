@@ -194,14 +194,19 @@ def test_eval_segment_scores_against_ground_truth(tmp_path, data_dir):
     assert [r["mcc"] for r in again] == [r["mcc"] for r in results["maps"]]
 
 
-def test_eval_segment_turns_each_map_and_its_rooms_alike(tmp_path, data_dir):
+def _eval_one_plan(tmp_path: Path, data_dir: Path, plan: str, option: str) -> dict:
+    """``topomap eval segment`` with ``option`` on the ipa ``plan`` alone: its results."""
     data = tmp_path / "data"
     data.mkdir()
-    for name in ["lab_ipa.yaml", "lab_ipa.png", "lab_ipa_gt_labels.png"]:
+    for name in [f"{plan}.yaml", f"{plan}.png", f"{plan}_gt_labels.png"]:
         (data / name).symlink_to(data_dir / "ipa" / name)
     out = tmp_path / "out"
-    assert main(["eval", "segment", str(data), "--rotations", "--out", str(out)]) == 0
-    results = json.loads((out / "results.json").read_text())
+    assert main(["eval", "segment", str(data), option, "--out", str(out)]) == 0
+    return json.loads((out / "results.json").read_text())
+
+
+def test_eval_segment_turns_each_map_and_its_rooms_alike(tmp_path, data_dir):
+    results = _eval_one_plan(tmp_path, data_dir, "lab_ipa", "--rotations")
     spectral = {r["rotation"]: r for r in results["maps"] if r["variant"] == "spectral"}
     assert sorted(spectral) == [0.0, 3.0, 17.0, 30.0, 45.0]
     for found in spectral.values():
@@ -212,13 +217,7 @@ def test_eval_segment_turns_each_map_and_its_rooms_alike(tmp_path, data_dir):
 
 
 def test_eval_segment_resamples_each_map_and_its_rooms_alike(tmp_path, data_dir):
-    data = tmp_path / "data"
-    data.mkdir()
-    for name in ["office_a.yaml", "office_a.png", "office_a_gt_labels.png"]:
-        (data / name).symlink_to(data_dir / "ipa" / name)
-    out = tmp_path / "out"
-    assert main(["eval", "segment", str(data), "--resolutions", "--out", str(out)]) == 0
-    results = json.loads((out / "results.json").read_text())
+    results = _eval_one_plan(tmp_path, data_dir, "office_a", "--resolutions")
     spectral = {r["cell_factor"]: r for r in results["maps"] if r["variant"] == "spectral"}
     assert sorted(spectral) == [0.5, 1.0, 2.0]
     for found in spectral.values():
