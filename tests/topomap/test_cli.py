@@ -268,6 +268,19 @@ def test_resampled_cells_are_what_a_mapper_makes_and_a_split_map_comes_back(
     assert (back.cells == cells).all() and (back_rooms == np.where(grid.occupied, 0, rooms)).all()
 
 
+def test_eval_corridors_finds_intels_ring_corridor_in_one_region(tmp_path, data_dir):
+    # the ring's corners have wide doors off them: a corridor with doors along it
+    drawn = json.loads((Path(__file__).parents[1] / "data/labels/carmen.json").read_text())
+    labels = tmp_path / "labels"
+    labels.mkdir()
+    (labels / "carmen.json").write_text(json.dumps({"intel": drawn["intel"]}))
+    out = tmp_path / "out"
+    command = ["eval", "corridors", str(data_dir / "carmen"), "--hand-labels", str(labels)]
+    assert main([*command, "--out", str(out)]) == 0
+    (intel,) = json.loads((out / "results.json").read_text())["logs"]
+    assert intel["log"] == "intel" and intel["largest_share"] > 0.8 and intel["pieces"] <= 2
+
+
 def test_rotated_keeps_every_label_and_holds_the_whole_image():
     from topomap.cli.evaluate import rotated
 

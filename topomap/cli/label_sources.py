@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from maps.errors import MapFileNotFoundError, MapFormatError
 from maps.grid import OccupancyGrid
 from maps.map_server import grid_from_image
+from maps.scan import Keyframe
 from maps.sim.floorplan import generate_floor_plan
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
@@ -246,21 +247,32 @@ def carmen(
 ) -> list[LabelledMap]:
     """Maps built from the CARMEN logs of ``log_dir`` (as ``topomap map`` builds them), typed
     by the corridors and halls drawn in ``drawn_json``; each log is a building."""
+    found = []
+    for name, shapes in progress(sorted(read_drawn(drawn_json).items())):
+        _, grid = carmen_map(Path(log_dir) / shapes["log"])
+        truth = drawn_truth(grid, shapes)
+        found.append(_segmented(grid, truth, source="carmen", building=name, name=name))
+    return found
+
+
+def read_drawn(drawn_json: str | Path) -> dict[str, dict[str, Any]]:
+    """The shapes drawn by hand per log (``carmen.json``: see :func:`drawn_truth`)."""
+    path = Path(drawn_json)
+    if not path.exists():
+        raise MapFileNotFoundError(path, "drawn corridors JSON")
+    drawn: dict[str, dict[str, Any]] = json.loads(path.read_text())
+    return drawn
+
+
+def carmen_map(log: Path) -> tuple[list[Keyframe], OccupancyGrid]:
+    """A CARMEN log's keyframes (0.5 m apart) and the 0.05 m map they build, as ``topomap
+    map`` builds it."""
     from maps.carmen import read_carmen
     from maps.mapping import grid_from_keyframes
     from maps.scan import select_keyframes
 
-    path = Path(drawn_json)
-    if not path.exists():
-        raise MapFileNotFoundError(path, "drawn corridors JSON")
-    drawn = json.loads(path.read_text())
-    found = []
-    for name, shapes in progress(sorted(drawn.items())):
-        frames = read_carmen(Path(log_dir) / shapes["log"])
-        grid = grid_from_keyframes(select_keyframes(frames, distance=0.5), 0.05, max_range=30.0)
-        truth = drawn_truth(grid, shapes)
-        found.append(_segmented(grid, truth, source="carmen", building=name, name=name))
-    return found
+    keyframes = select_keyframes(read_carmen(log), distance=0.5)
+    return keyframes, grid_from_keyframes(keyframes, 0.05, max_range=30.0)
 
 
 def drawn_truth(grid: OccupancyGrid, shapes: dict[str, Any]) -> NDArray[np.int8]:

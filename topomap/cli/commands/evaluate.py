@@ -70,6 +70,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     eval_labels.set_defaults(func=cmd_eval_labels)
 
+    eval_corridors = eval_sub.add_parser(
+        "corridors",
+        help="corridor systems drawn on the real logs' maps against the regions of their "
+        "keyframes: one region each",
+    )
+    eval_corridors.add_argument("data", help="folder of the four CARMEN logs")
+    eval_corridors.add_argument(
+        "--hand-labels",
+        default="tests/data/labels",
+        metavar="DIR",
+        help="carmen.json: the corridors drawn by hand",
+    )
+    add_output_options(eval_corridors, "out/eval-corridors")
+    eval_corridors.set_defaults(func=cmd_eval_corridors)
+
 
 def cmd_eval_segment(args: argparse.Namespace) -> int:
     from topomap.cli.evaluate import (
@@ -124,4 +139,18 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
 
     refuse_existing(Path(args.out), ["results.json"], args.force)
     run(args)
+    return 0
+
+
+def cmd_eval_corridors(args: argparse.Namespace) -> int:
+    from topomap.cli.evaluate_corridors import evaluate_corridors
+
+    out = Path(args.out)
+    refuse_existing(out, ["results.json"], args.force)
+    records = evaluate_corridors(
+        args.data, Path(args.hand_labels) / "carmen.json", progress=args.progress
+    )
+    print(markdown_table(records, ["log", "regions", "largest_share", "best_iou", "pieces"]))
+    write_text(out / "results.json", json.dumps({"logs": records}, indent=2), overwrite=args.force)
+    print(f"wrote {out / 'results.json'}")
     return 0
