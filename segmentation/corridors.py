@@ -222,7 +222,7 @@ def _corridor_into_wider(
     length = CORRIDOR_LENGTH * width
     for sign in (1.0, -1.0):
         holds = _keeps_width(
-            clearance, along(sign, length), across, width, resolution, doors=0.25 / DOOR_WIDTH
+            clearance, along(sign, length), across, width, resolution, door=round(DOOR_WIDTH / 0.25)
         )
         wider = _clearance_at(clearance, along(-sign, CHANNEL))
         # as across a cut (7 of 8 samples), one in eight may miss: a curved corridor leaves
@@ -241,14 +241,14 @@ def _keeps_width(
     across: NDArray[np.float64],
     width: float,
     resolution: float,
-    doors: float = 0.0,
+    door: int = 0,
 ) -> NDArray[np.bool_]:
     """Whether the space at each of ``points`` (x, y cells) is ``width`` metres wide between
     walls on both hands (``across``, cells, reaches from the middle to a wall): the clearance
     in the middle is half the width, with a cell of slack (SLAM maps' walls are jagged), and
     at ``points ± across`` it is no more than that (no room opens along a wall). With
-    ``doors`` (the points' spacing over the widest door), a wall's break over consecutive
-    points no wider than a door is a door along the corridor, not a room opening onto it.
+    ``door`` (the widest door, in points), a wall's break over at most that many consecutive
+    points is a door along the corridor, not a room opening onto it.
 
     Examples
     --------
@@ -261,7 +261,7 @@ def _keeps_width(
     >>> across = np.array([0.0, 6.0])
     >>> int(_keeps_width(clearance, points, across, 1.2, 0.1).sum())
     21
-    >>> int(_keeps_width(clearance, points, across, 1.2, 0.1, doors=0.25 / 2.0).sum())
+    >>> int(_keeps_width(clearance, points, across, 1.2, 0.1, door=8).sum())  # 2 m
     24
     """
     half = width / 2
@@ -271,8 +271,8 @@ def _keeps_width(
     )
     keeps = (there >= OPEN * half - resolution) & (there * OPEN <= half + resolution)
     on_walls = walls * OPEN <= half
-    if doors > 0:
-        on_walls |= _short_breaks(on_walls, int(1 / doors))
+    if door > 0:
+        on_walls |= _short_breaks(on_walls, door)
     return keeps & on_walls
 
 

@@ -9,7 +9,6 @@ them.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -53,8 +52,7 @@ def evaluate_corridors(
 ) -> list[dict[str, Any]]:
     """:func:`corridor_scores` of each log drawn in ``drawn_json`` (logs in ``log_dir``)."""
     records = []
-    drawn: Iterable[tuple[str, dict[str, Any]]] = sorted(read_drawn(drawn_json).items())
-    for name, shapes in progress(drawn):
+    for name, shapes in progress(sorted(read_drawn(drawn_json).items())):
         keyframes, grid = carmen_map(Path(log_dir) / shapes["log"])
         found = MapSegmenter().segment(grid, keyframes, random_state=0)
         records.append(

@@ -58,12 +58,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     eval_labels.add_argument(
         "--generated", action="store_true", help="also generated buildings (plans and scanned)"
     )
-    eval_labels.add_argument(
-        "--hand-labels",
-        default="tests/data/labels",
-        metavar="DIR",
-        help="rose2_partial.csv and carmen.json: the room types drawn by hand",
-    )
+    _add_hand_labels(eval_labels, "rose2_partial.csv and carmen.json: the room types")
     add_output_options(eval_labels, "out/eval-labels")
     eval_labels.add_argument(
         "--save-model", metavar="SKOPS", help="write a forest trained on all labelled regions"
@@ -76,14 +71,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "keyframes: one region each",
     )
     eval_corridors.add_argument("data", help="folder of the four CARMEN logs")
-    eval_corridors.add_argument(
-        "--hand-labels",
-        default="tests/data/labels",
-        metavar="DIR",
-        help="carmen.json: the corridors drawn by hand",
-    )
+    _add_hand_labels(eval_corridors, "carmen.json: the corridors")
     add_output_options(eval_corridors, "out/eval-corridors")
     eval_corridors.set_defaults(func=cmd_eval_corridors)
+
+
+def _add_hand_labels(parser: argparse.ArgumentParser, what: str) -> None:
+    """``--hand-labels DIR``: the folder of the files ``what`` names, drawn by hand."""
+    parser.add_argument(
+        "--hand-labels", default="tests/data/labels", metavar="DIR", help=f"{what} drawn by hand"
+    )
 
 
 def cmd_eval_segment(args: argparse.Namespace) -> int:
