@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from maps.grid import clearance_of
+from maps.grid import OccupancyGrid, clearance_of
 from segmentation.regions import Regions
 
 #: Region features, in the column order given to estimators, with their units and meaning.
@@ -51,6 +51,10 @@ FEATURE_UNITS = {
 FEATURES = tuple(FEATURE_UNITS)
 #: Furniture holes up to this size (m^2) are filled before measuring shape.
 FURNITURE_HOLE_M2 = 4.0
+#: Half the width a robot (the library's default radius) or a person needs to stand, metres:
+#: a region's strips narrower than twice this that run along unknown space (laser rays out
+#: through its doors and windows) are no floor, and its shape is its floor's (:func:`floor_of`).
+FLOOR_RADIUS_M = 0.2
 #: The medial axis is traced on cells of about this size (m), coarser cells being given as is.
 SKELETON_CELL_M = 0.1
 #: Notches (furniture against a wall) narrower than twice this (m) are closed, too.
@@ -64,7 +68,8 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
     ``graph``, regions in ascending id order, and ``"links"`` (the graph's edges as rows
     ``(a, b, widest opening m)``).
 
-    Shape is measured after filling furniture holes up to :data:`FURNITURE_HOLE_M2` and
+    Shape is measured on the region's floor (:func:`floor_of`: the laser rays out through its
+    doors and windows left out) after filling furniture holes up to :data:`FURNITURE_HOLE_M2` and
     closing notches narrower than twice :data:`FURNITURE_GAP_M` (furniture along walls);
     :data:`FEATURE_UNITS` says what each column is.
 
@@ -86,9 +91,14 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
     between = nx.betweenness_centrality(graph) if len(graph) > 2 else {}
     degree = dict(graph.degree())
     boxes = ndimage.find_objects(regions.labels)
+    rays = ray_zone(regions.grid)
     columns: dict[str, list[float]] = {name: [] for name in ("id", *FEATURES)}
     for region in ids:
-        shape = _shape(regions.labels[boxes[region - 1]] == region, regions.grid.resolution)
+        box = boxes[region - 1]
+        shape = _shape(
+            floor_of(regions.labels[box] == region, rays[box], regions.grid.resolution),
+            regions.grid.resolution,
+        )
         values = {
             "id": float(region),
             **shape,
@@ -101,6 +111,49 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
     links = [(a, b, w) for a, b, w in graph.edges(data="width")]
     table["links"] = np.asarray(links, float).reshape(-1, 3)
     return table
+
+
+def floor_of(
+    mask: NDArray[np.bool_], along_unknown: NDArray[np.bool_], res: float
+) -> NDArray[np.bool_]:
+    """The floor of a region's ``mask`` (cells of ``res`` metres): without its strips narrower
+    than a disc of :data:`FLOOR_RADIUS_M` that lie ``along_unknown`` space (:func:`ray_zone`:
+    laser rays out through its doors and windows), with those along walls and furniture (a
+    chair's gap beside a desk); the whole mask when it is all rays.
+
+    Examples
+    --------
+    >>> cells = np.full((40, 60), -1, np.int8)  # unknown around
+    >>> cells[4:36, 4:36] = 100; cells[5:35, 5:35] = 0  # a 1.5 m room at 5 cm, walled ...
+    >>> cells[18:21, 35:60] = 0  # ... a ray 0.15 m wide out through its wall
+    >>> cells[5:35, 8] = 100  # a shelf 0.15 m off the west wall
+    >>> grid = OccupancyGrid(cells, 0.05)
+    >>> floor = floor_of(grid.free, ray_zone(grid), 0.05)
+    >>> bool(floor[19, 50]), bool(floor[20, 6]), int(floor[:, :35].sum()) == 30 * 29
+    (False, True, True)
+    """
+    from skimage.morphology import disk
+
+    radius = max(1, round(FLOOR_RADIUS_M / res))
+    body = (
+        cv2.morphologyEx(
+            np.pad(mask, radius).astype(np.uint8), cv2.MORPH_OPEN, disk(radius).astype(np.uint8)
+        )[radius:-radius, radius:-radius]
+        > 0
+    )
+    floor = body | (mask & ~along_unknown)
+    return floor if floor.any() else mask
+
+
+def ray_zone(grid: OccupancyGrid) -> NDArray[np.bool_]:
+    """The cells of ``grid`` within :data:`FLOOR_RADIUS_M` of unknown space not across a wall
+    (grown a cell at a time round occupied cells): where a thin strip of free cells is a laser
+    ray, not floor (:func:`floor_of`). A strip between a wall and furniture is not."""
+    zone = grid.unknown
+    ring = np.ones((3, 3), np.uint8)
+    for _ in range(max(1, round(FLOOR_RADIUS_M / grid.resolution))):
+        zone = (cv2.dilate(zone.astype(np.uint8), ring) > 0) & ~grid.occupied
+    return zone
 
 
 def _shape(mask: NDArray[np.bool_], res: float) -> dict[str, float]:

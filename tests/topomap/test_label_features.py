@@ -136,6 +136,34 @@ def test_a_fan_of_laser_rays_is_no_corridor():
     assert rule_classifier(f) == ["corridor", "room"]
 
 
+def test_a_room_is_measured_by_its_floor_not_the_rays_out_of_it():
+    # a 4 x 3 m room (id 2) off a 12 m corridor (id 1), a 1 m door between, and rays out of its
+    # far wall's window: a dozen 0.1 m strips 8 m long into unknown space, which the cover
+    # gives the room. Its shape is its floor's: a room, not a 12 m long corridor
+    height, width = _cells(8), _cells(24)
+    cells = np.full((height, width), 100, np.int8)
+    labels = np.zeros((height, width), np.int32)
+    corridor = (slice(_cells(1), _cells(3)), slice(_cells(1), _cells(13)))
+    room = (slice(_cells(3.1), _cells(7.1)), slice(_cells(2), _cells(5)))
+    labels[corridor], labels[room] = 1, 2
+    labels[_cells(3) : _cells(3.1), _cells(3) : _cells(4)] = 2  # the door
+    cells[labels > 0] = 0
+    cells[_cells(3.1) : _cells(7.1), _cells(13.1) :] = -1  # unknown east of the room ...
+    cells[_cells(3.1) : _cells(7.1), _cells(5) : _cells(13.1)] = -1
+    for row in range(_cells(3.2), _cells(7), _cells(0.3)):  # ... its rays, through a window
+        cells[row : row + _cells(0.1), _cells(5) : _cells(13)] = 0
+        labels[row : row + _cells(0.1), _cells(5) : _cells(13)] = 2
+    grid = OccupancyGrid(cells, CELL)
+    regions = Regions(grid, labels)
+    f = region_features(regions, region_graph(regions))
+    assert 11 <= f["area_m2"][1] <= 12.5  # the 12 m^2 floor, not the 3.2 m^2 of rays beside
+    assert f["slenderness"][1] < 2.5 and f["skeleton_length_m"][1] < 5
+    assert rule_classifier(f) == ["corridor", "room"]
+    cells[cells == -1] = 100  # the same strips between walls (shelves): floor, so measured
+    walled = Regions(OccupancyGrid(cells, CELL), labels)
+    assert region_features(walled, region_graph(walled))["area_m2"][1] > 14
+
+
 def test_a_ring_of_corridors_is_no_hall_and_an_open_floor_with_shelves_is():
     # a 2 m corridor around a 16 x 16 m block: 144 m^2 of floor in a 400 m^2 hull
     ring = np.zeros((_cells(22), _cells(22)), np.int32)

@@ -3,10 +3,10 @@
 Every source gives :class:`LabelledMap` objects: a segmented map, the features of its
 regions and each region's true type, the majority type of its floor in a truth raster (place
 type index per cell, -1 where none is known). The floor is where a robot of
-:data:`STANDING_RADIUS_M` fits (:func:`floor_cells`): laser rays through doors and windows and
-the gaps between clutter are free cells nobody stands on, and a corridor region with a fan of
-rays into the rooms it passes is a corridor. A region without such floor (a fan of rays) is
-typed by all its cells. The sources:
+:data:`~topomap.features.FLOOR_RADIUS_M` fits (:func:`floor_cells`): laser rays through doors
+and windows and the gaps between clutter are free cells nobody stands on, and a corridor
+region with a fan of rays into the rooms it passes is a corridor. A region without such floor
+(a fan of rays) is typed by all its cells. The sources:
 
 - ``ipa_places``: plans with a place type per pixel (``NAME_places.png``), drawn by ipa;
 - ``rose2``: ROSE²'s SLAM maps of one building, the people's rooms (colours of ``gt/``) typed
@@ -44,7 +44,7 @@ from segmentation.regions import Regions
 from segmentation.working import grow
 from topomap.classifiers import PLACE_TYPES
 from topomap.cli.evaluate import ROSE2_MAP
-from topomap.features import region_features
+from topomap.features import FLOOR_RADIUS_M, region_features
 from topomap.topomap import TopoMap
 
 #: The widest line of unlabelled cells people draw between two of their rooms at a door, m
@@ -54,9 +54,6 @@ DOOR_LINE_M = 0.1
 PLACE_GREYS = {77: "room", 115: "corridor", 179: "doorway"}
 #: Cell size of the ipa_places images, metres.
 PLACES_RESOLUTION = 0.05
-#: Half the width of the space a robot (the library's default radius) or a person needs to
-#: stand, m: the cells that count in a region's true type (:func:`floor_cells`).
-STANDING_RADIUS_M = 0.2
 #: Progress wrapper of the loaders (``iter``: none).
 Progress = Callable[[Any], Iterable[Any]]
 
@@ -109,8 +106,8 @@ def labelled_map(
 
 
 def floor_cells(grid: OccupancyGrid) -> NDArray[np.bool_]:
-    """The free cells of ``grid`` a disc of :data:`STANDING_RADIUS_M` fits on (centred there);
-    not the narrow free strips of laser rays or the gaps between clutter.
+    """The free cells of ``grid`` a disc of :data:`~topomap.features.FLOOR_RADIUS_M` fits on
+    (centred there); not the narrow free strips of laser rays or the gaps between clutter.
 
     Examples
     --------
@@ -121,7 +118,7 @@ def floor_cells(grid: OccupancyGrid) -> NDArray[np.bool_]:
     >>> int(floor.sum()), bool(floor[9, 19])
     (144, False)
     """
-    return grid.inflate(STANDING_RADIUS_M).free
+    return grid.inflate(FLOOR_RADIUS_M).free
 
 
 def _segmented(grid: OccupancyGrid, truth: NDArray[np.int8], **names: str) -> LabelledMap:
