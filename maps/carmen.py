@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from maps.errors import InvalidScanError, LogFormatError, MapFileNotFoundError
-from maps.limits import MAX_COORDINATE, finite_in
+from maps.limits import MAX_COORDINATE, finite_in, pose_jump
 from maps.scan import Keyframe, LaserScan
 
 #: Old-style lines: ``FLASER n r1 .. rn x y theta odom_x odom_y odom_theta ipc_ts host log_ts``.
@@ -144,7 +144,9 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
     MapFileNotFoundError
         If ``path`` does not exist.
     LogFormatError
-        For a line that is cut short or has a non-number; the message names line and field.
+        For a line that is cut short or has a non-number, or whose laser pose jumps farther
+        than :data:`~maps.limits.MAX_POSE_JUMP` from the previous line's; the message names
+        line and field.
     """
     path = Path(path)
     if not path.is_file():
@@ -153,6 +155,7 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
     if problem is not None:
         raise InvalidScanError(problem)
     frames: list[Keyframe] = []
+    last_line = 0  # of the last laser line read
     for number, text in _lines(path):
         tokens = text.split()
         if not tokens or tokens[0] not in (*OLD_STYLE, ROBOTLASER):
@@ -165,7 +168,8 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
             ranges = line.ranges(9, beams)
             remissions = line.count_at(9 + beams, "num_remissions")
             at = 10 + beams + remissions
-            pose = line.pose_at(at, ("laser_pose_x", "laser_pose_y", "laser_pose_theta"))
+            names = ("laser_pose_x", "laser_pose_y", "laser_pose_theta")
+            pose = line.pose_at(at, names)
             # start_angle ... the counts and values, then 12 numbers before the host name
             line.check_numbers(at - 2 + 12, at - 2 + 3, "num_readings")
             stamp = line.stamp_at(at + 11)
@@ -174,12 +178,17 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
             if beams == 0:
                 raise line.error("a scan needs at least one beam", "n")
             ranges = line.ranges(2, beams)
-            pose = line.pose_at(2 + beams, ("x", "y", "theta"))
+            names = ("x", "y", "theta")
+            pose = line.pose_at(2 + beams, names)
             line.check_numbers(beams + 7, beams + 3, "n")  # ranges, two poses, the ipc stamp
             start, increment = -math.pi / 2, carmen_angle_increment(beams)
             stamp = line.stamp_at(2 + beams + 6)
         if increment == 0:
             raise line.error("angular resolution must not be 0", "angular_resolution")
+        jump = None if not frames else pose_jump(frames[-1].pose, pose)
+        if jump is not None:
+            raise line.error(f"{jump}; the previous laser line is line {last_line}", names[0])
+        last_line = number
         ranges = np.where(ranges >= max_range, np.inf, ranges)
         scan = LaserScan(ranges, start, increment, range_min=0.0, range_max=max_range)
         frames.append(Keyframe(pose, scan, scan_index=len(frames), stamp=stamp))

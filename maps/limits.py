@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 from maps.errors import MapTooLargeError
@@ -16,6 +17,11 @@ from maps.errors import MapTooLargeError
 RESOLUTION_RANGE = (1e-3, 100.0)
 #: Metres from the frame's origin a pose, a transform or a map origin may lie (10,000 km).
 MAX_COORDINATE = 1e7
+#: Metres a laser may move between two consecutive scans of a log. Lasers log 1 to 75 scans a
+#: second and robots move a few metres a second (a car on a motorway: 40 m/s), so a longer
+#: jump is a corrupt pose, not motion, even across a gap of half a minute in a log; one such
+#: pose would spread the map over square kilometres.
+MAX_POSE_JUMP = 100.0
 #: Metres a robot's radius may have.
 MAX_ROBOT_RADIUS = 10.0
 #: Metres any other length option (spacing, clutter size, keyframe distance) may have.
@@ -75,6 +81,28 @@ def check_map_size(
             path=path,
             field=field,
         )
+
+
+def pose_jump(before: Sequence[float], after: Sequence[float]) -> str | None:
+    """What is wrong with a laser moving from pose ``before`` to ``after`` between consecutive
+    scans (farther than :data:`MAX_POSE_JUMP`), or None when it is fine. Callers raise their
+    own located error with it.
+
+    Examples
+    --------
+    >>> pose_jump((0.0, 0.0, 0.0), (0.5, 0.0, 0.1)) is None
+    True
+    >>> pose_jump((0.0, 0.0, 0.0), (150.0, 0.0, 0.0))
+    'the laser jumps 150 m from (0, 0) to (150, 0) between consecutive scans (at most 100 m)'
+    """
+    distance = math.hypot(after[0] - before[0], after[1] - before[1])
+    if distance <= MAX_POSE_JUMP:
+        return None
+    return (
+        f"the laser jumps {distance:.6g} m from ({before[0]:.6g}, {before[1]:.6g}) to "
+        f"({after[0]:.6g}, {after[1]:.6g}) between consecutive scans "
+        f"(at most {MAX_POSE_JUMP:g} m)"
+    )
 
 
 def finite_in(

@@ -3,6 +3,7 @@ tf tree (REP-105) or by a pose topic, and nav_msgs/OccupancyGrid maps."""
 
 from __future__ import annotations
 
+import itertools
 import logging
 import struct
 from collections.abc import Iterator, Sequence
@@ -22,6 +23,7 @@ from maps.errors import (
     TransformError,
 )
 from maps.grid import OccupancyGrid
+from maps.limits import pose_jump
 from maps.scan import Keyframe, LaserScan
 from maps.tf import TOLERANCE, TransformTree, yaw_from_quaternion
 
@@ -254,7 +256,8 @@ def read_bag_scans(
     TransformError
         If no scan can be placed by tf: the message names the missing link and its span.
     LogFormatError
-        If the bag cannot be read, or the topics are missing or ambiguous.
+        If the bag cannot be read, the topics are missing or ambiguous, or the laser jumps
+        farther than :data:`~maps.limits.MAX_POSE_JUMP` between two scans.
 
     Examples
     --------
@@ -299,17 +302,33 @@ def read_bag_scans(
                 field="fixed_frame",
             )
         try:
-            return _place_by_poses(path, scans, poses, pose_name)
+            placed = _place_by_poses(path, scans, poses, pose_name)
         except InvalidScanError as err:
             raise LogFormatError(str(err), path=path, field=pose_name) from err
-    try:
-        return _place_by_tf(tree, scans, fixed_frame)
-    except TransformError as err:
-        raise TransformError(
-            err.detail, path=path, source=err.source, target=err.target, stamp=err.stamp
-        ) from err
-    except InvalidScanError as err:
-        raise LogFormatError(str(err), path=path, field="/tf") from err
+    else:
+        try:
+            placed = _place_by_tf(tree, scans, fixed_frame)
+        except TransformError as err:
+            raise TransformError(
+                err.detail, path=path, source=err.source, target=err.target, stamp=err.stamp
+            ) from err
+        except InvalidScanError as err:
+            raise LogFormatError(str(err), path=path, field="/tf") from err
+    _check_jumps(placed.keyframes, path, scan_name)
+    return placed
+
+
+def _check_jumps(frames: list[Keyframe], path: Path, scan_name: str) -> None:
+    """Refuse a laser that jumps farther than :data:`~maps.limits.MAX_POSE_JUMP` between two
+    placed scans, naming both scans' messages."""
+    for before, after in itertools.pairwise(frames):
+        jump = pose_jump(before.pose, after.pose)
+        if jump is not None:
+            raise LogFormatError(
+                f"{jump}; the previous scan is message {before.scan_index}",
+                path=path,
+                field=f"{scan_name} message {after.scan_index}",
+            )
 
 
 def _add_transforms(tree: TransformTree, message: Any, *, static: bool) -> None:

@@ -271,6 +271,25 @@ def test_a_pose_far_away_in_a_log_names_line_and_field(tmp_path):
     assert info.value.line == 2 and info.value.field == "x"
 
 
+@pytest.mark.parametrize("offset", [(150.0, 0.0), (0.0, -11000.0)])
+def test_a_laser_jumping_far_between_lines_names_both_lines_and_poses(tmp_path, offset):
+    path = tmp_path / "jump.log"
+    far = (1.0 + offset[0], 2.0 + offset[1], 0.5)
+    path.write_text("".join(_flaser(3, [1.0, 2.0, 3.0], pose) for pose in [(1, 2, 0.5), far]))
+    with pytest.raises(LogFormatError) as info:
+        read_carmen(path)
+    assert info.value.line == 2 and info.value.field == "x"
+    assert "jump.log" in str(info.value) and "line 1" in str(info.value)
+    assert f"({far[0]:g}, {far[1]:g})" in str(info.value) and "(1, 2)" in str(info.value)
+
+
+def test_a_laser_moving_100_m_between_lines_is_read(tmp_path):
+    path = tmp_path / "ok.log"
+    poses = [(1.0, 2.0, 0.5), (101.0, 2.0, 0.5)]
+    path.write_text("".join(_flaser(3, [1.0, 2.0, 3.0], pose) for pose in poses))
+    assert [frame.pose for frame in read_carmen(path)] == poses
+
+
 # ---------------------------------------------------------------- outputs
 def test_output_paths_are_checked(tmp_path):
     (tmp_path / "file").write_text("mine")

@@ -11,7 +11,7 @@ from maps.rosbag import read_bag_scans, read_rosbag
 from tests.maps.bags import Robot, compose, drift, inverse, map_bag, tf_bag
 
 
-def _messages(store, increment=0.5):
+def _messages(store, increment=0.5, far=False):
     t = store.types
     time = t["builtin_interfaces/msg/Time"]
     fields = t["std_msgs/msg/Header"].__dataclass_fields__
@@ -39,9 +39,9 @@ def _messages(store, increment=0.5):
         )
     geo = t
     for i in range(7):  # poses at 10, 11, ... 16 s: x = i, yaw = 0.1 i
-        yaw = 0.1 * i
+        yaw, x = 0.1 * i, 5000.0 if far and i == 3 else float(i)
         pose = geo["geometry_msgs/msg/Pose"](
-            position=geo["geometry_msgs/msg/Point"](x=float(i), y=2.0, z=0.0),
+            position=geo["geometry_msgs/msg/Point"](x=x, y=2.0, z=0.0),
             orientation=geo["geometry_msgs/msg/Quaternion"](
                 x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)
             ),
@@ -54,8 +54,8 @@ def _messages(store, increment=0.5):
     return scans, poses
 
 
-def _write(writer, store, ros1, increment=0.5):
-    scans, poses = _messages(store, increment)
+def _write(writer, store, ros1, increment=0.5, far=False):
+    scans, poses = _messages(store, increment, far)
     kwargs = {"typestore": store}
     scan_c = writer.add_connection("/scan", "sensor_msgs/msg/LaserScan", **kwargs)
     pose_c = writer.add_connection("/pose", "geometry_msgs/msg/PoseStamped", **kwargs)
@@ -106,6 +106,14 @@ def test_bad_scan_message_names_bag_and_message(tmp_path):
     with Writer1(path) as writer:
         _write(writer, store, True, increment=0.0)
     with pytest.raises(LogFormatError, match=r"zero\.bag.*/scan message 0.*angle_increment"):
+        read_rosbag(path)
+
+
+def test_a_laser_jumping_far_between_scans_names_bag_and_messages(tmp_path):
+    store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "far.bag"
+    with Writer1(path) as writer:
+        _write(writer, store, True, far=True)  # the pose at 13 s is 5 km off: scan 2 jumps
+    with pytest.raises(LogFormatError, match=r"far\.bag.*/scan message 2.*jumps.*message 1"):
         read_rosbag(path)
 
 
