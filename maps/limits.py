@@ -28,8 +28,10 @@ MAX_ROBOT_RADIUS = 10.0
 MAX_LENGTH = 1000.0
 #: Cells a map may have whatever the memory: 2^28 (16384 x 16384).
 MAX_CELLS = 1 << 28
-#: Bytes the pipeline holds per cell of a map at its peak (masks, distances, labels).
-BYTES_PER_CELL = 48
+#: Bytes the command line holds per cell of a map at its peak: about 60 drawing ``map.png``
+#: (the cell classes, the RGBA image and matplotlib's copies of it; measured on maps of 4 to
+#: 100 million cells), more than segmenting holds (masks, distances, labels).
+BYTES_PER_CELL = 64
 
 
 def _memory_bytes() -> int | None:

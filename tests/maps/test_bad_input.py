@@ -102,6 +102,15 @@ def test_keyframes_far_apart_are_refused_with_the_size_and_the_far_scan():
     assert "cells" in str(info.value) and "scan 2" in str(info.value)
 
 
+def test_a_map_whose_picture_would_not_fit_in_memory_is_refused_before_building(monkeypatch):
+    # drawing map.png holds about 58 bytes per cell (tracemalloc, 4 million cells): with
+    # 1 GiB, 20 million cells (0.96 GB at 48 bytes a cell) fit the bound but not the picture
+    monkeypatch.setattr("maps.limits._memory_bytes", lambda: 2**30)
+    frames = _frames([(0.0, 0.0, 0.0), (110.0, 110.0, 0.0), (220.0, 220.0, 0.0)])
+    with pytest.raises(MapTooLargeError, match=r"4460 x 4460 cells.*at most 16777216 cells"):
+        grid_from_keyframes(frames, 0.05)
+
+
 @pytest.mark.parametrize(
     ("options", "name"),
     [
