@@ -22,6 +22,8 @@ import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 
+from maps.errors import MapTooLargeError
+from maps.limits import check_map_size
 from maps.scan import Keyframe
 from segmentation.base import check_lengths
 
@@ -154,7 +156,23 @@ class OnlineRegions:
                 self._update_edge(region, other)
 
     def add(self, index: int, keyframe: Keyframe, region: int) -> None:
-        """Keyframe number ``index`` of region ``region`` claims the free cells it saw."""
+        """Keyframe number ``index`` of region ``region`` claims the free cells it saw.
+
+        Raises
+        ------
+        MapTooLargeError
+            If the arrays would grow beyond what this machine can hold (checked before they
+            grow; nothing is changed), naming the keyframe's scan and pose.
+        """
+        x, y = keyframe.pose[:2]
+        cells, distance, walls = self._seen(keyframe)
+        try:
+            self._fit(np.vstack([cells, walls]))
+        except MapTooLargeError as err:
+            raise MapTooLargeError(
+                f"{err}: scan {keyframe.scan_index} at ({x:.6g}, {y:.6g}) m is too far from "
+                "the others"
+            ) from None
         if index >= len(self._region_of):
             grown = np.zeros(max(2 * len(self._region_of), index + 1), np.int64)
             grown[: len(self._region_of)] = self._region_of
@@ -165,11 +183,8 @@ class OnlineRegions:
             self._poses = grown_poses
         self._region_of[index] = region
         self._members.setdefault(region, []).append(index)
-        x, y = keyframe.pose[:2]
         self._poses[index] = x, y
         self._pose_sum[region] = self._pose_sum.get(region, np.zeros(2)) + np.array([x, y])
-        cells, distance, walls = self._seen(keyframe)
-        self._fit(np.vstack([cells, walls]))
         for found, to, owner in (
             (cells, distance, index),
             (walls, np.full(len(walls), -np.inf), -1),
@@ -245,6 +260,7 @@ class OnlineRegions:
             end = self._low + shape
             new_high = np.where(high > end, high + np.maximum(_MARGIN, shape // 2), end)
         size = tuple((new_high - new_low).tolist())
+        check_map_size(*size, what=f"online regions at {self.resolution:g} m per cell")
         owner = np.full(size, -1, np.int32)
         distance = np.full(size, np.inf, np.float32)
         if self._owner.size:
