@@ -29,10 +29,10 @@ def carmen_angle_increment(beams: int) -> float:
 
 
 def _lines(path: Path) -> Iterator[tuple[int, str]]:
-    with path.open("rb") as raw:
-        gzipped = raw.read(2) == b"\x1f\x8b"
-    opener = gzip.open if gzipped else open
     try:
+        with path.open("rb") as raw:
+            gzipped = raw.read(2) == b"\x1f\x8b"
+        opener = gzip.open if gzipped else open
         with opener(path, "rt", encoding="utf-8", errors="strict") as text:
             yield from enumerate(text, start=1)
     except (OSError, EOFError, UnicodeDecodeError) as err:

@@ -90,6 +90,12 @@ class OutputIsAFolderError(OutputPathError, IsADirectoryError):
     code = errno.EISDIR
 
 
+class OutputNotWritableError(OutputPathError, PermissionError):
+    """An output folder that this user may not write in (or look into)."""
+
+    code = errno.EACCES
+
+
 class MapError(TopomapError):
     """Base class of every error raised by :mod:`maps`."""
 

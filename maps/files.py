@@ -14,7 +14,13 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from maps.errors import OutputExistsError, OutputIsAFolderError, OutputNotAFolderError
+from maps.errors import (
+    OutputExistsError,
+    OutputIsAFolderError,
+    OutputNotAFolderError,
+    OutputNotWritableError,
+    OutputPathError,
+)
 
 
 def _blocking_file(path: Path) -> Path | None:
@@ -25,20 +31,39 @@ def _blocking_file(path: Path) -> Path | None:
     return None
 
 
+def _not_writable(folder: Path, err: OSError) -> OutputPathError:
+    """The typed error of an ``OSError`` met writing ``folder`` (or looking into it)."""
+    kind = OutputNotWritableError if isinstance(err, PermissionError) else OutputPathError
+    where = f" ({err.filename})" if err.filename is not None else ""
+    return kind(folder, f"cannot write {folder}: {err.strerror or err}{where}")
+
+
 def check_output_folder(folder: str | Path) -> Path:
-    """Refuse an output folder that is a file or lies under one (it may be missing: it is
-    made, with its parents, when written).
+    """Refuse an output folder that is a file or lies under one, or that this user cannot
+    write (it may be missing: it is made, with its parents, when written; then the nearest
+    existing parent must be writable).
 
     Raises
     ------
     OutputNotAFolderError
         ``folder`` or one of its parents is a file.
+    OutputNotWritableError
+        ``folder``, or the nearest existing parent it would be made in, may not be written,
+        or a parent may not be looked into.
     """
     folder = Path(folder)
-    blocking = folder if folder.exists() and not folder.is_dir() else _blocking_file(folder)
+    try:
+        blocking = folder if folder.exists() and not folder.is_dir() else _blocking_file(folder)
+        nearest = next(p for p in (folder, *folder.parents) if p.exists())
+    except OSError as err:  # a parent that may not be looked into
+        raise _not_writable(folder, err) from None
     if blocking is not None:
         raise OutputNotAFolderError(
             folder, f"{blocking} is a file, not a folder: cannot write {folder}"
+        )
+    if not os.access(nearest, os.W_OK | os.X_OK):
+        raise OutputNotWritableError(
+            folder, f"cannot write {folder}: {nearest} is not writable by this user"
         )
     return folder
 
@@ -160,8 +185,11 @@ class OutputFolder:
         self.staging = resolved / hidden if resolved.is_dir() else resolved.parent / hidden
 
     def __enter__(self) -> Path:
-        self.folder.parent.mkdir(parents=True, exist_ok=True)
-        self.staging.mkdir()
+        try:
+            self.folder.parent.mkdir(parents=True, exist_ok=True)
+            self.staging.mkdir()
+        except OSError as err:  # a read-only disk, or rights changed since the check
+            raise _not_writable(self.folder, err) from None
         return self.staging
 
     def __exit__(self, kind: type[BaseException] | None, *_: object) -> None:

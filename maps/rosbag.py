@@ -149,10 +149,13 @@ def _open(path: Path) -> Iterator[Any]:
     from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
 
-    if not path.exists():
-        raise MapFileNotFoundError(path, "ROS bag")
-    if path.is_dir() and not (path / "metadata.yaml").is_file():
-        raise LogFormatError("not a ROS 2 bag: a bag folder holds a metadata.yaml", path=path)
+    try:
+        if not path.exists():
+            raise MapFileNotFoundError(path, "ROS bag")
+        if path.is_dir() and not (path / "metadata.yaml").is_file():
+            raise LogFormatError("not a ROS 2 bag: a bag folder holds a metadata.yaml", path=path)
+    except PermissionError as err:  # a folder that may not be looked into
+        raise LogFormatError(f"cannot be read ({err.strerror})", path=path) from None
     store = Stores.ROS1_NOETIC if path.suffix == ".bag" else Stores.LATEST
     try:
         with AnyReader([path], default_typestore=get_typestore(store)) as reader:

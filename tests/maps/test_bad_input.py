@@ -5,9 +5,11 @@ an allocation the machine cannot make."""
 from __future__ import annotations
 
 import math
+import os
 import random
 import struct
 import zlib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -26,6 +28,7 @@ from maps.errors import (
     OutputExistsError,
     OutputIsAFolderError,
     OutputNotAFolderError,
+    OutputNotWritableError,
     TopomapError,
     TransformError,
 )
@@ -311,6 +314,52 @@ def test_output_paths_are_checked(tmp_path):
         write_text(tmp_path / "file", "theirs")
     assert (tmp_path / "file").read_text() == "mine"
     assert write_text(tmp_path / "a" / "b" / "c.txt", "x").read_text() == "x"  # missing parents
+
+
+def _denied(real, *denied):
+    """``real`` (a Path method), raising PermissionError for the paths ``denied``, as it does
+    for a user without the rights (root has them all: chmod cannot show it)."""
+
+    def method(self, *args, **kwargs):
+        if any(self == path for path in denied):
+            raise PermissionError(13, "Permission denied", str(self))
+        return real(self, *args, **kwargs)
+
+    return method
+
+
+def test_an_output_folder_without_rights_is_refused_before_any_work(tmp_path, monkeypatch):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    monkeypatch.setattr(os, "access", lambda path, mode: Path(path) != locked)
+    for out in (locked, locked / "new" / "out"):
+        with pytest.raises(OutputNotWritableError, match="locked is not writable") as info:
+            OutputFolder(out, ["map.yaml"])
+        assert isinstance(info.value, PermissionError) and str(out) in str(info.value)
+    monkeypatch.setattr(Path, "exists", _denied(Path.exists, locked / "out"))
+    with pytest.raises(OutputNotWritableError, match="Permission denied"):
+        check_output_file(locked / "out" / "map.yaml", overwrite=False)
+
+
+def test_an_output_folder_that_cannot_be_made_is_a_typed_error(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    folder = OutputFolder(out, ["map.yaml"])
+    monkeypatch.setattr(Path, "mkdir", _denied(Path.mkdir, folder.staging))
+    with pytest.raises(OutputNotWritableError, match=r"cannot write .*out: Permission denied"):
+        folder.__enter__()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_log_or_bag_that_cannot_be_read_is_a_typed_error(tmp_path, monkeypatch):
+    log, bag = tmp_path / "run.log", tmp_path / "run"
+    log.write_text(_flaser(3, [1.0, 2.0, 3.0]))
+    bag.mkdir()
+    monkeypatch.setattr(Path, "open", _denied(Path.open, log))
+    monkeypatch.setattr(Path, "is_file", _denied(Path.is_file, bag / "metadata.yaml"))
+    for path, reader in ((log, read_carmen), (bag, read_rosbag)):
+        with pytest.raises(LogFormatError, match=r"cannot be read.*Permission denied") as info:
+            reader(path)
+        assert info.value.path == str(path)
 
 
 def test_an_interrupted_write_leaves_the_old_file(tmp_path):

@@ -325,3 +325,14 @@ def test_a_log_given_as_the_map_is_read_as_a_log(tmp_path, capsys):
     (tmp_path / "run.log").write_text("FLASER 3 1 2\n")
     assert main(["-q", "segment", str(tmp_path / "run.log"), "--out", str(tmp_path / "o")]) == 2
     assert "run.log, line 1, field 'ranges'" in _error_line(capsys)
+
+
+@pytest.mark.parametrize("command", ["map", "segment"])
+def test_an_input_that_may_not_be_looked_at_is_one_line(tmp_path, capsys, monkeypatch, command):
+    from tests.maps.test_bad_input import _denied
+
+    source = tmp_path / "locked" / "run.log"
+    monkeypatch.setattr(Path, "is_dir", _denied(Path.is_dir, source))
+    assert main(["-q", command, str(source), "--out", str(tmp_path / "out")]) == 2
+    assert _error_line(capsys).endswith("run.log: cannot be read (Permission denied)")
+    assert not (tmp_path / "out").exists()

@@ -47,6 +47,14 @@ def input_kind(path: Path) -> str | None:
     >>> input_kind(Path("run.bag")), input_kind(Path("run_0.mcap")), input_kind(Path("a.log.gz"))
     ('bag', 'bag', 'log')
     """
+    try:
+        return _kind(path)
+    except OSError:  # a folder on the way that may not be looked into: its reader says so
+        return None
+
+
+def _kind(path: Path) -> str | None:
+    """:func:`input_kind`, raising what looking at ``path`` raises."""
     if is_bag(path):
         return "bag"
     if path.is_dir():

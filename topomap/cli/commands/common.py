@@ -8,6 +8,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from maps.errors import LogFormatError
 from maps.files import check_outputs
 from maps.limits import MAX_LENGTH, MAX_ROBOT_RADIUS, RESOLUTION_RANGE, finite_in
 from topomap.errors import UsageError
@@ -45,7 +46,10 @@ def read_as_bag(source: Path) -> bool:
     then says what it lacks."""
     from topomap.cli.inputs import is_bag
 
-    return source.is_dir() or is_bag(source)
+    try:
+        return source.is_dir() or is_bag(source)
+    except OSError as err:  # a folder on the way that may not be looked into
+        raise LogFormatError(f"cannot be read ({err.strerror or err})", path=source) from None
 
 
 def add_bag_options(parser: argparse.ArgumentParser, *, map_topic: bool) -> None:
