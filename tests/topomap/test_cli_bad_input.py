@@ -336,3 +336,25 @@ def test_an_input_that_may_not_be_looked_at_is_one_line(tmp_path, capsys, monkey
     assert main(["-q", command, str(source), "--out", str(tmp_path / "out")]) == 2
     assert _error_line(capsys).endswith("run.log: cannot be read (Permission denied)")
     assert not (tmp_path / "out").exists()
+
+
+def test_sigterm_while_writing_is_one_line_status_143_and_leaves_nothing(
+    tmp_path, capsys, monkeypatch
+):
+    import os
+    import signal
+
+    from tests.maps.test_bad_input import _flaser
+
+    def terminated(path, *_args, **_kwargs):  # as `timeout` or a process manager stops it
+        Path(path).write_bytes(b"half a picture")
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    log = tmp_path / "run.log"
+    log.write_text("".join(_flaser(3, [1.0, 2.0, 3.0], (x, 0.0, 0.0)) for x in (0.0, 1.0)))
+    monkeypatch.setattr("topomap.cli.drawing.draw_map", terminated)
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["-q", "map", str(log), "--out", str(tmp_path / "out")]) == 143
+    assert capsys.readouterr().err.strip() == "topomap: terminated; no output was left half-written"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.log"]
+    assert signal.getsignal(signal.SIGTERM) is before

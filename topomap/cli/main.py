@@ -6,7 +6,11 @@ from __future__ import annotations
 import argparse
 import gc
 import logging
+import signal
 import sys
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 from maps.errors import TopomapError
 from topomap.cli.commands import (
@@ -32,6 +36,29 @@ COMMANDS = (demo, build, generate, segment, evaluate, bench, batch, plan, export
 #: Libraries whose bindings check at exit that the collector freed every object of theirs,
 #: and print each one left (OMPL's, by nanobind): with one loaded, :func:`run` frees as usual.
 COUNTED_AT_EXIT = ("ompl",)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (``kill``, ``timeout``, process managers), raised in the main thread as Ctrl-C
+    raises :class:`KeyboardInterrupt`, so every output being written is removed as it is."""
+
+
+def _terminate(signum: int, _frame: object) -> None:
+    raise Terminated(signum)
+
+
+@contextmanager
+def _sigterm_stops() -> Iterator[None]:
+    """Within: SIGTERM raises :class:`Terminated` (in the main thread only, where Python runs
+    signal handlers); the previous handler is restored after."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -81,7 +108,8 @@ def main(argv: list[str] | None = None) -> int:
 
     Bad input (any :class:`~maps.errors.TopomapError`: a missing or malformed file, a value
     out of range, a file that would be overwritten) ends with one line on stderr and status
-    2, as do usage errors; anything else is a bug and keeps its traceback.
+    2, as do usage errors; Ctrl-C (SIGINT) with status 130 and SIGTERM with 143, the outputs
+    being written removed; anything else is a bug and keeps its traceback.
     """
     try:
         args = build_parser().parse_args(argv)
@@ -93,10 +121,13 @@ def main(argv: list[str] | None = None) -> int:
             logging.getLogger(package).setLevel(logging.DEBUG)
     args.progress = Progress(quiet=args.quiet)
     try:
-        return int(args.func(args))
+        with _sigterm_stops():
+            return int(args.func(args))
     except TopomapError as err:
         print(f"topomap: error: {' '.join(str(err).split())}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:  # outputs are written under temporary names: none is half done
-        print("topomap: interrupted; no output was left half-written", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as stop:  # outputs are written under temporary names: none is half
+        # done; the status of a process ended by the signal (128 + its number), as shells say
+        how, status = ("terminated", 143) if isinstance(stop, Terminated) else ("interrupted", 130)
+        print(f"topomap: {how}; no output was left half-written", file=sys.stderr)
+        return status
