@@ -210,4 +210,6 @@ class OutputFolder:
             (self.folder / self.last).unlink(missing_ok=True)
             files = [name for name in files if name != self.last] + [self.last]
         for name in files:
+            if (self.staging / name).is_dir():  # a folder of outputs replaces the old one whole
+                shutil.rmtree(self.folder / name, ignore_errors=True)
             os.replace(self.staging / name, self.folder / name)

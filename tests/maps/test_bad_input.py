@@ -362,6 +362,16 @@ def test_a_log_or_bag_that_cannot_be_read_is_a_typed_error(tmp_path, monkeypatch
         assert info.value.path == str(path)
 
 
+def test_a_folder_of_outputs_replaces_the_old_one_whole(tmp_path):
+    (tmp_path / "frames").mkdir()
+    (tmp_path / "frames" / "old.png").write_text("old")
+    with OutputFolder(tmp_path, ["a"], overwrite=True) as work:
+        (work / "a").write_text("a")
+        (work / "frames").mkdir()
+        (work / "frames" / "new.png").write_text("new")
+    assert [p.name for p in (tmp_path / "frames").iterdir()] == ["new.png"]
+
+
 def test_an_interrupted_write_leaves_the_old_file(tmp_path):
     path = tmp_path / "map.yaml"
     path.write_text("old")

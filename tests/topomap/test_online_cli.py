@@ -1,4 +1,5 @@
 import csv
+import gzip
 import json
 
 import numpy as np
@@ -7,6 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from PIL import Image
 
+from maps.errors import MapTooLargeError
 from topomap.cli.main import main
 
 
@@ -63,6 +65,58 @@ def test_segment_online_refuses_to_overwrite_and_bad_options(intel_online, data_
     assert "theta must lie in [0, 1], got 1.5" in capsys.readouterr().err
     assert main(["-q", "segment", "--scans", log, "--online", "--out", fresh, "--frames", "0"]) == 2
     assert "--frames must be" in capsys.readouterr().err
+
+
+@pytest.fixture
+def short_log(data_dir, tmp_path):
+    """The first 40 scans of Intel's log."""
+    with gzip.open(data_dir / "carmen" / "intel-corrected.log.gz", "rt") as log:
+        lines = [line for line in log if line.startswith("FLASER")][:40]
+    path = tmp_path / "short.log"
+    path.write_text("".join(lines))
+    return path
+
+
+def _online(log, out, *options):
+    argv = ["-q", "segment", "--scans", str(log), "--online", "--out", str(out)]
+    return main([*argv, "--seed-keyframes", "10", "--k", "2", *options])
+
+
+@pytest.mark.parametrize("name", ["graph.json", "map.pgm", "segmentation.png", "regions.gif"])
+def test_online_checks_every_output_before_any_work(short_log, tmp_path, capsys, monkeypatch, name):
+    monkeypatch.setattr("topomap.cli.commands.segment.read_keyframes", _never)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / name).write_text("mine")
+    assert _online(short_log, out, "--frames", "10") == 2
+    assert f"{name} exists; pass --force to replace it" in capsys.readouterr().err
+    assert [p.name for p in out.iterdir()] == [name] and (out / name).read_text() == "mine"
+
+
+def _never(*_args, **_kwargs):
+    raise AssertionError("the log was read before the outputs were checked")
+
+
+def test_a_failed_online_run_leaves_nothing_and_names_the_log(
+    short_log, tmp_path, capsys, monkeypatch
+):
+    def too_large(*_args, **_kwargs):  # as the online regions refuse a scan 9 km away
+        raise MapTooLargeError("online regions of 90000 x 80 cells is larger than memory allows")
+
+    monkeypatch.setattr("topomap.cli.online.run_online", too_large)
+    assert _online(short_log, tmp_path / "out") == 2
+    assert "short.log: online regions of 90000 x 80 cells" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["short.log"]
+
+
+def test_online_writes_its_folder_at_once_and_honours_no_picture(short_log, tmp_path):
+    out = tmp_path / "out"
+    assert _online(short_log, out, "--no-picture") == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert "segmentation.png" not in names and "summary.json" in names
+    summary = json.loads((out / "summary.json").read_text())
+    assert sorted([*summary["written"], "map.pgm", "summary.json"]) == names
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "short.log"]
 
 
 @given(

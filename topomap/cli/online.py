@@ -24,7 +24,8 @@ import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.errors import OutputExistsError
+from maps.errors import MapTooLargeError, OutputExistsError
+from maps.files import OutputFolder, write_text
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array
@@ -310,6 +311,22 @@ def write_keyframes(
     return path
 
 
+def online_outputs(*, picture: bool = True, frames: bool = False) -> list[str]:
+    """The files :func:`segment_online` writes (``frames/``, a folder, aside).
+
+    Examples
+    --------
+    >>> online_outputs(picture=False)  # doctest: +NORMALIZE_WHITESPACE
+    ['regions.png', 'graph.graphml', 'graph.json', 'regions.geojson', 'map.yaml', 'map.pgm',
+     'keyframes.csv', 'events.jsonl', 'summary.json']
+    """
+    names = ["regions.png", "graph.graphml", "graph.json", "regions.geojson", "map.yaml"]
+    names += ["map.pgm", "keyframes.csv", "events.jsonl"]
+    names += ["segmentation.png"] if picture else []
+    names += ["regions.gif"] if frames else []
+    return [*names, "summary.json"]
+
+
 def segment_online(
     keyframes: Sequence[Keyframe],
     out: Path,
@@ -320,14 +337,27 @@ def segment_online(
     theta: float = 0.5,
     frames_every: int | None = None,
     overwrite: bool = False,
+    picture: bool = True,
     progress: Callable[[Iterable[Any]], Iterable[Any]] = iter,
     **options: Any,
 ) -> dict[str, Any]:
     """``topomap segment --scans LOG --online``: the online pass, then the files of the
     offline command (``regions.png``, ``graph.graphml``, ``graph.json``, ``regions.geojson``,
-    ``map.yaml``, ``keyframes.csv``, ``segmentation.png``, ``summary.json``) for its final
-    partition, plus ``events.jsonl`` and, with ``frames_every``, ``frames/*.png`` and
-    ``regions.gif``. Returns the summary."""
+    ``map.yaml``, ``keyframes.csv``, ``segmentation.png`` unless not ``picture``,
+    ``summary.json``) for its final partition, plus ``events.jsonl`` and, with
+    ``frames_every``, ``frames/*.png`` and ``regions.gif``. Returns the summary.
+
+    Every output is checked before any work (:func:`online_outputs`; ``overwrite`` to replace
+    them) and all appear at once, written through :class:`~maps.files.OutputFolder`: a failed
+    or interrupted run leaves ``out`` as it was.
+
+    Raises
+    ------
+    OutputExistsError
+        An output exists and not ``overwrite``.
+    MapTooLargeError
+        The keyframes spread farther than memory allows; naming ``source``.
+    """
     from segmentation.export import (
         write_geojson,
         write_graphml,
@@ -336,47 +366,64 @@ def segment_online(
     )
     from topomap.cli.drawing import draw_regions
 
-    names = ["events.jsonl", "keyframes.csv", "summary.json", "segmentation.png", "regions.gif"]
-    for name in names:
-        if (out / name).exists() and not overwrite:
-            raise OutputExistsError(out / name, "--force")
-    out.mkdir(parents=True, exist_ok=True)
-    frames_dir = out / "frames" if frames_every else None
-    run = run_online(
-        keyframes,
-        seed_keyframes=seed_keyframes,
-        method=method,
-        theta=theta,
-        frames_every=frames_every,
-        frames_dir=frames_dir,
-        progress=progress,
-        **options,
-    )
+    names = online_outputs(picture=picture, frames=bool(frames_every))
+    if frames_every and not overwrite and (out / "frames").exists():
+        raise OutputExistsError(out / "frames", "--force")
+    folder = OutputFolder(out, names, overwrite=overwrite, how="--force", last="summary.json")
+    with folder as work:
+        try:
+            run = run_online(
+                keyframes,
+                seed_keyframes=seed_keyframes,
+                method=method,
+                theta=theta,
+                frames_every=frames_every,
+                frames_dir=work / "frames" if frames_every else None,
+                progress=progress,
+                **options,
+            )
+            start = time.perf_counter()
+            grid = grid_from_keyframes(keyframes, 0.05)
+        except MapTooLargeError as err:
+            raise MapTooLargeError(str(err), path=source) from None
+        online = run.online
+        regions, graph, keyframe_regions = dense_regions(grid, keyframes, online.labels_)
+        dense_seconds = time.perf_counter() - start
+        written = [
+            write_label_image(regions.labels, work / "regions.png"),
+            write_graphml(graph, work / "graph.graphml"),
+            write_node_link(graph, work / "graph.json"),
+            write_geojson(graph, work / "regions.geojson"),
+            grid.save(work / "map.yaml"),
+            write_keyframes(work / "keyframes.csv", keyframes, keyframe_regions, online),
+            write_events(work / "events.jsonl", online.events_),
+        ]
+        if picture:
+            title = f"{Path(source).name} online: {graph.number_of_nodes()} regions"
+            written.append(
+                draw_regions(work / "segmentation.png", grid, regions.labels, graph, title=title)
+            )
+        if run.frames:
+            written.append(write_gif(run.frames, work / "regions.gif"))
+        summary = _online_summary(run, keyframes, graph, source, method, theta, dense_seconds)
+        summary["written"] = [p.name for p in written]
+        write_text(work / "summary.json", json.dumps(summary, indent=2))
+    return summary
+
+
+def _online_summary(
+    run: OnlineRun,
+    keyframes: Sequence[Keyframe],
+    graph: nx.Graph,
+    source: str,
+    method: str,
+    theta: float,
+    dense_seconds: float,
+) -> dict[str, Any]:
+    """The summary of :func:`segment_online` (but the files written)."""
     online = run.online
-    start = time.perf_counter()
-    grid = grid_from_keyframes(keyframes, 0.05)
-    regions, graph, keyframe_regions = dense_regions(grid, keyframes, online.labels_)
-    dense_seconds = time.perf_counter() - start
-    written = [
-        write_label_image(regions.labels, out / "regions.png", overwrite=overwrite),
-        write_graphml(graph, out / "graph.graphml", overwrite=overwrite),
-        write_node_link(graph, out / "graph.json", overwrite=overwrite),
-        write_geojson(graph, out / "regions.geojson", overwrite=overwrite),
-        grid.save(out / "map.yaml", overwrite=overwrite),
-        write_keyframes(out / "keyframes.csv", keyframes, keyframe_regions, online),
-        write_events(out / "events.jsonl", online.events_),
-        draw_regions(
-            out / "segmentation.png",
-            grid,
-            regions.labels,
-            graph,
-            title=f"{Path(source).name} online: {graph.number_of_nodes()} regions",
-        ),
-    ]
-    if run.frames:
-        written.append(write_gif(run.frames, out / "regions.gif"))
     kinds = [e.kind for e in online.events_ if e.keyframe >= online.n_seed_]
-    summary = {
+    return {
         "source": source,
         "keyframes": len(keyframes),
         "method": method,
@@ -399,7 +446,4 @@ def segment_online(
         },
         "names": {int(r): name for r, name in sorted(graph.nodes(data="name"))},
         "frames": len(run.frames),
-        "written": [p.name for p in written],
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
-    return summary

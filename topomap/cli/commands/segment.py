@@ -148,12 +148,14 @@ def cmd_segment(args: argparse.Namespace) -> int:
 def _segment_online(args: argparse.Namespace, out: Path) -> int:
     """``topomap segment --scans LOG --online``."""
     from maps.scan import select_keyframes
-    from topomap.cli.online import segment_online
+    from topomap.cli.online import online_outputs, segment_online
 
     if args.scans is None:
         raise UsageError("--online needs --scans LOG: keyframes arrive one by one from a log")
     if args.previous is not None:
         raise UsageError("--previous is for maps segmented whole, not with --online")
+    names = online_outputs(picture=not args.no_picture, frames=bool(args.frames))
+    refuse_existing(out, names, args.force)
     args.progress.stage(f"reading {args.scans}")
     keyframes = select_keyframes(read_keyframes(Path(args.scans), args), distance=args.distance)
     args.progress.stage(f"online segmentation of {len(keyframes)} keyframes")
@@ -166,6 +168,7 @@ def _segment_online(args: argparse.Namespace, out: Path) -> int:
         theta=args.theta,
         frames_every=args.frames,
         overwrite=args.force,
+        picture=not args.no_picture,
         progress=lambda items: args.progress(items, "keyframes"),
         criterion=args.criterion,
         k=args.k,
