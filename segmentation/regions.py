@@ -6,6 +6,7 @@ import heapq
 from dataclasses import dataclass
 from functools import cached_property
 
+import cv2
 import numpy as np
 import shapely
 from numpy.typing import ArrayLike, NDArray
@@ -165,6 +166,12 @@ def pieces(grid: OccupancyGrid, labels: NDArray[np.integer], min_area: float) ->
     return consecutive(merge_small(labels.astype(np.int32), min_cells))
 
 
+#: The largest piece of furniture, m^2 (a conference table, a row of shelves): an unlabelled
+#: piece of the map (cells drawn as walls, cells nobody saw) no larger that one region
+#: encloses is in it (:meth:`Regions.at`).
+FURNITURE_M2 = 4.0
+
+
 @dataclass(frozen=True, eq=False)
 class Regions:
     """A segmentation of a grid's free space: ``labels[r, c]`` is the region of a cell.
@@ -204,19 +211,29 @@ class Regions:
         return float(self.cell_counts[region]) * self.grid.resolution**2
 
     def at(self, x: float, y: float) -> int:
-        """The region at map point ``(x, y)``, 0 if none."""
+        """The region at map point ``(x, y)`` (or the region round it, :attr:`enclosing`), 0 if
+        none."""
         row, col = self.grid.world_to_cell(x, y)
         if not self.grid.contains(row, col):
             return 0
-        return int(self.labels[row, col])
+        return int(self.enclosing[row, col])
 
     def at_points(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.int64]:
-        """The region at each map point, 0 where there is none."""
+        """The region at each map point (or round it, :attr:`enclosing`), 0 where there is
+        none."""
         rows, cols = self.grid.world_to_cell(x, y)
         inside = self.grid.contains(rows, cols)
         found = np.zeros(np.shape(rows), np.int64)
-        found[inside] = self.labels[rows[inside], cols[inside]]
+        found[inside] = self.enclosing[rows[inside], cols[inside]]
         return found
+
+    @cached_property
+    def enclosing(self) -> NDArray[np.int32]:
+        """:attr:`labels` with the unlabelled pieces a region encloses, up to
+        :data:`FURNITURE_M2` (furniture drawn as walls, patches nobody saw), given to it
+        (:func:`fill_enclosed`): the region a point inside the building is in. The labels
+        leave them out, as people drawing rooms on a map do."""
+        return fill_enclosed(self.labels, round(FURNITURE_M2 / self.grid.resolution**2))
 
     @cached_property
     def polygons(self) -> dict[int, BaseGeometry]:
@@ -326,3 +343,44 @@ def _ranges(starts: NDArray[np.integer], counts: NDArray[np.integer]) -> NDArray
     total = int(counts.sum())
     offsets = np.repeat(np.cumsum(counts) - counts, counts)
     return np.repeat(starts, counts) + np.arange(total) - offsets
+
+
+def fill_enclosed(labels: NDArray[np.int32], most: int) -> NDArray[np.int32]:
+    """``labels`` with every piece of unlabelled cells (8-connected) of at most ``most`` cells
+    that one region encloses (its every neighbour that region's, off the map's edge) given to
+    that region: furniture drawn as walls and unseen patches inside a room are the room's.
+
+    Examples
+    --------
+    >>> labels = np.ones((7, 9), np.int32)
+    >>> labels[:, 5:] = 2
+    >>> labels[2:4, 1:3] = 0  # a table in room 1
+    >>> labels[2:4, 4:6] = 0  # a pillar between rooms 1 and 2
+    >>> labels[6, 7] = 0  # a notch at the map's edge
+    >>> fill_enclosed(labels, 4)[[2, 2, 6], [1, 4, 7]].tolist()
+    [1, 0, 0]
+    """
+    empty = labels == 0
+    pieces, count = ndimage.label(empty, structure=np.ones((3, 3)))
+    if count == 0:
+        return labels
+    sizes = np.bincount(pieces.ravel(), minlength=count + 1)
+    big = float(2**24)  # region ids are exact in float32 below it
+    ring = np.ones((3, 3), np.uint8)
+    ids = labels.astype(np.float32)
+    # the largest and smallest region id beside each unlabelled cell (the map's edge: big)
+    highest = cv2.dilate(ids, ring, borderType=cv2.BORDER_CONSTANT, borderValue=big)
+    lowest = cv2.erode(
+        np.where(empty, big, ids), ring, borderType=cv2.BORDER_CONSTANT, borderValue=big
+    )
+    small = sizes <= most
+    small[0] = False
+    at = small[pieces]  # the cells of the small pieces
+    high, low = np.full(count + 1, -1.0), np.full(count + 1, big)
+    np.maximum.at(high, pieces[at], highest[at])
+    np.minimum.at(low, pieces[at], lowest[at])
+    enclosed = small & (high == low) & (high > 0) & (high < big)
+    if not enclosed.any():
+        return labels
+    region = np.where(enclosed, high, 0).astype(np.int32)
+    return np.where(empty & enclosed[pieces], region[pieces], labels).astype(np.int32)

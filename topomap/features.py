@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid, clearance_of
-from segmentation.regions import Regions
+from segmentation.regions import FURNITURE_M2, Regions
 
 #: Region features, in the column order given to estimators, with their units and meaning.
 FEATURE_UNITS = {
@@ -49,8 +49,6 @@ FEATURE_UNITS = {
     "opening_share": "1, summed width of the openings / perimeter",
 }
 FEATURES = tuple(FEATURE_UNITS)
-#: Furniture holes up to this size (m^2) are filled before measuring shape.
-FURNITURE_HOLE_M2 = 4.0
 #: Half the width a robot (the library's default radius) or a person needs to stand, metres:
 #: a region's strips narrower than twice this that run along unknown space (laser rays out
 #: through its doors and windows) are no floor, and its shape is its floor's (:func:`floor_of`).
@@ -69,9 +67,10 @@ def region_features(regions: Regions, graph: nx.Graph) -> dict[str, NDArray[np.f
     ``(a, b, widest opening m)``).
 
     Shape is measured on the region's floor (:func:`floor_of`: the laser rays out through its
-    doors and windows left out) after filling furniture holes up to :data:`FURNITURE_HOLE_M2` and
-    closing notches narrower than twice :data:`FURNITURE_GAP_M` (furniture along walls);
-    :data:`FEATURE_UNITS` says what each column is.
+    doors and windows left out) after filling furniture holes up to
+    :data:`~segmentation.regions.FURNITURE_M2` and closing notches narrower than twice
+    :data:`FURNITURE_GAP_M` (furniture along walls); :data:`FEATURE_UNITS` says what each
+    column is.
 
     Examples
     --------
@@ -161,7 +160,7 @@ def _shape(mask: NDArray[np.bool_], res: float) -> dict[str, float]:
     from skimage.morphology import disk  # imported here: planning on saved regions needs none
 
     gap = max(1, round(FURNITURE_GAP_M / res))
-    filled = _fill_small_holes(np.pad(mask, 2 * gap + 1), int(FURNITURE_HOLE_M2 / res**2))
+    filled = _fill_small_holes(np.pad(mask, 2 * gap + 1), int(FURNITURE_M2 / res**2))
     kernel = disk(gap).astype(np.uint8)
     filled = cv2.morphologyEx(filled.astype(np.uint8), cv2.MORPH_CLOSE, kernel).astype(bool)
     area = float(filled.sum()) * res**2

@@ -6,6 +6,7 @@ from hypothesis.extra.numpy import arrays
 from skimage.measure import label as connected
 
 import maps
+from maps.grid import OccupancyGrid
 from segmentation.errors import SegmentationError
 from segmentation.refine import basins, merge_open_boundaries
 from segmentation.regions import Regions, dense_labels
@@ -81,3 +82,22 @@ def test_a_map_without_free_space_is_an_error():
         virtual_poses(grid)
     with pytest.raises(SegmentationError, match="no free cell"):
         dense_labels(grid, np.array([1]), np.array([1]), np.array([0]))
+
+
+def test_a_point_on_furniture_or_an_unseen_patch_is_in_the_room_round_it():
+    # 0.05 m cells: two 5 x 5 m rooms and a wall between them with a door. In room 1 a
+    # 2 x 1 m table drawn as wall (too big for clutter) and a 1 x 1 m patch nobody saw; a
+    # 3 x 3 m block drawn as wall stands in room 2: larger than any furniture, it stays out.
+    cells = np.full((110, 212), 100, np.int8)
+    cells[5:105, 5:105] = cells[5:105, 107:207] = 0  # the rooms
+    cells[50:70, 105:107] = 0  # the door
+    cells[30:50, 30:70] = 100  # the table
+    cells[70:90, 30:50] = -1  # the unseen patch
+    cells[20:80, 130:190] = 100  # the block
+    grid = OccupancyGrid(cells, 0.05)
+    labels = np.where(grid.free, 1 + (np.arange(212) >= 106), 0).astype(np.int32)
+    regions = Regions(grid, labels)
+    x, y = grid.cell_to_world(np.array([40, 80, 50, 0]), np.array([50, 40, 160, 100]))
+    assert regions.at_points(x, y).tolist() == [1, 1, 0, 0]  # table, patch; block, outer wall
+    assert regions.at(float(x[0]), float(y[0])) == 1
+    assert (regions.labels[30:50, 30:70] == 0).all()  # the regions' cells stay the floor
