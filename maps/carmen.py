@@ -94,21 +94,29 @@ class _Line:
                 raise self.error(f"{value:g} m is farther than {MAX_COORDINATE:g} m", name)
         return x, y, t
 
-    def check_numbers(self, expected: int, shortest: int, field: str) -> None:
-        """The line has ``expected`` numbers after its first two tokens and before the host
-        name (``shortest`` to ``expected + 2`` when it has no host name): a count that does
-        not match its values would read ranges as the pose."""
-        numbers = next(
-            (i for i, token in enumerate(self.tokens[2:]) if not _is_number(token)),
-            len(self.tokens) - 2,
-        )
-        all_numbers = numbers == len(self.tokens) - 2  # no host name: the stamps may be cut
-        if numbers == expected or (all_numbers and shortest <= numbers <= expected + 2):
+    def check_numbers(self, expected: int, field: str) -> None:
+        """The line has exactly the fields of a CARMEN layout: ``expected`` numbers after its
+        first two tokens (the last one the IPC stamp), then the host name and the logger's
+        stamp, or neither (older logs). Any other count means a count that does not match its
+        values, which would read ranges as the pose or the pose from the stamps (a host name
+        that is a number is refused too: a line without host name whose count is two short
+        would look the same)."""
+        rest = self.tokens[2:]
+        numbers = next((i for i, token in enumerate(rest) if not _is_number(token)), len(rest))
+        if numbers == expected and (
+            len(rest) == expected or (len(rest) == expected + 2 and _is_number(rest[-1]))
+        ):
             return
+        found = (
+            f"{numbers} numbers and no host name"
+            if numbers == len(rest)
+            else f"{numbers} numbers before its host name and {len(rest) - numbers - 1} fields "
+            "after it"
+        )
         raise self.error(
-            f"{self.tokens[0]} has {numbers} numbers before its host name, but its {field} "
-            f"{self.tokens[1 if field == 'n' else 8]!r} asks for {expected}: the count does not "
-            "match the values",
+            f"{self.tokens[0]} has {found}, but its {field} "
+            f"{self.tokens[1 if field == 'n' else 8]!r} asks for {expected} numbers (then a host "
+            "name and the logger's stamp, or neither): the count does not match the values",
             field,
         )
 
@@ -144,7 +152,8 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
     MapFileNotFoundError
         If ``path`` does not exist.
     LogFormatError
-        For a line that is cut short or has a non-number, or whose laser pose jumps farther
+        For a line that is cut short, has a non-number or more or fewer fields than its count
+        asks for (see :meth:`_Line.check_numbers`), or whose laser pose jumps farther
         than :data:`~maps.limits.MAX_POSE_JUMP` from the previous line's; the message names
         line and field.
     """
@@ -171,7 +180,7 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
             names = ("laser_pose_x", "laser_pose_y", "laser_pose_theta")
             pose = line.pose_at(at, names)
             # start_angle ... the counts and values, then 12 numbers before the host name
-            line.check_numbers(at - 2 + 12, at - 2 + 3, "num_readings")
+            line.check_numbers(at - 2 + 12, "num_readings")
             stamp = line.stamp_at(at + 11)
         else:
             beams = line.count_at(1, "n")
@@ -180,7 +189,7 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
             ranges = line.ranges(2, beams)
             names = ("x", "y", "theta")
             pose = line.pose_at(2 + beams, names)
-            line.check_numbers(beams + 7, beams + 3, "n")  # ranges, two poses, the ipc stamp
+            line.check_numbers(beams + 7, "n")  # ranges, two poses, the ipc stamp
             start, increment = -math.pi / 2, carmen_angle_increment(beams)
             stamp = line.stamp_at(2 + beams + 6)
         if increment == 0:

@@ -252,6 +252,26 @@ def test_flaser_with_a_count_that_does_not_match_its_ranges(tmp_path, n):
     assert info.value.line == 1 and info.value.field == "n" and "bad.log" in str(info.value)
 
 
+@pytest.mark.parametrize("n", [1, 2, 4, 5])
+def test_flaser_without_host_name_whose_count_is_off_is_refused(tmp_path, n):
+    path = tmp_path / "nohost.log"
+    good = _flaser(3, [1.0, 2.0, 3.0]).rsplit(" host ", 1)[0] + "\n"  # ... 7.0, no host
+    path.write_text(good + good.replace("FLASER 3", f"FLASER {n}"))
+    with pytest.raises(LogFormatError, match=r"10 numbers and no host name.*n '\d'") as info:
+        read_carmen(path)
+    assert info.value.line == 2 and info.value.field == "n" and "nohost.log" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("tail", "shown"), [(" host 7.0 extra", "2 fields after"), (" host", "0 fields after")]
+)
+def test_a_laser_line_with_fields_after_its_host_name_is_refused(tmp_path, tail, shown):
+    path = tmp_path / "tail.log"
+    path.write_text(_flaser(3, [1.0, 2.0, 3.0]).replace(" host 7.0", tail))
+    with pytest.raises(LogFormatError, match=shown):
+        read_carmen(path)
+
+
 def test_a_good_flaser_line_is_read_exactly(tmp_path):
     path = tmp_path / "ok.log"
     path.write_text(_flaser(3, [1.0, 2.0, 3.0]))
