@@ -10,9 +10,12 @@ from pathlib import Path
 import numpy as np
 
 from maps.errors import InvalidScanError, LogFormatError, MapFileNotFoundError
-from maps.limits import MAX_COORDINATE, finite_in, pose_jump
+from maps.limits import MAX_COORDINATE, finite_in, no_valid_beam, pose_jump
 from maps.scan import Keyframe, LaserScan
 
+#: Metres under which a reading is no reading (the logs write 0 for a failed one; their
+#: lasers see from about 0.1 m).
+MIN_RANGE = 0.01
 #: Old-style lines: ``FLASER n r1 .. rn x y theta odom_x odom_y odom_theta ipc_ts host log_ts``.
 OLD_STYLE = ("FLASER", "RLASER")
 ROBOTLASER = "ROBOTLASER1"
@@ -155,7 +158,8 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
         For a line that is cut short, has a non-number or more or fewer fields than its count
         asks for (see :meth:`_Line.check_numbers`), or whose laser pose jumps farther
         than :data:`~maps.limits.MAX_POSE_JUMP` from the previous line's; the message names
-        line and field.
+        line and field. For a log without one valid beam (readings under :data:`MIN_RANGE`
+        are none).
     """
     path = Path(path)
     if not path.is_file():
@@ -199,11 +203,14 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
             raise line.error(f"{jump}; the previous laser line is line {last_line}", names[0])
         last_line = number
         ranges = np.where(ranges >= max_range, np.inf, ranges)
-        scan = LaserScan(ranges, start, increment, range_min=0.0, range_max=max_range)
+        scan = LaserScan(ranges, start, increment, range_min=MIN_RANGE, range_max=max_range)
         frames.append(Keyframe(pose, scan, scan_index=len(frames), stamp=stamp))
     if not frames:
         raise LogFormatError(
             f"no laser lines ({', '.join((*OLD_STYLE, ROBOTLASER))}): not a CARMEN laser log",
             path=path,
         )
+    problem = no_valid_beam(frames)
+    if problem is not None:
+        raise LogFormatError(problem, path=path)
     return frames

@@ -10,8 +10,12 @@ import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from maps.errors import MapTooLargeError
+
+if TYPE_CHECKING:
+    from maps.scan import Keyframe
 
 #: Metres per cell a map may have: a millimetre to a hundred metres.
 RESOLUTION_RANGE = (1e-3, 100.0)
@@ -104,6 +108,27 @@ def pose_jump(before: Sequence[float], after: Sequence[float]) -> str | None:
         f"the laser jumps {distance:.6g} m from ({before[0]:.6g}, {before[1]:.6g}) to "
         f"({after[0]:.6g}, {after[1]:.6g}) between consecutive scans "
         f"(at most {MAX_POSE_JUMP:g} m)"
+    )
+
+
+def no_valid_beam(frames: Sequence[Keyframe]) -> str | None:
+    """What is wrong with a log whose scans have not one valid beam (every reading NaN,
+    infinite, negative, under the sensor's least range or beyond its greatest: nothing to map),
+    or None when a beam is valid. Callers raise their own located error with it.
+
+    Examples
+    --------
+    >>> from maps.scan import Keyframe, LaserScan
+    >>> scan = LaserScan([float("nan"), -1.0], -0.5, 0.5)
+    >>> no_valid_beam([Keyframe((0.0, 0.0, 0.0), scan)] * 3)  # doctest: +ELLIPSIS
+    "3 scans of 6 beams read, and no beam is valid (each NaN, infinite, negative, under the ...
+    """
+    if any(frame.scan.valid.any() for frame in frames):
+        return None
+    beams = sum(len(frame.scan) for frame in frames)
+    return (
+        f"{len(frames)} scans of {beams} beams read, and no beam is valid (each NaN, infinite, "
+        "negative, under the sensor's least range or beyond its greatest): nothing to map"
     )
 
 

@@ -23,7 +23,7 @@ from maps.errors import (
     TransformError,
 )
 from maps.grid import OccupancyGrid
-from maps.limits import pose_jump
+from maps.limits import no_valid_beam, pose_jump
 from maps.scan import Keyframe, LaserScan
 from maps.tf import TOLERANCE, TransformTree, yaw_from_quaternion
 
@@ -259,8 +259,9 @@ def read_bag_scans(
     TransformError
         If no scan can be placed by tf: the message names the missing link and its span.
     LogFormatError
-        If the bag cannot be read, the topics are missing or ambiguous, or the laser jumps
-        farther than :data:`~maps.limits.MAX_POSE_JUMP` between two scans.
+        If the bag cannot be read, the topics are missing or ambiguous, the laser jumps
+        farther than :data:`~maps.limits.MAX_POSE_JUMP` between two scans, or no beam of
+        the placed scans is valid.
 
     Examples
     --------
@@ -318,6 +319,9 @@ def read_bag_scans(
         except InvalidScanError as err:
             raise LogFormatError(str(err), path=path, field="/tf") from err
     _check_jumps(placed.keyframes, path, scan_name)
+    problem = no_valid_beam(placed.keyframes)
+    if problem is not None:
+        raise LogFormatError(problem, path=path, field=scan_name)
     return placed
 
 

@@ -272,6 +272,16 @@ def test_a_laser_line_with_fields_after_its_host_name_is_refused(tmp_path, tail,
         read_carmen(path)
 
 
+@pytest.mark.parametrize("reading", ["nan", "-1", "inf", "0", "1e-300", "1e9"])
+def test_a_log_without_one_valid_beam_is_refused(tmp_path, reading):
+    path = tmp_path / "blind.log"
+    path.write_text(_flaser(3, [reading] * 3) * 2)
+    with pytest.raises(LogFormatError, match=r"blind\.log: 2 scans of 6 beams read.*no beam"):
+        read_carmen(path)
+    path.write_text(_flaser(3, [reading] * 3) + _flaser(3, [reading, 2.0, reading]))
+    assert len(read_carmen(path)) == 2  # one beam is enough
+
+
 def test_a_good_flaser_line_is_read_exactly(tmp_path):
     path = tmp_path / "ok.log"
     path.write_text(_flaser(3, [1.0, 2.0, 3.0]))

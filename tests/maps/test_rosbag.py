@@ -11,7 +11,7 @@ from maps.rosbag import read_bag_scans, read_rosbag
 from tests.maps.bags import Robot, compose, drift, inverse, map_bag, tf_bag
 
 
-def _messages(store, increment=0.5, far=False):
+def _messages(store, increment=0.5, far=False, blind=False):
     t = store.types
     time = t["builtin_interfaces/msg/Time"]
     fields = t["std_msgs/msg/Header"].__dataclass_fields__
@@ -22,7 +22,7 @@ def _messages(store, increment=0.5, far=False):
     scans, poses = [], []
     for i in range(5):
         stamp = time(sec=10 + i, nanosec=500_000_000)
-        ranges = np.array([1.0, 2.0, np.inf], np.float32)
+        ranges = np.array([np.nan, -1.0, np.inf] if blind else [1.0, 2.0, np.inf], np.float32)
         scans.append(
             t["sensor_msgs/msg/LaserScan"](
                 header=header(stamp=stamp, frame_id="laser"),
@@ -54,8 +54,8 @@ def _messages(store, increment=0.5, far=False):
     return scans, poses
 
 
-def _write(writer, store, ros1, increment=0.5, far=False):
-    scans, poses = _messages(store, increment, far)
+def _write(writer, store, ros1, increment=0.5, far=False, blind=False):
+    scans, poses = _messages(store, increment, far, blind)
     kwargs = {"typestore": store}
     scan_c = writer.add_connection("/scan", "sensor_msgs/msg/LaserScan", **kwargs)
     pose_c = writer.add_connection("/pose", "geometry_msgs/msg/PoseStamped", **kwargs)
@@ -114,6 +114,14 @@ def test_a_laser_jumping_far_between_scans_names_bag_and_messages(tmp_path):
     with Writer1(path) as writer:
         _write(writer, store, True, far=True)  # the pose at 13 s is 5 km off: scan 2 jumps
     with pytest.raises(LogFormatError, match=r"far\.bag.*/scan message 2.*jumps.*message 1"):
+        read_rosbag(path)
+
+
+def test_a_bag_without_one_valid_beam_is_refused(tmp_path):
+    store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "blind.bag"
+    with Writer1(path) as writer:
+        _write(writer, store, True, blind=True)
+    with pytest.raises(LogFormatError, match=r"blind\.bag.*5 scans of 15 beams.*no beam"):
         read_rosbag(path)
 
 

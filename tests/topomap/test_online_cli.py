@@ -119,6 +119,20 @@ def test_online_writes_its_folder_at_once_and_honours_no_picture(short_log, tmp_
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "short.log"]
 
 
+def test_online_refuses_a_run_without_a_region(short_log, tmp_path, capsys):
+    blind = tmp_path / "blind.log"
+    with short_log.open() as log:  # every beam 2 cm: valid, but no free space seen
+        lines = [line.split() for line in log]
+    blind.write_text(
+        "".join(
+            " ".join([*t[:2], *["0.02"] * int(t[1]), *t[2 + int(t[1]) :]]) + "\n" for t in lines
+        )
+    )
+    assert _online(blind, tmp_path / "out") == 2
+    assert "blind.log: no region" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 @given(
     st.lists(st.tuples(st.integers(0, 5), st.integers(0, 3)), min_size=2, max_size=60),
 )

@@ -29,6 +29,7 @@ from maps.files import OutputFolder, write_text
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array
+from segmentation.errors import SegmentationError
 from segmentation.events import Event
 from segmentation.graph import region_graph
 from segmentation.incremental import IncrementalSegmenter
@@ -357,6 +358,8 @@ def segment_online(
         An output exists and not ``overwrite``.
     MapTooLargeError
         The keyframes spread farther than memory allows; naming ``source``.
+    SegmentationError
+        No region was found (the keyframes saw no free space).
     """
     from segmentation.export import (
         write_geojson,
@@ -389,6 +392,11 @@ def segment_online(
         online = run.online
         regions, graph, keyframe_regions = dense_regions(grid, keyframes, online.labels_)
         dense_seconds = time.perf_counter() - start
+        if graph.number_of_nodes() == 0:  # as the offline command refuses a map without space
+            raise SegmentationError(
+                f"{source}: no region: the {len(keyframes)} keyframes saw no free space a "
+                f"robot fits in ({int(grid.free.sum())} free cells on the map)"
+            )
         written = [
             write_label_image(regions.labels, work / "regions.png"),
             write_graphml(graph, work / "graph.graphml"),
