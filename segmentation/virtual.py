@@ -16,6 +16,11 @@ from segmentation.errors import ParameterError, SegmentationError
 
 #: The default virtual laser: a full circle of 180 beams reaching 15 m, no noise.
 VIRTUAL_LASER = LaserModel(fov=2 * math.pi, beams=180, max_range=15.0)
+#: Virtual keyframes a map may get. The benchmark segments 10,000 keyframes in under 5 s;
+#: twice that is still a minute's work and a few GB, while a fine lattice over a large map
+#: (office_a at 0.2 m: 35,000) takes many minutes and exhausts memory in the keyframes'
+#: views. A finer lattice than this is a typo or a map that needs a larger spacing.
+MAX_VIRTUAL_KEYFRAMES = 20_000
 
 
 def virtual_poses(
@@ -35,6 +40,8 @@ def virtual_poses(
     ------
     SegmentationError
         The grid has no cell with that clearance.
+    ParameterError
+        The lattice would hold more than :data:`MAX_VIRTUAL_KEYFRAMES` poses.
     """
     if not spacing > 0 or not min_clearance >= 0:
         raise ParameterError(
@@ -62,6 +69,14 @@ def virtual_poses(
     if len(wanted):
         rows, cols = most_open_cells(clearance, pieces, wanted)
         chosen[rows, cols] = True
+    count = int(np.count_nonzero(chosen))
+    if count > MAX_VIRTUAL_KEYFRAMES:
+        area = np.count_nonzero(open_space) * grid.resolution**2
+        raise ParameterError(
+            f"spacing {spacing:g} m would put {count} virtual keyframes on the map's "
+            f"{area:.0f} m^2 of free space, more than the {MAX_VIRTUAL_KEYFRAMES} allowed: "
+            "give a larger spacing (--spacing)"
+        )
     rows, cols = np.nonzero(chosen)
     x, y = grid.cell_to_world(rows, cols)
     return np.column_stack([x, y, np.zeros(len(rows))])

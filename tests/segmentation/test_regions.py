@@ -7,11 +7,11 @@ from skimage.measure import label as connected
 
 import maps
 from maps.grid import OccupancyGrid
-from segmentation.errors import SegmentationError
+from segmentation.errors import ParameterError, SegmentationError
 from segmentation.refine import basins, merge_open_boundaries
 from segmentation.regions import Regions, dense_labels
 from segmentation.transitions import find_transitions
-from segmentation.virtual import virtual_poses
+from segmentation.virtual import MAX_VIRTUAL_KEYFRAMES, virtual_poses
 
 
 @st.composite
@@ -74,6 +74,13 @@ def test_virtual_poses_cover_every_room_and_avoid_walls():
     rows, cols = plan.grid.world_to_cell(poses[:, 0], poses[:, 1])
     assert np.all(plan.grid.clearance()[rows, cols] >= 0.2)
     assert set(plan.labels[rows, cols]) == set(range(1, plan.n_rooms + 1))
+
+
+def test_a_lattice_of_too_many_virtual_keyframes_is_refused():
+    grid = maps.OccupancyGrid(np.zeros((200, 200), np.int8), 0.05)  # 10 x 10 m, all free
+    with pytest.raises(ParameterError, match=r"spacing 0.05 m would put \d+ virtual keyframes"):
+        virtual_poses(grid, spacing=0.05)
+    assert len(virtual_poses(grid, spacing=0.1)) <= MAX_VIRTUAL_KEYFRAMES
 
 
 def test_a_map_without_free_space_is_an_error():
