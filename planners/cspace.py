@@ -30,6 +30,10 @@ from planners.workspace import crop_grid
 
 #: Heading bins of a configuration space by default.
 HEADINGS = 64
+#: Cells a side of a footprint's dilation kernel may have: each heading tests its cells one by
+#: one (64 headings of 301 x 301 cells, a 10 x 10 m robot on 5 cm cells, take 5 s; 747 x 747
+#: on 2 cm cells 31 s), so a large robot on a fine map would take minutes and gigabytes.
+MAX_KERNEL_SIDE = 501
 
 
 def bin_turn(robot: Footprint, headings: int) -> float:
@@ -45,6 +49,11 @@ def footprint_kernels(
     pose in that bin (``R`` the kernel's middle). ``yaw`` is the grid's rotation in the map
     frame.
 
+    Raises
+    ------
+    PlannerParameterError
+        The kernel would be wider than :data:`MAX_KERNEL_SIDE` cells.
+
     Examples
     --------
     >>> from planners.robots import rectangle
@@ -55,6 +64,12 @@ def footprint_kernels(
     turn = bin_turn(robot, headings)
     reach = robot.circumradius + turn + margin + resolution
     size = math.ceil(reach / resolution)
+    if 2 * size + 1 > MAX_KERNEL_SIDE:
+        raise PlannerParameterError(
+            f"the robot's footprint, grown to {reach:.3g} m from its reference point, spans "
+            f"{2 * size + 1} cells of {resolution:g} m, more than {MAX_KERNEL_SIDE}: plan on a "
+            "coarser map or with a smaller robot"
+        )
     offsets = np.arange(-size, size + 1) * resolution
     i, j = np.meshgrid(offsets, offsets[::-1])  # rows go down, the lattice's v up
     # obstacle cells whose square, grown by a cell, meets the grown footprint

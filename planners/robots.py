@@ -13,6 +13,11 @@ Four models, parsed from short specs by :func:`parse_robot`:
 
 Footprints are in the robot frame, metres, x forward; the robot's reference point (the pose
 ``(x, y, yaw)``) is the origin. A rectangle ``LxW`` is centred on it.
+
+Every length (radius, side, turning radius) and every footprint point's distance from the
+reference point is at most :data:`~maps.limits.MAX_ROBOT_RADIUS` (10 m, the bound of
+``--robot-radius``): a mobile robot is no larger, and a larger one would only make the
+planners' kernels exhaust memory.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from maps.limits import MAX_ROBOT_RADIUS
 from planners.errors import PlannerParameterError
 
 if TYPE_CHECKING:
@@ -41,6 +47,8 @@ def _positive(value: Any, what: str) -> float:
         raise RobotSpecError(f"{what} must be a number of metres, got {value!r}") from None
     if not (math.isfinite(number) and number > 0):
         raise RobotSpecError(f"{what} must be positive and finite, got {value!r}")
+    if number > MAX_ROBOT_RADIUS:
+        raise RobotSpecError(f"{what} must be at most {MAX_ROBOT_RADIUS:g} m, got {value!r}")
     return number
 
 
@@ -97,6 +105,12 @@ class Footprint:
         shape = Polygon(p)
         if not shape.is_valid or shape.area <= 0:
             raise RobotSpecError(f"the footprint {p.tolist()} is not a simple polygon")
+        reach = float(np.hypot(*p.T).max())
+        if reach > MAX_ROBOT_RADIUS:
+            raise RobotSpecError(
+                f"the footprint reaches {reach:.3g} m from the robot's reference point, more "
+                f"than {MAX_ROBOT_RADIUS:g} m"
+            )
         p.setflags(write=False)
         object.__setattr__(self, "polygon", p)
 

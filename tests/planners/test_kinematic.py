@@ -51,12 +51,24 @@ def test_specs_give_their_models(spec, kind):
         ("dubins:footprint=0.6x0.4", "radius=R"),
         ("reeds-shepp:radius=1,footprint=1x1,speed=2", "speed"),
         ("tank:1", "'tank:1'"),
+        ("rect:1e6x0.1", "footprint length must be at most 10 m, got '1e6'"),
+        ("disc:1000", "robot radius must be at most 10 m"),
+        ("dubins:radius=1,footprint=1e5x1e5", "footprint length must be at most 10 m"),
+        ("reeds-shepp:radius=50,footprint=1x1", "turning radius must be at most 10 m"),
     ],
 )
 def test_bad_specs_are_typed_errors_naming_the_value(spec, named):
     with pytest.raises(RobotSpecError, match=named) as caught:
         parse_robot(spec)
     assert isinstance(caught.value, PlanningError) and isinstance(caught.value, ValueError)
+
+
+def test_a_footprint_too_large_for_its_kernel_is_refused_before_building_it():
+    with pytest.raises(RobotSpecError, match=r"reaches 14\.1 m"):
+        Footprint(rectangle(10, 10) * 2)
+    grid = OccupancyGrid(np.zeros((20, 20), np.int8), resolution=0.005)
+    with pytest.raises(PlannerParameterError, match=r"spans 2973 cells of 0\.005 m, more than 501"):
+        HeadingCSpace(grid, parse_robot("rect:10x10"))
 
 
 def _blobs(seed: int) -> OccupancyGrid:
