@@ -8,6 +8,7 @@ raw, ``negate`` inverts the grey values, and a pixel is occupied when
 
 from __future__ import annotations
 
+import stat
 from pathlib import Path
 from typing import Any
 
@@ -85,6 +86,51 @@ def _cell_table(
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: Bytes a map_server YAML may have (a real one has a few hundred).
 MAX_YAML_BYTES = 1 << 20
+#: Bytes of a PBM/PGM/PPM header (its comments included) read to learn the image's size.
+MAX_PNM_HEADER_BYTES = 1 << 20
+#: Digits a PBM/PGM/PPM header's width, height or maxval may have: no map is 10^10 cells wide
+#: (:data:`maps.limits.MAX_CELLS`), and a longer number is never turned into a huge integer.
+MAX_PNM_DIGITS = 10
+
+_KINDS = (
+    (stat.S_ISDIR, "a folder"),
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISCHR, "a device"),
+    (stat.S_ISBLK, "a device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _unreadable(path: Path, field: str | None, err: OSError) -> MapFormatError:
+    return MapFormatError(f"cannot be read ({err.strerror or err})", path=path, field=field)
+
+
+def check_input_file(path: str | Path, what: str = "file", *, field: str | None = None) -> Path:
+    """``path`` as a :class:`~pathlib.Path` once it is known to be a regular file this user
+    may read (opened and closed: a FIFO or a device is never opened).
+
+    Raises
+    ------
+    MapFileNotFoundError
+        Nothing is at ``path`` (``what`` names it).
+    MapFormatError
+        A folder, FIFO or device is, or it cannot be opened (no permission, a name too long).
+    """
+    path = Path(path)
+    try:
+        mode = path.stat().st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        raise MapFileNotFoundError(path, what) from None
+    except OSError as err:
+        raise _unreadable(path, field, err) from None
+    if not stat.S_ISREG(mode):
+        kind = next((name for test, name in _KINDS if test(mode)), "not a file")
+        raise MapFormatError(f"{what} is {kind}, not a regular file", path=path, field=field)
+    try:
+        path.open("rb").close()
+    except OSError as err:
+        raise _unreadable(path, field, err) from None
+    return path
 
 
 def _pnm_header(data: bytes, path: Path) -> tuple[str, int, int, int, int]:
@@ -103,9 +149,15 @@ def _pnm_header(data: bytes, path: Path) -> tuple[str, int, int, int, int]:
         start = at
         while at < len(data) and data[at : at + 1].isdigit():
             at += 1
+        name = ("width", "height", "maxval")[len(values)]
         if start == at:
-            names = ("width", "height", "maxval")[len(values)]
-            raise MapFormatError(f"{magic} header has no {names}", path=path, field="image")
+            raise MapFormatError(f"{magic} header has no {name}", path=path, field="image")
+        if at - start > MAX_PNM_DIGITS:
+            raise MapFormatError(
+                f"{magic} header's {name} has {at - start} digits (at most {MAX_PNM_DIGITS})",
+                path=path,
+                field="image",
+            )
         values.append(int(data[start:at]))
     maxval = values[2] if wanted == 3 else 1
     if not 1 <= maxval <= 65535:
@@ -117,8 +169,13 @@ def image_size(path: str | Path, *, field: str | None = None) -> tuple[int, int]
     """``(height, width)`` of a PNG or PBM/PGM/PPM image from its header alone (nothing is
     decoded), or None for other formats."""
     path = Path(path)
-    with path.open("rb") as stream:
-        head = stream.read(4096)
+    try:
+        with path.open("rb") as stream:
+            head = stream.read(4096)
+            if head[:1] == b"P":  # a header's comments may be long
+                head += stream.read(MAX_PNM_HEADER_BYTES - len(head))
+    except OSError as err:
+        raise _unreadable(path, field, err) from None
     if head.startswith(PNG_SIGNATURE) and len(head) >= 24 and head[12:16] == b"IHDR":
         return int.from_bytes(head[20:24], "big"), int.from_bytes(head[16:20], "big")
     if len(head) >= 2 and head[:1] == b"P" and head[1:2] in b"123456":
@@ -131,7 +188,10 @@ def _read_pnm(path: Path, field: str | None) -> NDArray[np.uint8] | None:
     """A grey or colour PGM/PPM image scaled by its maxval to 0..255 as ROS map_server does
     (OpenCV reads a binary PGM of maxval 100 unscaled: its white would be occupied); None for
     other files, which OpenCV reads."""
-    data = path.read_bytes()
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise _unreadable(path, field, err) from None
     if data[:2] not in (b"P2", b"P3", b"P5", b"P6"):
         return None
     magic, width, height, maxval, offset = _pnm_header(data, path)
@@ -143,7 +203,7 @@ def _read_pnm(path: Path, field: str | None) -> NDArray[np.uint8] | None:
         dtype = np.dtype(">u2") if maxval > 255 else np.dtype(np.uint8)
         if len(data) - offset < count * dtype.itemsize:
             raise MapFormatError(
-                f"image data is cut short: {len(data) - offset} bytes, expected "
+                f"image data is cut short: {max(0, len(data) - offset)} bytes, expected "
                 f"{count * dtype.itemsize} for {width} x {height} pixels",
                 path=path,
                 field=field,
@@ -155,6 +215,13 @@ def _read_pnm(path: Path, field: str | None) -> NDArray[np.uint8] | None:
         if len(tokens) < count or not all(token.isdigit() for token in tokens[:count]):
             raise MapFormatError(
                 f"image data is cut short or not numbers: expected {count} values",
+                path=path,
+                field=field,
+            )
+        longest = max(tokens[:count], key=lambda token: len(token.lstrip(b"0")))
+        if len(longest.lstrip(b"0")) > 5:  # above any maxval, and perhaps any int64
+            raise MapFormatError(
+                f"pixel value {_short(longest.decode())} is above maxval {maxval}",
                 path=path,
                 field=field,
             )
@@ -183,13 +250,12 @@ def read_image(path: str | Path, *, field: str | None = None) -> NDArray[np.uint
     MapFileNotFoundError
         If the file does not exist.
     MapFormatError
-        If it is not an image OpenCV can decode, or is cut short.
+        If it is not a regular file this user may read, not an image OpenCV can decode, or
+        is cut short.
     MapTooLargeError
         If its header asks for more pixels than this machine can hold.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise MapFileNotFoundError(path, "image")
+    path = check_input_file(path, "image", field=field)
     size = image_size(path, field=field)
     if size is not None:
         check_map_size(*size, what="image", path=path, field=field)
@@ -261,7 +327,7 @@ def _short(text: str, limit: int = 200) -> str:
 def parse_yaml(path: str | Path, *, limit: int = MAX_YAML_BYTES) -> Any:
     """The data of a small YAML file (data only: ``safe_load``), every failure a one-line
     :class:`MapFormatError` naming the file and line."""
-    path = Path(path)
+    path = check_input_file(path, "YAML")
     size = path.stat().st_size
     if size > limit:
         raise MapFormatError(
@@ -269,6 +335,8 @@ def parse_yaml(path: str | Path, *, limit: int = MAX_YAML_BYTES) -> Any:
         )
     try:
         return yaml.safe_load(path.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise _unreadable(path, None, err) from None
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         line = None if mark is None else mark.line + 1
@@ -300,14 +368,13 @@ def load_map(path: str | Path) -> OccupancyGrid:
     MapFileNotFoundError
         If the YAML or its image does not exist.
     MapFormatError
-        If a field is missing or wrong (named in the message) or the image is unreadable.
+        If either is not a regular file this user may read, a field is missing or wrong
+        (named in the message) or the image is unreadable.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise MapFileNotFoundError(path, "map YAML")
+    path = check_input_file(path, "map YAML")
     doc = _parse_yaml(path)
     image = doc.get("image")
-    if not isinstance(image, str) or not image:
+    if not isinstance(image, str) or not image or not image.isprintable():
         raise MapFormatError(
             f"expected an image file name, got {image!r}", path=path, field="image"
         )

@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from maps.errors import MapFileNotFoundError
 from maps.files import OutputFolder, write_text
 from maps.grid import OccupancyGrid
+from maps.map_server import check_input_file
 from maps.scan import Keyframe
 from segmentation.errors import ExportFormatError
 from segmentation.export import (
@@ -216,15 +217,15 @@ def load(folder: str | Path) -> Saved:
     ------
     MapFileNotFoundError
         A file is missing.
+    MapFormatError
+        A file that cannot be read (not a regular file, no permission, a name too long).
     ExportFormatError
         Not a topomap folder, one of a newer version, or files that do not belong together
         (label image and map of different sizes, graph nodes that are not the regions, a file
         changed since it was saved).
     """
     folder = Path(folder)
-    info = folder / "topomap.json"
-    if not info.is_file():
-        raise MapFileNotFoundError(info, "topomap.json (written by TopoMap.save)")
+    info = check_input_file(folder / "topomap.json", "topomap.json (written by TopoMap.save)")
     try:
         about = json.loads(info.read_text())
         seconds = {str(k): float(v) for k, v in about.get("seconds", {}).items()}

@@ -40,6 +40,7 @@ from maps.rosbag import read_rosbag, read_rosbag_map
 from maps.scan import Keyframe, LaserScan
 from maps.tf import TransformTree
 from tests.maps.test_rosbag import _write
+from topomap.saving import load
 
 YAML = "image: img.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 0\n"
 THRESHOLDS = "occupied_thresh: 0.65\nfree_thresh: 0.196\n"
@@ -235,6 +236,46 @@ def test_ascii_pgm_and_truncated_pgm(tmp_path):
     path.write_bytes(b"P5\n3 1\n255\n\x00\x00\xff" if False else b"P5\n1 1\n10\n\x20")
     with pytest.raises(MapFormatError, match="above maxval 10"):
         read_image(path)
+
+
+def test_pnm_numbers_too_long_and_headers_too_long_for_4_kb(tmp_path):
+    path = tmp_path / "img.pgm"
+    for image, shown in [
+        (b"P5\n" + b"9" * 400 + b" 2\n255\n\0\0", r"width has 400 digits \(at most 10\)"),
+        (b"P2\n1 1\n255\n" + b"9" * 23 + b"\n", "pixel value 9{23} is above maxval 255"),
+        (b"P5\n10 10\n255", "cut short: 0 bytes, expected 100"),
+    ]:
+        path.write_bytes(image)
+        with pytest.raises(MapFormatError, match=shown):
+            read_image(path)
+    path.write_bytes(b"P5\n#" + b"x" * 5000 + b"\n2 1\n255\n\xfe\x00")
+    assert read_image(path).tolist() == [[254, 0]]
+
+
+def test_a_map_file_that_is_no_regular_file_or_cannot_be_read(tmp_path, monkeypatch):
+    yaml = _map(tmp_path)
+    image = tmp_path / "img.pgm"
+    long_name = "a" * 300 + ".pgm"
+    os.mkfifo(tmp_path / "fifo.pgm")
+    (tmp_path / "dir.pgm").mkdir()
+    for name, shown in [
+        ("fifo.pgm", "image is a FIFO, not a regular file"),
+        ("dir.pgm", "image is a folder, not a regular file"),
+        ("/dev/zero", "image is a device, not a regular file"),
+        (long_name, r"cannot be read \(File name too long\)"),
+    ]:
+        yaml.write_text(f"image: {name}\n" + (YAML + THRESHOLDS).split("\n", 1)[1])
+        with pytest.raises(MapFormatError, match=shown) as info:
+            load_map(yaml)
+        assert info.value.field == "image"
+    with pytest.raises(MapFormatError, match=r"cannot be read \(File name too long\)"):
+        load(tmp_path / ("x" * 300))
+    yaml = _map(tmp_path)
+    for denied in (yaml, image):
+        with monkeypatch.context() as patch:
+            patch.setattr(Path, "open", _denied(Path.open, denied))
+            with pytest.raises(MapFormatError, match=r"cannot be read \(Permission denied\)"):
+                load_map(yaml)
 
 
 def _flaser(n, values, pose=(1.0, 2.0, 0.5)):
