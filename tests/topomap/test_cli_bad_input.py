@@ -148,6 +148,23 @@ def test_plan_draw_is_never_overwritten_without_force(tmp_path, capsys, plan_map
     assert drawing.read_bytes() == b"mine"
 
 
+@pytest.mark.parametrize("name", ["path.txt", "path"])
+def test_plan_draw_that_is_no_png_is_refused_before_planning(tmp_path, capsys, plan_map, name):
+    argv = [
+        "plan",
+        str(plan_map),
+        "--start",
+        "1,1",
+        "--goal",
+        "2,2",
+        "--draw",
+        str(tmp_path / name),
+    ]
+    assert main(argv) == 2
+    assert f"--draw '{tmp_path / name}': the picture is a PNG" in _error_line(capsys)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_export_refuses_a_folder_as_its_file(tmp_path, capsys, plan_map):
     (tmp_path / "route.geojson").mkdir()
     argv = ["export", str(plan_map), "--nav2-route", str(tmp_path / "route.geojson")]

@@ -47,6 +47,10 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from topomap.labels import find_region
 
     if args.draw is not None:
+        if Path(args.draw).suffix.lower() != ".png":
+            raise UsageError(
+                f"--draw {args.draw!r}: the picture is a PNG, give a name ending in .png"
+            )
         check_output_file(args.draw, overwrite=args.force, how="--force")
     spec = robot_spec(args)
     robot = Disc(args.robot_radius) if spec is None else parse_robot(spec)
