@@ -31,6 +31,11 @@ def _blocking_file(path: Path) -> Path | None:
     return None
 
 
+def _dangling_link(path: Path) -> Path | None:
+    """The first of ``path`` and its parents that is a symbolic link to nothing, if any."""
+    return next((p for p in (path, *path.parents) if p.is_symlink() and not p.exists()), None)
+
+
 def _not_writable(folder: Path, err: OSError) -> OutputPathError:
     """The typed error of an ``OSError`` met writing ``folder`` (or looking into it)."""
     kind = OutputNotWritableError if isinstance(err, PermissionError) else OutputPathError
@@ -46,7 +51,7 @@ def check_output_folder(folder: str | Path) -> Path:
     Raises
     ------
     OutputNotAFolderError
-        ``folder`` or one of its parents is a file.
+        ``folder`` or one of its parents is a file, or a symbolic link to nothing.
     OutputNotWritableError
         ``folder``, or the nearest existing parent it would be made in, may not be written,
         or a parent may not be looked into.
@@ -55,8 +60,15 @@ def check_output_folder(folder: str | Path) -> Path:
     try:
         blocking = folder if folder.exists() and not folder.is_dir() else _blocking_file(folder)
         nearest = next(p for p in (folder, *folder.parents) if p.exists())
+        dangling = _dangling_link(folder)
     except OSError as err:  # a parent that may not be looked into
         raise _not_writable(folder, err) from None
+    if dangling is not None:
+        raise OutputNotAFolderError(
+            folder,
+            f"{dangling} is a symbolic link to {os.readlink(dangling)}, which does not exist: "
+            f"cannot write {folder}",
+        )
     if blocking is not None:
         raise OutputNotAFolderError(
             folder, f"{blocking} is a file, not a folder: cannot write {folder}"
@@ -123,7 +135,10 @@ def written(
     'done'
     """
     path = check_output_file(path, overwrite=overwrite, how=how)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as err:  # a folder the checks allowed but the system refuses (/proc)
+        raise _not_writable(path.parent, err) from None
     partial = _temporary(path)
     try:
         yield partial

@@ -29,10 +29,11 @@ from maps.errors import (
     OutputIsAFolderError,
     OutputNotAFolderError,
     OutputNotWritableError,
+    OutputPathError,
     TopomapError,
     TransformError,
 )
-from maps.files import OutputFolder, check_output_file, write_text, written
+from maps.files import OutputFolder, check_output_file, check_output_folder, write_text, written
 from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from maps.map_server import load_map, read_image
 from maps.mapping import grid_from_keyframes
@@ -419,6 +420,22 @@ def test_an_output_folder_that_cannot_be_made_is_a_typed_error(tmp_path, monkeyp
     with pytest.raises(OutputNotWritableError, match=r"cannot write .*out: Permission denied"):
         folder.__enter__()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_output_under_a_dangling_link_or_a_folder_the_system_refuses(tmp_path, monkeypatch):
+    link = tmp_path / "out"
+    link.symlink_to(tmp_path / "missing")
+    for folder in (link, link / "sub"):
+        with pytest.raises(OutputNotAFolderError, match=r"out is a symbolic link to .*missing"):
+            check_output_folder(folder)
+    refused = tmp_path / "proc" / "nope"
+
+    def mkdir(self, *args, **kwargs):
+        raise FileNotFoundError(2, "No such file or directory", str(self))
+
+    monkeypatch.setattr(Path, "mkdir", mkdir)
+    with pytest.raises(OutputPathError, match=r"cannot write .*nope: No such file or directory"):
+        write_text(refused / "x.html", "x")
 
 
 def test_a_log_or_bag_that_cannot_be_read_is_a_typed_error(tmp_path, monkeypatch):
