@@ -165,6 +165,14 @@ def test_plan_draw_that_is_no_png_is_refused_before_planning(tmp_path, capsys, p
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("out", ["", " "])
+def test_an_empty_output_path_is_a_usage_error(tmp_path, capsys, plan_map, monkeypatch, out):
+    monkeypatch.chdir(tmp_path)
+    assert main(["segment", str(plan_map), "--out", out]) == 2
+    assert "--out: an output path cannot be empty" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_export_refuses_a_folder_as_its_file(tmp_path, capsys, plan_map):
     (tmp_path / "route.geojson").mkdir()
     argv = ["export", str(plan_map), "--nav2-route", str(tmp_path / "route.geojson")]

@@ -75,8 +75,18 @@ def add_output_options(
 ) -> None:
     """``--out`` (required unless ``out`` is its default; ``where``: its help) and
     ``--force`` (``force``: its help)."""
-    parser.add_argument("--out", required=out is None, default=out, help=where)
+    parser.add_argument("--out", type=output_path, required=out is None, default=out, help=where)
     parser.add_argument("--force", action="store_true", help=force)
+
+
+def output_path(text: str) -> str:
+    """``--out``: a path that is not empty (an empty one would write into the current folder).
+
+    An argparse type, so an empty path is a usage error before any work.
+    """
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"an output path cannot be empty, got {text!r}")
+    return text
 
 
 def add_picture_option(parser: argparse.ArgumentParser, picture: str) -> None:
