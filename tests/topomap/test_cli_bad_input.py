@@ -9,10 +9,13 @@ import importlib
 import json
 from pathlib import Path
 
+import cv2
+import numpy as np
 import pytest
 import yaml
 
 from maps.errors import MapFileNotFoundError, MapFormatError, OutputExistsError
+from maps.grid import OccupancyGrid
 from maps.sim.floorplan import generate_floor_plan
 from segmentation.errors import ExportFormatError
 from topomap.cli.batch import BatchOptions, process, scheduler_address
@@ -383,3 +386,43 @@ def test_sigterm_while_writing_is_one_line_status_143_and_leaves_nothing(
     assert capsys.readouterr().err.strip() == "topomap: terminated; no output was left half-written"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.log"]
     assert signal.getsignal(signal.SIGTERM) is before
+
+
+def _eval_data(folder: Path, plan_map: Path, rooms: np.ndarray, anchors: str | None) -> Path:
+    """An ipa-layout data folder: the plan, its people's rooms, and an anchors.csv."""
+    folder.mkdir()
+    grid = OccupancyGrid.load(plan_map)
+    grid.save(folder / "m.yaml")
+    cv2.imwrite(str(folder / "m_gt_labels.png"), rooms.astype(np.uint16))
+    if anchors is not None:
+        (folder / "anchors.csv").write_text(anchors)
+    return folder
+
+
+@pytest.mark.parametrize(
+    "case, shown",
+    [
+        ("no map column", "line 2, field 'map': missing"),
+        ("not a number", "field 'mcc': expected a number, got 'high'"),
+        ("rooms the wrong size", "people's rooms are 10 x 10 cells"),
+        ("no room", "no room drawn"),
+    ],
+)
+def test_eval_segment_refuses_bad_truth_before_scoring(tmp_path, capsys, plan_map, case, shown):
+    grid = OccupancyGrid.load(plan_map)
+    rooms = np.where(grid.free, 1, 0)
+    header = "map,furnished,method,recall_micro,precision_micro,mcc,runtime_s\n"
+    anchors = header + "m,0,other,0.9,0.9,0.8,1\n"
+    if case == "no map column":
+        anchors = "furnished,method\n0,other\n"
+    elif case == "not a number":
+        anchors = header + "m,0,other,0.9,0.9,high,1\n"
+    elif case == "rooms the wrong size":
+        rooms = np.ones((10, 10))
+    elif case == "no room":
+        rooms = np.zeros(grid.shape)
+    data = _eval_data(tmp_path / "data", plan_map, rooms, anchors)
+    out = tmp_path / "out"
+    assert main(["-q", "eval", "segment", str(data), "--out", str(out)]) == 2
+    assert shown in _error_line(capsys)
+    assert not out.exists()

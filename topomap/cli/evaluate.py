@@ -15,9 +15,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from maps.errors import MapFileNotFoundError
+from maps.errors import MapFileNotFoundError, MapFormatError
 from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
-from maps.map_server import grid_from_image
+from maps.limits import check_map_size
+from maps.map_server import grid_from_image, image_size
 from segmentation.export import read_label_image
 from segmentation.metrics import colour_labels, rose2_score, score
 from topomap.topomap import pipeline_from_options
@@ -52,6 +53,11 @@ class FloorPlan:
 def read_rooms(path: Path) -> NDArray[np.int32]:
     """People's rooms from a 16-bit label image (ipa) or a colour image (ROSE²: one colour a
     room, black none), told apart by their channels."""
+    if not path.is_file():
+        raise MapFileNotFoundError(path, "people's rooms image")
+    size = image_size(path)
+    if size is not None:
+        check_map_size(*size, what="people's rooms image", path=path)
     image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if image is not None and image.ndim == 3:
         return colour_labels(np.asarray(image[..., :3], np.uint8))
@@ -201,6 +207,14 @@ def evaluate(
     ``cpu_seconds`` its processor time.
     """
     grid, rooms = plan.grid(), plan.rooms()
+    if rooms.shape != grid.shape:
+        raise MapFormatError(
+            f"people's rooms are {rooms.shape[1]} x {rooms.shape[0]} cells, its map "
+            f"{plan.yaml} {grid.shape[1]} x {grid.shape[0]}",
+            path=plan.truth,
+        )
+    if not rooms.any():
+        raise MapFormatError("no room drawn: nothing to score against", path=plan.truth)
     return [
         record
         for factor in cell_factors
@@ -280,38 +294,65 @@ def evaluate_all(
 
 
 def read_anchors(data_dir: str | Path) -> list[dict[str, Any]]:
-    """Rows of ``anchors.csv`` (other systems' scores), numbers parsed; [] if it is absent."""
+    """Rows of ``anchors.csv`` (other systems' scores), numbers parsed; [] if it is absent.
+
+    Raises
+    ------
+    MapFormatError
+        A row without a column the scores need, or a value that is no number (file, line and
+        column named), or a file that is not text.
+    """
     path = Path(data_dir) / "anchors.csv"
     if not path.exists():
         return []
     rows: list[dict[str, Any]] = []
-    with path.open() as stream:
-        for row in csv.DictReader(stream):
-            if "iou_mean_seg" in row:  # ROSE²'s published scores, in %
-                rows.append(
-                    {
-                        "map": row["map"],
-                        "furnished": False,
-                        "variant": row["method"],
-                        "rose2_precision": float(row["prec_micro"]),
-                        "rose2_recall": float(row["rec_micro"]),
-                        "rose2_iou": float(row["iou_mean_seg"]),
-                        "seconds": None,
-                    }
-                )
-                continue
-            rows.append(
-                {
-                    "map": row["map"],
-                    "furnished": row["furnished"] == "1",
-                    "variant": row["method"],
-                    "recall": float(row["recall_micro"]),
-                    "precision": float(row["precision_micro"]),
-                    "mcc": float(row["mcc"]),
-                    "seconds": float(row["runtime_s"]) if row["runtime_s"] else None,
-                }
-            )
+    try:
+        with path.open(encoding="utf-8") as stream:
+            for line, row in enumerate(csv.DictReader(stream), start=2):
+                rows.append(_anchor(row, path, line))
+    except UnicodeDecodeError as err:
+        raise MapFormatError(f"not UTF-8 text ({err.reason})", path=path) from None
     return rows
+
+
+def _anchor(row: dict[str, str], path: Path, line: int) -> dict[str, Any]:
+    """One row of ``anchors.csv`` as a record: ROSE²'s published scores (in %) or another
+    system's on the ipa plans."""
+
+    def value(column: str) -> str:
+        found = row.get(column)
+        if found is None:
+            raise MapFormatError("missing", path=path, line=line, field=column)
+        return found
+
+    def number(column: str) -> float:
+        text = value(column)
+        try:
+            return float(text)
+        except ValueError:
+            raise MapFormatError(
+                f"expected a number, got {text[:40]!r}", path=path, line=line, field=column
+            ) from None
+
+    if "iou_mean_seg" in row:
+        return {
+            "map": value("map"),
+            "furnished": False,
+            "variant": value("method"),
+            "rose2_precision": number("prec_micro"),
+            "rose2_recall": number("rec_micro"),
+            "rose2_iou": number("iou_mean_seg"),
+            "seconds": None,
+        }
+    return {
+        "map": value("map"),
+        "furnished": value("furnished") == "1",
+        "variant": value("method"),
+        "recall": number("recall_micro"),
+        "precision": number("precision_micro"),
+        "mcc": number("mcc"),
+        "seconds": number("runtime_s") if value("runtime_s") else None,
+    }
 
 
 def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[dict[str, Any]]:

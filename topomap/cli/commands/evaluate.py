@@ -98,6 +98,7 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
     shifts = SHIFTS if args.shifts else ((0, 0),)
     rotations = ROTATIONS if args.rotations else (0.0,)
     options = segmenter_options(args)
+    anchors = read_anchors(args.data)  # a malformed file refused before the maps are segmented
     records = evaluate_all(
         args.data,
         progress=args.progress,
@@ -113,7 +114,7 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
     columns += ["ari", "rose2_precision", "rose2_recall", "rose2_iou", "seconds"]
     print(markdown_table(records, columns))
     print()
-    summary = means(records, read_anchors(args.data))
+    summary = means(records, anchors)
     print(
         markdown_table(
             summary,
