@@ -183,6 +183,26 @@ def test_export_refuses_a_folder_as_its_file(tmp_path, capsys, plan_map):
     assert "route.geojson is a folder" in _error_line(capsys)
 
 
+def test_export_writes_nothing_when_a_path_fails_or_two_outputs_collide(tmp_path, capsys, plan_map):
+    route, bag = tmp_path / "route.geojson", tmp_path / "bag"
+    argv = ["-q", "export", str(plan_map), "--nav2-route", str(route), "--rosbag", str(bag)]
+    assert main([*argv, "--path", "1,1", "999,999"]) == 2
+    assert "outside the map" in _error_line(capsys)
+    assert not route.exists() and not bag.exists()
+    same = [
+        "-q",
+        "export",
+        str(plan_map),
+        "--nav2-route",
+        str(route),
+        "--planner-graph",
+        str(route),
+    ]
+    assert main(same) == 2
+    assert "must be different files" in _error_line(capsys)
+    assert not route.exists()
+
+
 # ---------------------------------------------------------------- saved folders
 def _graph_edit(folder: Path, old: str, new: str) -> None:
     path = folder / "graph.graphml"

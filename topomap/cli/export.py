@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 from maps.files import check_output_file, check_outputs
@@ -28,6 +29,13 @@ def run_export(args: argparse.Namespace) -> int:
         raise UsageError("export: give --nav2-route, --planner-graph and/or --rosbag")
     if args.path and args.rosbag is None:
         raise UsageError("--path draws planned paths into the bag: give --rosbag too")
+    files = [Path(out).resolve() for out in (args.nav2_route, args.planner_graph) if out]
+    if args.rosbag is not None:
+        bag = Path(args.rosbag).resolve()
+        if any(file == bag or bag in file.parents for file in files):
+            raise UsageError("--rosbag and the route graph files must be different paths")
+    if len(set(files)) < len(files):
+        raise UsageError("--nav2-route and --planner-graph must be different files")
     for out in (args.nav2_route, args.planner_graph):
         if out is not None:
             check_output_file(out, overwrite=args.force, how="--force")
@@ -36,6 +44,10 @@ def run_export(args: argparse.Namespace) -> int:
         check_outputs(args.rosbag, names, overwrite=args.force, how="--force")
     topo = load_map(args)
     planner = topo.planner(args.robot_radius)
+    paths = [  # planned before anything is written: a query that fails leaves no file
+        planner.plan(_point(topo, planner, start), _point(topo, planner, goal))
+        for start, goal in args.path or []
+    ]
     if args.nav2_route is not None:
         route = building_route_graph(planner)
         write_nav2_route(route, args.nav2_route, overwrite=args.force)
@@ -55,10 +67,6 @@ def run_export(args: argparse.Namespace) -> int:
             f"nodes, {fine.number_of_edges()} edges"
         )
     if args.rosbag is not None:
-        paths = [
-            planner.plan(_point(topo, planner, start), _point(topo, planner, goal))
-            for start, goal in args.path or []
-        ]
         written = write_rosbag(
             topo,
             args.rosbag,
