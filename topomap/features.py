@@ -55,6 +55,10 @@ FEATURES = tuple(FEATURE_UNITS)
 FLOOR_RADIUS_M = 0.2
 #: The medial axis is traced on cells of about this size (m), coarser cells being given as is.
 SKELETON_CELL_M = 0.1
+#: At most this many cells of a region's box are given to the medial axis: a larger region
+#: (a hall over 100 x 100 m) has its axis traced on cells coarser than :data:`SKELETON_CELL_M`
+#: (its widths along the axis read up to two such cells narrow), in seconds, not minutes.
+MAX_AXIS_CELLS = 1_000_000
 #: Notches (furniture against a wall) narrower than twice this (m) are closed, too.
 FURNITURE_GAP_M = 0.5
 #: Widths (m) of a corridor by building practice: 1.2 m (codes' least) to 3 m (wide ones).
@@ -168,7 +172,7 @@ def _shape(mask: NDArray[np.bool_], res: float) -> dict[str, float]:
     # to the edge: half a cell nearer than the nearest outside cell's centre
     floor = (distance[filled] - 0.5) * res
     width = 2 * float(np.percentile(floor, 95))
-    step = max(1, int(SKELETON_CELL_M / res))
+    step = max(1, int(SKELETON_CELL_M / res), math.ceil(math.sqrt(filled.size / MAX_AXIS_CELLS)))
     coarse, cell = distance[::step, ::step] / step, res * step
     axis = medial_axis(filled[::step, ::step], coarse)
     length, mean_width, branches = skeleton_shape(filled[::step, ::step], coarse, cell, axis)

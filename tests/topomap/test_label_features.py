@@ -384,3 +384,17 @@ def test_perimeter_is_scikit_images(mask):
     from topomap.features import perimeter
 
     assert perimeter(mask) == skimage_perimeter(mask)
+
+
+def test_a_region_too_large_for_the_axis_cells_is_traced_on_coarser_cells(monkeypatch):
+    # a 20 x 2 m corridor, its axis traced on cells 3 times as coarse (0.3 m): its length
+    # and its widths along it (sampled a coarse cell from the centre line at worst) hold
+    labels = np.zeros((_cells(4), _cells(22)), np.int32)
+    labels[_cells(1) : _cells(3), _cells(1) : _cells(21)] = 1
+    fine = region_features(*_building(labels))
+    monkeypatch.setattr("topomap.features.MAX_AXIS_CELLS", labels.size // 36)
+    coarse = region_features(*_building(labels))
+    for name in ("skeleton_length_m", "corridor_axis_m"):
+        assert coarse[name][0] == pytest.approx(fine[name][0], rel=0.1), name
+    assert fine["axis_width_median_m"][0] == pytest.approx(2.0, abs=0.1)
+    assert coarse["axis_width_median_m"][0] == pytest.approx(2.0, abs=2 * 0.3)
