@@ -446,3 +446,32 @@ def test_eval_segment_refuses_bad_truth_before_scoring(tmp_path, capsys, plan_ma
     assert main(["-q", "eval", "segment", str(data), "--out", str(out)]) == 2
     assert shown in _error_line(capsys)
     assert not out.exists()
+
+
+def test_a_folder_that_may_not_be_listed_and_workers_that_cannot_start_are_typed(
+    tmp_path, plan_map, monkeypatch
+):
+    import distributed
+
+    from topomap.cli.batch import dask_client
+
+    folder = tmp_path / "maps"
+    folder.mkdir()
+
+    def denied(self):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    with monkeypatch.context() as patch:
+        patch.setattr(Path, "iterdir", denied)
+        with pytest.raises(MapFormatError, match="maps: cannot be read"):
+            find_inputs([str(folder)])
+
+    def no_workers(*args, **kwargs):
+        raise RuntimeError("Nanny failed to start.")
+
+    monkeypatch.setattr(distributed, "LocalCluster", no_workers)
+    with (
+        pytest.raises(SchedulerError, match="cannot start a local Dask cluster"),
+        dask_client(workers=2),
+    ):
+        pass

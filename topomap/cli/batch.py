@@ -232,16 +232,20 @@ def dask_client(workers: int = 2, scheduler: str | None = None) -> Iterator[Any]
             client.run(warm_up)
             yield client
         return
-    with (
-        LocalCluster(
+    try:
+        cluster = LocalCluster(
             n_workers=workers,
             threads_per_worker=1,
             processes=True,
             dashboard_address=":0",  # any free port: several clusters may run at once
             silence_logs=logging.ERROR,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+        )
+    except (OSError, RuntimeError) as err:  # workers that cannot start (no /dev/shm, limits)
+        reason = " ".join(str(err).split())[:200]
+        raise SchedulerError(
+            f"cannot start a local Dask cluster of {workers} worker processes: {reason}"
+        ) from None
+    with cluster, Client(cluster) as client:
         client.run(warm_up)
         yield client
 

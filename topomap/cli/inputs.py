@@ -103,7 +103,11 @@ def _expand(pattern: str) -> list[Path]:
 def _walk(folder: Path) -> list[Path]:
     """Inputs in a folder and its subfolders (not inside a bag), in name order."""
     found = []
-    for entry in sorted(folder.iterdir()):
+    try:
+        entries = sorted(folder.iterdir())
+    except OSError as err:  # no permission to list it
+        raise MapFormatError(f"cannot be read ({err.strerror or err})", path=folder) from None
+    for entry in entries:
         if input_kind(entry) is not None:
             found.append(entry)
         elif entry.is_dir():
