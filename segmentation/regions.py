@@ -216,7 +216,7 @@ class Regions:
         row, col = self.grid.world_to_cell(x, y)
         if not self.grid.contains(row, col):
             return 0
-        return int(self.enclosing[row, col])
+        return int(self.labels[row, col] or self.enclosing[row, col])
 
     def at_points(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.int64]:
         """The region at each map point (or round it, :attr:`enclosing`), 0 where there is
@@ -224,7 +224,10 @@ class Regions:
         rows, cols = self.grid.world_to_cell(x, y)
         inside = self.grid.contains(rows, cols)
         found = np.zeros(np.shape(rows), np.int64)
-        found[inside] = self.enclosing[rows[inside], cols[inside]]
+        found[inside] = self.labels[rows[inside], cols[inside]]
+        off = inside & (found == 0)  # on no region's cells: furniture, an unseen patch?
+        if off.any():
+            found[off] = self.enclosing[rows[off], cols[off]]
         return found
 
     @cached_property
