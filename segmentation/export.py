@@ -215,11 +215,20 @@ def write_colour_image(labels: NDArray[np.integer], path: str | Path, *, overwri
 
 def read_label_image(path: str | Path) -> NDArray[np.int32]:
     """Read a 16-bit label PNG (0 = no region); its size is checked before it is decoded."""
+    image = read_image_unchanged(path, "label image")
+    if image.ndim != 2:
+        raise ExportFormatError(f"{path}: a label image has one channel, found {image.shape[2]}")
+    return image.astype(np.int32)
+
+
+def read_image_unchanged(path: str | Path, what: str = "image") -> NDArray[Any]:
+    """An image as stored (its channels and bit depth kept), its size checked from its header
+    before it is decoded; errors name ``path`` (``what`` says what it is)."""
     if not Path(path).is_file():
-        raise MapFileNotFoundError(path, "label image")
+        raise MapFileNotFoundError(path, what)
     size = image_size(path)
     if size is not None:
-        check_map_size(*size, what="label image", path=path)
+        check_map_size(*size, what=what, path=path)
     try:
         image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     except cv2.error as err:
@@ -227,6 +236,4 @@ def read_label_image(path: str | Path) -> NDArray[np.int32]:
         raise ExportFormatError(f"{path}: OpenCV cannot read it: {reason}") from None
     if image is None:
         raise ExportFormatError(f"{path}: not an image OpenCV can read")
-    if image.ndim != 2:
-        raise ExportFormatError(f"{path}: a label image has one channel, found {image.shape[2]}")
-    return image.astype(np.int32)
+    return np.asarray(image)

@@ -10,16 +10,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
 from maps.errors import MapFileNotFoundError, MapFormatError
 from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
-from maps.limits import check_map_size
-from maps.map_server import grid_from_image, image_size
-from segmentation.export import read_label_image
+from maps.map_server import grid_from_image
+from segmentation.export import read_image_unchanged
 from segmentation.metrics import colour_labels, rose2_score, score
 from topomap.topomap import pipeline_from_options
 
@@ -52,16 +50,11 @@ class FloorPlan:
 
 def read_rooms(path: Path) -> NDArray[np.int32]:
     """People's rooms from a 16-bit label image (ipa) or a colour image (ROSE²: one colour a
-    room, black none), told apart by their channels."""
-    if not path.is_file():
-        raise MapFileNotFoundError(path, "people's rooms image")
-    size = image_size(path)
-    if size is not None:
-        check_map_size(*size, what="people's rooms image", path=path)
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    if image is not None and image.ndim == 3:
+    room, black none), told apart by their channels; sized before they are decoded."""
+    image = read_image_unchanged(path, "people's rooms image")
+    if image.ndim == 3:
         return colour_labels(np.asarray(image[..., :3], np.uint8))
-    return read_label_image(path)  # the labels, or the error that names the file
+    return image.astype(np.int32)
 
 
 def floor_plans(data_dir: str | Path) -> list[FloorPlan]:
