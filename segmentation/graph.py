@@ -35,8 +35,8 @@ def region_graph(
     Returns
     -------
     networkx.Graph
-        Node ``id`` (the region's value in the label image) with ``area_m2``, ``polygon``
-        (shapely, map-frame metres), ``x``, ``y`` (the region's most open free cell: farthest
+        Node ``id`` (the region's value in the label image) with ``area_m2`` (its cells:
+        the floor), ``polygon`` (shapely, map-frame metres; round the furniture inside), ``x``, ``y`` (the region's most open free cell: farthest
         from walls, furniture and unknown space, so a robot can stand there) and
         ``keyframes``.
         Edge ``(a, b)`` with ``doors``: a tuple of :class:`Transition`, widest first, and

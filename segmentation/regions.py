@@ -240,7 +240,9 @@ class Regions:
 
     @cached_property
     def polygons(self) -> dict[int, BaseGeometry]:
-        """Outline of each region in map-frame metres, along cell edges, holes kept.
+        """Outline of each region in map-frame metres, along cell edges: the outline of its
+        :attr:`enclosing` cells, so furniture and unseen patches inside a room are covered;
+        larger holes (a courtyard, a block of rooms a ring corridor goes round) are kept.
 
         Built from the region's rectangles of cells (its runs of cells along each row, a run
         joined with the same run in the rows below), each rectangle's top and bottom edges cut
@@ -249,7 +251,7 @@ class Regions:
         the shared edges without a general overlay (2-4 times faster on ragged SLAM maps; the
         same outline). Coordinates are rounded to the nanometre.
         """
-        labels = self.labels
+        labels = self.enclosing
         height, width = labels.shape
         value, top, bottom, left, right = _rectangles(labels)
         if len(value) == 0:

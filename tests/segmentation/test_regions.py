@@ -42,7 +42,22 @@ def test_regions_partition_the_free_space_into_connected_pieces(case, min_area):
             assert (pieces == piece).sum() * 0.25 < min_area
     regions = Regions(grid, labels)
     for region, polygon in regions.polygons.items():
-        assert polygon.area == pytest.approx(regions.area(region))
+        covered = np.count_nonzero(regions.enclosing == region) * grid.resolution**2
+        assert polygon.area == pytest.approx(covered)
+
+
+def test_a_rooms_polygon_covers_its_furniture_but_not_a_courtyard():
+    free = np.zeros((60, 60), bool)
+    free[1:-1, 1:-1] = True
+    free[10:14, 10:16] = False  # a table, 0.24 m^2
+    free[25:50, 25:50] = False  # a courtyard, 6.25 m^2: more than furniture
+    grid = maps.OccupancyGrid.from_masks(free, 0.1)
+    regions = Regions(grid, free.astype(np.int32))
+    (polygon,) = regions.polygons.values()
+    assert regions.at(1.2, 4.8) == 1  # on the table
+    assert len(polygon.interiors) == 1  # the courtyard's hole; none for the table
+    assert polygon.area == pytest.approx((58 * 58 - 25 * 25) * 0.01)
+    assert regions.area(1) == pytest.approx(free.sum() * 0.01)  # the floor: without the table
 
 
 def test_the_places_meet_at_the_door(two_rooms):

@@ -51,8 +51,9 @@ def test_most_open_cells_equals_the_plain_one(labels, data):
 def polygons_plain(regions):
     """The union of one box per run of cells along a row, which
     :attr:`~segmentation.regions.Regions.polygons` replaced (by the coverage union of
-    rectangles of runs cut at each other's corners)."""
-    labels = regions.labels
+    rectangles of runs cut at each other's corners), over the same cells: the regions with
+    the furniture they enclose."""
+    labels = regions.enclosing
     height = labels.shape[0]
     padded = np.pad(labels, ((0, 0), (1, 1)), constant_values=-1)
     change = padded[:, 1:] != padded[:, :-1]
