@@ -109,6 +109,32 @@ def test_a_missing_parent_folder_is_made(tmp_path):
     assert not [p for p in (tmp_path / "a" / "b").iterdir() if p.name.startswith(".")]
 
 
+@pytest.mark.parametrize("case", ["parent is a file", "parent refuses a folder"])
+def test_view_refuses_an_output_folder_that_cannot_be_made_before_any_work(
+    tmp_path, capsys, saved, monkeypatch, case
+):
+    parent = tmp_path / "parent"
+    if case == "parent is a file":
+        parent.write_text("mine")
+    else:  # as the system refuses it (/proc, a read-only disk; root's chmod cannot show it)
+        parent.mkdir()
+        real = Path.mkdir
+
+        def mkdir(self, *args, **kwargs):
+            if parent in self.parents:
+                raise PermissionError(13, "Permission denied", str(self))
+            return real(self, *args, **kwargs)
+
+        monkeypatch.setattr(Path, "mkdir", mkdir)
+    loaded, load = [], TopoMap.load
+    monkeypatch.setattr(TopoMap, "load", lambda folder: loaded.append(folder) or load(folder))
+    out = parent / "new" / "map.html"
+    assert main(["-q", "view", str(saved), "--out", str(out)]) == 2
+    assert str(parent / "new") in _error_line(capsys)
+    assert loaded == []  # refused before the regions were read
+    assert not (parent / "new").exists()
+
+
 def _interrupt(*_args, **_kwargs):
     raise KeyboardInterrupt
 
@@ -445,6 +471,39 @@ def test_eval_segment_refuses_bad_truth_before_scoring(tmp_path, capsys, plan_ma
     out = tmp_path / "out"
     assert main(["-q", "eval", "segment", str(data), "--out", str(out)]) == 2
     assert shown in _error_line(capsys)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "case, shown",
+    [
+        ("no free space", "no free space"),
+        ("map image cut short", "image data is cut short"),
+        ("a field of its YAML", "field 'resolution'"),
+        ("rooms the wrong size", "people's rooms are 10 x 10 cells"),
+    ],
+)
+def test_eval_segment_names_the_bad_map_of_the_folder(tmp_path, capsys, plan_map, case, shown):
+    grid = OccupancyGrid.load(plan_map)
+    data = _eval_data(tmp_path / "data", plan_map, np.where(grid.free, 1, 0), None)
+    bad = data / "a.yaml"  # read before the good map m.yaml
+    rooms = np.where(grid.free, 1, 0)
+    if case == "no free space":
+        OccupancyGrid(np.full(grid.shape, 100, np.int8), grid.resolution).save(bad)
+    else:
+        grid.save(bad)
+    if case == "map image cut short":
+        image = data / "a.pgm"
+        image.write_bytes(image.read_bytes()[:-100])
+    elif case == "a field of its YAML":
+        bad.write_text(bad.read_text().replace("resolution: 0.05", "resolution: fine"))
+    elif case == "rooms the wrong size":
+        rooms = np.ones((10, 10))
+    cv2.imwrite(str(data / "a_gt_labels.png"), rooms.astype(np.uint16))
+    out = tmp_path / "out"
+    assert main(["-q", "eval", "segment", str(data), "--out", str(out)]) == 2
+    line = _error_line(capsys)
+    assert str(bad) in line and shown in line and "m.yaml" not in line
     assert not out.exists()
 
 

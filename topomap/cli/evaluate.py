@@ -3,6 +3,7 @@ per plan) and ROSE²'s real SLAM maps (a colour image per map, ROSE²'s own resu
 
 from __future__ import annotations
 
+import copy
 import csv
 import time
 from collections.abc import Callable, Iterator
@@ -14,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from maps.errors import MapFileNotFoundError, MapFormatError
+from maps.errors import MapFileNotFoundError, MapFormatError, TopomapError
 from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from maps.map_server import grid_from_image
 from segmentation.export import read_image_unchanged
@@ -282,8 +283,41 @@ def evaluate_all(
     **options: Any,
 ) -> list[dict[str, Any]]:
     """:func:`evaluate` on every floor plan of ``data_dir`` (``options``: its ``shifts`` and
-    the pipeline's settings)."""
-    return [r for plan in progress(iter(floor_plans(data_dir))) for r in evaluate(plan, **options)]
+    the pipeline's settings).
+
+    Raises
+    ------
+    TopomapError
+        A map that cannot be read, segmented or scored: the error :func:`evaluate` raised, of
+        the same type, its message led by the map's path when it does not name it already.
+    """
+    records = []
+    for plan in progress(iter(floor_plans(data_dir))):
+        try:
+            records += evaluate(plan, **options)
+        except TopomapError as err:
+            if str(plan.yaml) in str(err):
+                raise
+            raise _led_by(err, f"{plan.yaml}: {err}") from err
+    return records
+
+
+def _led_by(err: TopomapError, message: str) -> TopomapError:
+    """A copy of ``err`` (its type and fields) whose text is ``message``.
+
+    Examples
+    --------
+    >>> from segmentation.errors import SegmentationError
+    >>> found = _led_by(SegmentationError("no free space"), "lab.yaml: no free space")
+    >>> type(found).__name__, str(found)
+    ('SegmentationError', 'lab.yaml: no free space')
+    """
+    led = copy.copy(err)
+    if isinstance(led, OSError):  # the file errors' text is their strerror
+        led.strerror = message
+    else:
+        led.args = (message,)
+    return led
 
 
 def read_anchors(data_dir: str | Path) -> list[dict[str, Any]]:

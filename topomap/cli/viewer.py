@@ -27,7 +27,7 @@ import networkx as nx
 import numpy as np
 import shapely
 
-from maps.files import check_output_file, write_text
+from maps.files import OutputFolder, check_output_file, write_text
 from planners.errors import PlanningError
 from topomap.graph_layout import edge_segments, label_colour
 
@@ -183,20 +183,25 @@ def write_viewer(
 
 
 def run_view(args: argparse.Namespace) -> int:
-    """``topomap view DIR --out map.html``."""
+    """``topomap view DIR --out map.html``.
+
+    The page is written through :class:`~maps.files.OutputFolder`, checked and entered before
+    the regions are read: a folder that cannot be made, or that the system refuses to write
+    in, stops the command before any work.
+    """
     from topomap.topomap import TopoMap
 
-    check_output_file(args.out, overwrite=args.force, how="--force")
-    topo = TopoMap.load(args.regions)
-    args.progress.stage(f"planning the paths between the regions of {args.regions}")
-    out = write_viewer(
-        topo,
-        args.out,
-        title=Path(args.regions).name,
-        robot_radius=args.robot_radius,
-        max_paths=args.max_paths,
-        overwrite=args.force,
-    )
+    out = Path(args.out)
+    with OutputFolder(out.parent, [out.name], overwrite=args.force, how="--force") as work:
+        topo = TopoMap.load(args.regions)
+        args.progress.stage(f"planning the paths between the regions of {args.regions}")
+        write_viewer(
+            topo,
+            work / out.name,
+            title=Path(args.regions).name,
+            robot_radius=args.robot_radius,
+            max_paths=args.max_paths,
+        )
     size = out.stat().st_size
     print(f"wrote {out} ({size / 1e6:.1f} MB, {topo.graph.number_of_nodes()} regions)")
     return 0
