@@ -36,9 +36,9 @@ def region_graph(
     -------
     networkx.Graph
         Node ``id`` (the region's value in the label image) with ``area_m2`` (its cells:
-        the floor), ``polygon`` (shapely, map-frame metres; round the furniture inside), ``x``, ``y`` (the region's most open free cell: farthest
-        from walls, furniture and unknown space, so a robot can stand there) and
-        ``keyframes``.
+        the floor), ``polygon`` (shapely, map-frame metres; round the furniture inside),
+        ``x``, ``y`` (the region's most open free cell: farthest from walls, furniture and
+        unknown space, so a robot can stand there) and ``keyframes``.
         Edge ``(a, b)`` with ``doors``: a tuple of :class:`Transition`, widest first, and
         ``width``, the widest door's width; two regions that only touch through narrower
         gaps have no edge. Graph attributes: ``resolution``, ``origin``.
