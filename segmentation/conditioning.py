@@ -9,7 +9,9 @@ furniture, never in cells, so it holds at any resolution:
    robot cannot pass between them: a dotted SLAM wall is one wall). An obstacle that stands
    free of the map edge and fits in a box of ``clutter_size`` metres (a table with its chairs,
    a pillar, a speck, a small unknown patch) is clutter: it is furniture inside a room, not a
-   wall, so the geometry of places and doors ignores it. Clutter cells are never labelled.
+   wall, so the geometry of places and doors ignores it; unless it is a stretch of wall on
+   the line of the walls between two doors (as free-standing as a table, as long as one).
+   Clutter cells are never labelled.
 2. **Robot space.** A free cell belongs to the building when a disc of ``robot_radius`` that
    covers it fits in the free space (a morphological opening): free rays thinner than the robot
    go. Connected pieces of that space under ``min_area`` square metres (islands) go too.
@@ -33,6 +35,7 @@ from numpy.typing import NDArray
 from maps.grid import OccupancyGrid, clearance_of
 from maps.limits import MAX_LENGTH, MAX_ROBOT_RADIUS, finite_in
 from segmentation.errors import ParameterError
+from segmentation.walls import wall_stubs
 
 
 def _disc(radius_cells: float) -> NDArray[np.uint8]:
@@ -86,7 +89,8 @@ def find_clutter(
     """Non-free cells that belong to free-standing obstacles smaller than ``clutter_size``.
 
     Obstacles within ``robot_radius`` of each other count as one; an obstacle touching the map
-    edge is never clutter.
+    edge is never clutter, nor a stretch of wall between two doors
+    (:func:`~segmentation.walls.wall_stubs`).
 
     Examples
     --------
@@ -109,7 +113,8 @@ def find_clutter(
     size = np.hypot(w - grow, h - grow) * grid.resolution
     small = inside & (size <= clutter_size)
     small[0] = False
-    return small[pieces] & blocked.astype(bool)
+    clutter = small[pieces] & blocked.astype(bool)
+    return clutter & ~wall_stubs(grid, clutter)
 
 
 def condition(

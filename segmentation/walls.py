@@ -165,6 +165,66 @@ def wall_gaps(
     return out.astype(bool) & free
 
 
+def wall_stubs(
+    grid: OccupancyGrid, clutter: NDArray[np.bool_], *, gap: float = GAP, flank: float = FLANK
+) -> NDArray[np.bool_]:
+    """The ``clutter`` cells of the free-standing obstacles that are stretches of wall between
+    two doors: at least ``flank`` long, on a wall line (a Hough line of the walls' faces, along
+    the building's main directions, across gaps of up to ``gap``) that runs on over at least
+    ``flank`` metres of other wall on both sides of them. They stand as free as a table;
+    furniture does not stand in the line of the walls with walls on both hands.
+
+    Examples
+    --------
+    >>> cells = np.zeros((40, 100), np.int8)
+    >>> cells[[0, -1], :] = cells[:, [0, -1]] = 100  # the outer walls (0.1 m cells)
+    >>> cells[20, 1:30] = cells[20, 70:99] = 100  # a wall with two doors ...
+    >>> cells[20, 40:58] = 100  # ... and the 1.8 m stretch of wall between them
+    >>> cells[8:12, 40:60] = 100  # a table
+    >>> clutter = np.zeros(cells.shape, bool)
+    >>> clutter[20, 40:58] = clutter[8:12, 40:60] = True
+    >>> stubs = wall_stubs(OccupancyGrid(cells, 0.1), clutter)
+    >>> bool(stubs[20, 45]), bool(stubs[10, 50])
+    (True, False)
+    """
+    resolution = grid.resolution
+    count, pieces, stats, _ = cv2.connectedComponentsWithStats(
+        clutter.astype(np.uint8), connectivity=8
+    )
+    sides = np.maximum(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT])
+    stub = sides * resolution >= flank  # as long as a wall's flank
+    stub[0] = False
+    if not stub.any():
+        return np.zeros(clutter.shape, bool)
+    reach = max(1, math.floor(JAGGED / resolution + 0.5 - 1e-9))
+    surface = grid.occupied & _within(grid.free, reach)
+    lines = cv2.HoughLinesP(
+        surface.astype(np.uint8),
+        1,
+        math.pi / 180,
+        threshold=max(3, round(MIN_LENGTH / resolution / 2)),
+        minLineLength=MIN_LENGTH / resolution,
+        maxLineGap=gap / resolution,
+    )
+    lines = np.zeros((0, 4), np.int32) if lines is None else lines.reshape(-1, 4)
+    square = np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)
+    near = cv2.dilate(np.where(stub[pieces], pieces, 0).astype(np.float32), square)
+    walls = _within(grid.occupied & ~clutter, reach)
+    on_line = np.zeros(count, bool)
+    for x0, y0, x1, y1 in _main_directions(np.asarray(lines, np.int32)).tolist():
+        n = max(abs(x1 - x0), abs(y1 - y0)) + 1
+        xs = np.rint(np.linspace(x0, x1, n)).astype(int)
+        ys = np.rint(np.linspace(y0, y1, n)).astype(int)
+        crossed = near[ys, xs].astype(np.int64)
+        if not crossed.any():
+            continue
+        support = np.cumsum(walls[ys, xs] & (crossed == 0)) * resolution  # metres of wall
+        for piece in np.unique(crossed[crossed > 0]).tolist():
+            at = np.flatnonzero(crossed == piece)
+            on_line[piece] |= min(support[at[0]], support[-1] - support[at[-1]]) >= flank
+    return (stub & on_line)[pieces] & clutter
+
+
 def _within(cells: NDArray[np.bool_], reach: int) -> NDArray[np.bool_]:
     """The cells at most ``reach`` cells from one of ``cells`` along each axis (a square
     neighbourhood, as a wall's face wanders along the grid's rows and columns)."""

@@ -126,6 +126,24 @@ def test_a_dotted_wall_stays_a_wall():
     assert labels[50, 30] != labels[50, cells.shape[1] - 30]
 
 
+def test_a_stretch_of_wall_between_two_doors_is_wall_not_furniture():
+    """A 1.8 m stretch of wall between two doors stands as free as a table; read as clutter,
+    the room behind it opened onto the corridor over 3.6 m and was joined to it."""
+    cells = walled(12.0, 6.0)
+    row = 88  # the wall between the room (above) and a 1.6 m corridor (below)
+    cells[row : row + 3, :] = OCCUPIED
+    for start, end in ((4.0, 4.9), (6.7, 7.6)):  # two 0.9 m doors
+        cells[row : row + 3, round(start / 0.05) : round(end / 0.05)] = 0
+    grid = OccupancyGrid(cells, 0.05)
+    assert not find_clutter(grid)[row, round(5.8 / 0.05)]
+    table = walled(12.0, 6.0)
+    table[40:56, 100:132] = OCCUPIED  # a 1.6 x 0.8 m table in the room, not on a wall line
+    assert find_clutter(OccupancyGrid(table, 0.05))[48, 110]
+    labels = segment(grid)
+    room, corridor = labels[30, 120], labels[row + 15, 120]
+    assert region_count(labels) == 2 and room != corridor
+
+
 def test_a_corridor_with_side_doors_and_a_junction_is_one_region():
     resolution = 0.05
     cells = np.full((400, 400), OCCUPIED, np.int8)
