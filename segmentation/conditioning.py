@@ -113,8 +113,8 @@ def find_clutter(
     size = np.hypot(w - grow, h - grow) * grid.resolution
     small = inside & (size <= clutter_size)
     small[0] = False
-    obstacles = np.where(small[pieces] & blocked.astype(bool), pieces, 0)
-    return (obstacles > 0) & ~wall_stubs(grid, obstacles)
+    clutter = small[pieces] & blocked.astype(bool)
+    return clutter & ~wall_stubs(grid, clutter)
 
 
 def condition(

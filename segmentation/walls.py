@@ -22,7 +22,6 @@ import math
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from maps.grid import OccupancyGrid
 from segmentation.coverage import DOOR_WIDTH
@@ -167,38 +166,36 @@ def wall_gaps(
 
 
 def wall_stubs(
-    grid: OccupancyGrid, obstacles: NDArray[np.integer], *, gap: float = GAP, flank: float = FLANK
+    grid: OccupancyGrid, clutter: NDArray[np.bool_], *, gap: float = GAP, flank: float = FLANK
 ) -> NDArray[np.bool_]:
-    """The cells of the free-standing ``obstacles`` (a label image: each obstacle's cells
-    numbered alike, 0 elsewhere) that are stretches of wall between two doors: at least
-    ``flank`` long, on a wall line (a Hough line of the walls' faces, along the building's main
-    directions, across gaps of up to ``gap``) that runs on over at least ``flank`` metres of
-    other wall on both sides of them. They stand as free as a table; furniture does not stand
-    in the line of the walls with walls on both hands.
+    """The ``clutter`` cells of the free-standing obstacles that are stretches of wall between
+    two doors: at least ``flank`` long, on a wall line (a Hough line of the walls' faces, along
+    the building's main directions, across gaps of up to ``gap``) that runs on over at least
+    ``flank`` metres of other wall on both sides of them. They stand as free as a table;
+    furniture does not stand in the line of the walls with walls on both hands.
 
     Examples
     --------
     >>> cells = np.zeros((40, 100), np.int8)
     >>> cells[[0, -1], :] = cells[:, [0, -1]] = 100  # the outer walls (0.1 m cells)
     >>> cells[20, 1:30] = cells[20, 70:99] = 100  # a wall with two doors ...
-    >>> cells[20, 40:58:2] = 100  # ... and the dotted 1.8 m stretch of wall between them
+    >>> cells[20, 40:58] = 100  # ... and the 1.8 m stretch of wall between them
     >>> cells[8:12, 40:60] = 100  # a table
-    >>> obstacles = np.zeros(cells.shape, np.int32)
-    >>> obstacles[20, 40:58:2], obstacles[8:12, 40:60] = 1, 2
-    >>> stubs = wall_stubs(OccupancyGrid(cells, 0.1), obstacles)
-    >>> bool(stubs[20, 46]), bool(stubs[10, 50])
+    >>> clutter = np.zeros(cells.shape, bool)
+    >>> clutter[20, 40:58] = clutter[8:12, 40:60] = True
+    >>> stubs = wall_stubs(OccupancyGrid(cells, 0.1), clutter)
+    >>> bool(stubs[20, 45]), bool(stubs[10, 50])
     (True, False)
     """
     resolution = grid.resolution
-    count = int(obstacles.max(initial=0)) + 1
-    stub = np.zeros(count, bool)
-    for piece, box in enumerate(ndimage.find_objects(obstacles), start=1):
-        if box is not None:  # as long as a wall's flank
-            stub[piece] = max(box[0].stop - box[0].start, box[1].stop - box[1].start) >= (
-                flank / resolution
-            )
+    count, pieces, stats, _ = cv2.connectedComponentsWithStats(
+        clutter.astype(np.uint8), connectivity=8
+    )
+    sides = np.maximum(stats[:, cv2.CC_STAT_WIDTH], stats[:, cv2.CC_STAT_HEIGHT])
+    stub = sides * resolution >= flank  # as long as a wall's flank
+    stub[0] = False
     if not stub.any():
-        return np.zeros(obstacles.shape, bool)
+        return np.zeros(clutter.shape, bool)
     reach = max(1, math.floor(JAGGED / resolution + 0.5 - 1e-9))
     surface = grid.occupied & _within(grid.free, reach)
     lines = cv2.HoughLinesP(
@@ -211,8 +208,8 @@ def wall_stubs(
     )
     lines = np.zeros((0, 4), np.int32) if lines is None else lines.reshape(-1, 4)
     square = np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)
-    near = cv2.dilate(np.where(stub[obstacles], obstacles, 0).astype(np.float32), square)
-    walls = _within(grid.occupied & (obstacles == 0), reach)
+    near = cv2.dilate(np.where(stub[pieces], pieces, 0).astype(np.float32), square)
+    walls = _within(grid.occupied & ~clutter, reach)
     on_line = np.zeros(count, bool)
     for x0, y0, x1, y1 in _main_directions(np.asarray(lines, np.int32)).tolist():
         n = max(abs(x1 - x0), abs(y1 - y0)) + 1
@@ -225,7 +222,7 @@ def wall_stubs(
         for piece in np.unique(crossed[crossed > 0]).tolist():
             at = np.flatnonzero(crossed == piece)
             on_line[piece] |= min(support[at[0]], support[-1] - support[at[-1]]) >= flank
-    return (stub & on_line)[obstacles]
+    return (stub & on_line)[pieces] & clutter
 
 
 def _within(cells: NDArray[np.bool_], reach: int) -> NDArray[np.bool_]:
