@@ -2,6 +2,7 @@
 for bad input, a traceback for a bug, no file overwritten without --force."""
 
 import importlib
+import json
 import logging
 import subprocess
 import sys
@@ -72,6 +73,54 @@ def test_results_are_never_overwritten_without_force(tmp_path, capsys, command):
     assert main([*argv, "--out", str(tmp_path)]) == 2
     assert "results.json exists; pass --force" in capsys.readouterr().err
     assert (tmp_path / "results.json").read_text() == "{}"
+
+
+@pytest.mark.parametrize("name", ["results.json", "latency.png"])
+def test_bench_online_refuses_existing_results_before_any_work(tmp_path, capsys, monkeypatch, name):
+    import topomap.cli.bench_online as bench_online
+
+    ran = []
+    real = bench_online.bench_latency
+    monkeypatch.setattr(bench_online, "bench_latency", lambda **kw: ran.append(1) or real(**kw))
+    argv = ["bench", "online", "--parts", "latency", "--keyframes", "120", "--seed-keyframes"]
+    argv += ["100", "--building", "flat", "--offline-up-to", "0", "--out", str(tmp_path)]
+    (tmp_path / name).write_text("mine")
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"topomap: error: {tmp_path / name} exists; pass --force to replace it"]
+    assert ran == [] and [p.name for p in tmp_path.iterdir()] == [name]
+    assert (tmp_path / name).read_text() == "mine"
+    assert main([*argv, "--force"]) == 0
+    assert ran == [1] and (tmp_path / "latency.png").read_bytes().startswith(b"\x89PNG")
+    results = json.loads((tmp_path / "results.json").read_text())
+    assert results["latency"]["summary"]["keyframes"] == 120
+
+
+def test_bench_online_refuses_latency_png_only_when_it_draws_it(tmp_path, capsys):
+    (tmp_path / "latency.png").write_text("mine")
+    argv = ["bench", "online", "--parts", "growing", "--snapshots", str(tmp_path / "nowhere")]
+    assert main([*argv, "--out", str(tmp_path)]) == 2  # past the check, to the missing data
+    assert "data folder not found" in capsys.readouterr().err
+
+
+def test_a_benchmark_file_failing_mid_write_leaves_the_old_one_whole(tmp_path, monkeypatch):
+    from topomap.cli.plan_report import write_ompl_log
+
+    record = {"planner": "flat", "seconds": 0.1, "success": True, "length_m": 2.0}
+    record |= {"optimal_m": 1.0, "collisions": 0, "query": 0, "map": "rooms"}
+    log = write_ompl_log(tmp_path / "rooms.log", "rooms", [record], 5.0)
+    old = log.read_text()
+
+    def full_disk(self, text, *args, **kwargs):
+        with self.open("w") as stream:
+            stream.write(text[: len(text) // 2])
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(Path, "write_text", full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        write_ompl_log(log, "rooms", [record, {**record, "query": 1}], 5.0)
+    assert log.read_text() == old
+    assert [p.name for p in tmp_path.iterdir()] == ["rooms.log"]
 
 
 def test_a_bug_keeps_its_traceback(tmp_path, monkeypatch):

@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.errors import MapFileNotFoundError
+from maps.files import write_text
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe
 from maps.sim.exploration import wander
@@ -87,7 +88,7 @@ def bench_sim(
         )
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "results.json").write_text(json.dumps(records, indent=2))
+    write_text(out / "results.json", json.dumps(records, indent=2), overwrite=True)
     return records
 
 
@@ -142,7 +143,7 @@ def bench_segment(
             )
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "results.json").write_text(json.dumps(records, indent=2))
+    write_text(out / "results.json", json.dumps(records, indent=2), overwrite=True)
     return records
 
 
@@ -422,7 +423,7 @@ def bench_plan_robot(
     summary = summarise(records)
     write_report(out, records, summary, preprocessing, time_limit, seed)
     about = {"footprint": robot.polygon.tolist(), "maps": maps, "paths": found_paths}
-    (Path(out) / "paths.json").write_text(json.dumps(about))
+    write_text(Path(out) / "paths.json", json.dumps(about), overwrite=True)
     plot_footprint_paths(Path(out) / "paths.png", about, per_map=DRAWN_PATHS)
     return records, summary
 
@@ -449,6 +450,5 @@ def exact_lengths(
     lengths = [reference.plan(s, g).length for s, g in pairs]
     seconds = time.perf_counter() - clock
     if path is not None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps({"lengths": lengths, "seconds": seconds}))
+        write_text(path, json.dumps({"lengths": lengths, "seconds": seconds}), overwrite=True)
     return lengths, seconds, False

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from maps.files import write_text
 from topomap.cli.batch import dask_client, run_batch
 
 log = logging.getLogger(__name__)
@@ -133,5 +134,5 @@ def bench_batch(
     results["load_average"] = [round(v, 2) for v in os.getloadavg()]
     if campus:
         results["campus_blocks"] = bench_campus_blocks(workers)
-    (out / "results.json").write_text(json.dumps(results, indent=2))
+    write_text(out / "results.json", json.dumps(results, indent=2), overwrite=True)
     return results

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from maps.carmen import read_carmen
+from maps.files import write_text
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import select_keyframes
@@ -84,7 +85,7 @@ def bench_maps(
         for name, make in progress(list(benchmark_maps(sizes, logs, seed)))
     ]
     out.mkdir(parents=True, exist_ok=True)
-    (out / "results.json").write_text(json.dumps(records, indent=2))
+    write_text(out / "results.json", json.dumps(records, indent=2), overwrite=True)
     return records
 
 
@@ -141,5 +142,5 @@ def bench_command(
             startup, _ = _run([sys.executable, "-c", STARTUP])
             records.append(time_command(yaml, Path(scratch) / plan.name, startup))
     out.mkdir(parents=True, exist_ok=True)
-    (out / "command.json").write_text(json.dumps(records, indent=2))
+    write_text(out / "command.json", json.dumps(records, indent=2), overwrite=True)
     return records

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from maps.files import write_text, written
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array
@@ -250,7 +251,8 @@ def online_run(run: DemoRun) -> None:
         frames_every=max(1, len(run.keyframes) // 12),
         frames_dir=folder / "frames",
     )
-    write_gif(found.frames, folder / "regions.gif")
+    with written(folder / "regions.gif", overwrite=True) as partial:
+        write_gif(found.frames, partial)
     run.online = {
         "labels": found.online.labels_,
         "seed_keyframes": found.online.n_seed_,
@@ -385,7 +387,7 @@ def run_demo(
     run.summary = {**{k: run.summary[k] for k in SUMMARY_ORDER}, **run.summary}
     run.summary["seconds"] = {stage.__name__: round(seconds[stage.__name__], 3) for stage in STAGES}
     run.summary["wall_seconds"] = round(time.perf_counter() - clock, 3)
-    (run.out / "summary.json").write_text(json.dumps(run.summary, indent=2))
+    write_text(run.out / "summary.json", json.dumps(run.summary, indent=2), overwrite=True)
     return run.summary
 
 

@@ -9,6 +9,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from maps.files import write_text
 from topomap.classifiers import RuleClassifier, rule_classifier
 from topomap.cli import label_sources
 from topomap.cli.evaluate_labels import (
@@ -117,7 +118,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
         "per_map": per_map,
         "regions": region_records(maps, result),
     }
-    (out / "results.json").write_text(json.dumps(results, indent=2))
+    write_text(out / "results.json", json.dumps(results, indent=2), overwrite=True)
     print(f"wrote {out / 'results.json'} and a picture per map ({SHOWN}) to {out}")
     if args.save_model:
         model = train_forest([m for m in maps if m.source not in VIEWS])

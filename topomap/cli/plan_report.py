@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from maps.files import write_text, written
 from topomap.cli.tables import markdown_table
 
 
@@ -31,18 +32,19 @@ def write_report(
     ``ompl/MAP.log`` (:func:`write_ompl_log`; ``time_limit`` is the flat planners')."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    written = [out / "results.json", out / "preprocessing.json", out / "summary.json"]
-    written[0].write_text(json.dumps(list(records), indent=1))
-    written[1].write_text(json.dumps(preprocessing, indent=1))
-    written[2].write_text(json.dumps(list(summary), indent=1))
-    written.append(out / "results.md")
-    written[-1].write_text(markdown_table(summary, COLUMNS) + "\n")
-    written.append(_plot(out / "times.png", records))
+    # the command refuses existing files first (``topomap bench plan --force``)
+    files = [
+        write_text(out / "results.json", json.dumps(list(records), indent=1), overwrite=True),
+        write_text(out / "preprocessing.json", json.dumps(preprocessing, indent=1), overwrite=True),
+        write_text(out / "summary.json", json.dumps(list(summary), indent=1), overwrite=True),
+        write_text(out / "results.md", markdown_table(summary, COLUMNS) + "\n", overwrite=True),
+        _plot(out / "times.png", records),
+    ]
     for name in dict.fromkeys(r["map"] for r in records):
         mine = [r for r in records if r["map"] == name]
         log = write_ompl_log(out / "ompl" / f"{name}.log", name, mine, time_limit, seed=seed)
-        written.append(log)
-    return written
+        files.append(log)
+    return files
 
 
 #: Per-run properties of the OMPL log, with their SQL types.
@@ -114,8 +116,7 @@ def write_ompl_log(
             ]
             lines.append("".join(f"{v}; " for v in values))
         lines.append(".")
-    path.write_text("\n".join(lines) + "\n")
-    return path
+    return write_text(path, "\n".join(lines) + "\n", overwrite=True)
 
 
 #: Columns of the summary table (lengths are ratios to the exact shortest path; ``speedup``
@@ -161,7 +162,8 @@ def _plot(path: Path, records: Sequence[dict[str, Any]]) -> Path:
     ax.legend(fontsize=8)
     ax.set_title("planning query times")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    with written(path, overwrite=True) as partial:
+        fig.savefig(partial, dpi=120)
     return path
 
 
@@ -215,5 +217,6 @@ def plot_footprint_paths(path: Path, about: dict[str, Any], *, per_map: int = 3)
         ax.set_ylim(ymin, ymax)
         ax.legend(fontsize=7, loc="upper right")
     fig.tight_layout()
-    fig.savefig(path, dpi=150)
+    with written(path, overwrite=True) as partial:
+        fig.savefig(partial, dpi=150)
     return path

@@ -45,7 +45,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     maps_bench.set_defaults(func=cmd_bench_maps)
     online_bench = bench_sub.add_parser("online", help="online segmentation: latency, agreement")
-    online_bench.add_argument("--out", default="out/bench-online")
+    add_output_options(online_bench, "out/bench-online")
     online_bench.add_argument(
         "--parts",
         nargs="+",
@@ -186,6 +186,8 @@ def cmd_bench_maps(args: argparse.Namespace) -> int:
 def cmd_bench_online(args: argparse.Namespace) -> int:
     from topomap.cli.bench_online import bench_online
 
+    drawn = ["latency.png"] if "latency" in args.parts else []
+    refuse_existing(Path(args.out), ["results.json", *drawn], args.force)
     results = bench_online(
         args.out,
         parts=tuple(args.parts),
