@@ -124,24 +124,11 @@ def wall_gaps(
     (True, False, False, False)
     """
     out = np.zeros(free.shape, np.uint8)
-    reach = max(1, math.floor(JAGGED / resolution + 0.5 - 1e-9))  # cells, the nearest count
+    reach = _reach(resolution)
     surface = walls & _within(free, reach)  # what scans saw of them
-    lines = cv2.HoughLinesP(
-        surface.astype(np.uint8),
-        1,
-        math.pi / 180,
-        threshold=max(3, round(min_length / resolution / 2)),
-        minLineLength=min_length / resolution,
-        maxLineGap=gap / resolution,
-    )
-    if lines is None:
-        return out.astype(bool)
-    lines = _main_directions(np.asarray(lines, np.int32).reshape(-1, 4))
     near = _within(surface, reach)  # jagged walls
-    for x0, y0, x1, y1 in lines.tolist():
-        n = max(abs(x1 - x0), abs(y1 - y0)) + 1
-        xs = np.rint(np.linspace(x0, x1, n)).astype(int)
-        ys = np.rint(np.linspace(y0, y1, n)).astype(int)
+    for xs, ys in _wall_lines(surface, resolution, gap, min_length):
+        n = len(xs)
         on = near[ys, xs]
         starts = np.flatnonzero(np.r_[True, on[1:] != on[:-1]])
         ends = np.r_[starts[1:], n]
@@ -196,25 +183,13 @@ def wall_stubs(
     stub[0] = False
     if not stub.any():
         return np.zeros(clutter.shape, bool)
-    reach = max(1, math.floor(JAGGED / resolution + 0.5 - 1e-9))
+    reach = _reach(resolution)
     surface = grid.occupied & _within(grid.free, reach)
-    lines = cv2.HoughLinesP(
-        surface.astype(np.uint8),
-        1,
-        math.pi / 180,
-        threshold=max(3, round(MIN_LENGTH / resolution / 2)),
-        minLineLength=MIN_LENGTH / resolution,
-        maxLineGap=gap / resolution,
-    )
-    lines = np.zeros((0, 4), np.int32) if lines is None else lines.reshape(-1, 4)
     square = np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)
     near = cv2.dilate(np.where(stub[pieces], pieces, 0).astype(np.float32), square)
     walls = _within(grid.occupied & ~clutter, reach)
     on_line = np.zeros(count, bool)
-    for x0, y0, x1, y1 in _main_directions(np.asarray(lines, np.int32)).tolist():
-        n = max(abs(x1 - x0), abs(y1 - y0)) + 1
-        xs = np.rint(np.linspace(x0, x1, n)).astype(int)
-        ys = np.rint(np.linspace(y0, y1, n)).astype(int)
+    for xs, ys in _wall_lines(surface, resolution, gap, MIN_LENGTH):
         crossed = near[ys, xs].astype(np.int64)
         if not crossed.any():
             continue
@@ -223,6 +198,36 @@ def wall_stubs(
             at = np.flatnonzero(crossed == piece)
             on_line[piece] |= min(support[at[0]], support[-1] - support[at[-1]]) >= flank
     return (stub & on_line)[pieces] & clutter
+
+
+def _reach(resolution: float) -> int:
+    """:data:`JAGGED` in cells, the nearest count (at least one)."""
+    return max(1, math.floor(JAGGED / resolution + 0.5 - 1e-9))
+
+
+def _wall_lines(
+    surface: NDArray[np.bool_], resolution: float, gap: float, min_length: float
+) -> list[tuple[NDArray[np.intp], NDArray[np.intp]]]:
+    """The cells (x, y) along each wall line of ``surface`` (walls' faces): probabilistic
+    Hough lines at least ``min_length`` long across gaps of up to ``gap`` metres, kept along
+    the building's main directions (:func:`_main_directions`)."""
+    found = cv2.HoughLinesP(
+        surface.astype(np.uint8),
+        1,
+        math.pi / 180,
+        threshold=max(3, round(min_length / resolution / 2)),
+        minLineLength=min_length / resolution,
+        maxLineGap=gap / resolution,
+    )
+    if found is None:
+        return []
+    cells = []
+    for x0, y0, x1, y1 in _main_directions(np.asarray(found, np.int32).reshape(-1, 4)).tolist():
+        n = max(abs(x1 - x0), abs(y1 - y0)) + 1
+        xs = np.rint(np.linspace(x0, x1, n)).astype(int)
+        ys = np.rint(np.linspace(y0, y1, n)).astype(int)
+        cells.append((xs, ys))
+    return cells
 
 
 def _within(cells: NDArray[np.bool_], reach: int) -> NDArray[np.bool_]:
