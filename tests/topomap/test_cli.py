@@ -227,6 +227,44 @@ def test_eval_segment_resamples_each_map_and_its_rooms_alike(tmp_path, data_dir)
     assert {("spectral", 2.0), ("doors", 0.5)} <= means
 
 
+def test_eval_segment_grows_each_maps_walls_and_takes_their_cells_from_its_rooms(
+    tmp_path, data_dir
+):
+    results = _eval_one_plan(tmp_path, data_dir, "lab_ipa", "--thicker")
+    spectral = {r["grown_walls"]: r for r in results["maps"] if r["variant"] == "spectral"}
+    assert sorted(spectral) == [0, 1]
+    for found in spectral.values():  # the same ten rooms, a cell narrower
+        assert found["rooms"] == 10 and found["mcc"] > 0.6
+    means = {(m["method"], m["grown_walls"]) for m in results["means"]}
+    assert {("spectral", 1), ("doors", 0), ("doors", 1)} <= means
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 12), st.integers(1, 12), st.integers(0, 2), st.data())
+def test_thickened_walls_take_the_cells_beside_them_and_nothing_else(
+    height: int, width: int, grown: int, data: st.DataObject
+) -> None:
+    from topomap.cli.evaluate import thickened
+
+    size = height * width
+    cells = np.array(
+        data.draw(st.lists(st.sampled_from([-1, 0, 100]), min_size=size, max_size=size)), np.int8
+    ).reshape(height, width)
+    rooms = np.array(data.draw(st.lists(st.integers(0, 3), min_size=size, max_size=size))).reshape(
+        cells.shape
+    )
+    grid, thick_rooms = thickened(OccupancyGrid(cells, 0.05), rooms, grown)
+    rows, cols = np.indices(cells.shape)
+    walls = np.argwhere(cells == 100)
+    near = np.zeros(cells.shape, bool)  # within `grown` cells of a wall, 8-neighbourhood
+    for r, c in walls:
+        near |= (np.abs(rows - r) <= grown) & (np.abs(cols - c) <= grown)
+    near |= cells == 100
+    assert (grid.occupied == near).all()
+    assert (grid.cells[~near] == cells[~near]).all()  # free and unknown elsewhere as they were
+    assert (thick_rooms == (rooms if grown == 0 else np.where(near, 0, rooms))).all()
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     st.integers(1, 9),

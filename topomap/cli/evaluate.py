@@ -115,6 +115,35 @@ ROTATIONS = (0.0, 3.0, 17.0, 30.0, 45.0)
 CELL_FACTORS = (1.0, 2.0, 0.5)
 
 
+#: Walls grown by this many cells, each a map of its own: the same building drawn by a mapper
+#: whose beams end a cell further on both sides of every surface (more range noise, another
+#: occupancy threshold); the doors and corridors are a cell narrower on each side.
+GROWN_WALLS = (0, 1)
+
+
+def thickened(
+    grid: OccupancyGrid, rooms: NDArray[np.int32], cells: int
+) -> tuple[OccupancyGrid, NDArray[np.int32]]:
+    """``grid`` with every cell within ``cells`` of an occupied one (8-neighbourhood, free or
+    unknown) occupied, and its people's ``rooms`` without those cells (people draw rooms on
+    the free space).
+
+    Examples
+    --------
+    >>> cells = np.array([[0, 0, 0, 0], [0, 100, 0, -1], [0, 0, 0, 0]], np.int8)
+    >>> grid, rooms = thickened(OccupancyGrid(cells, 0.05), np.ones((3, 4), np.int32), 1)
+    >>> grid.cells.tolist()
+    [[100, 100, 100, 0], [100, 100, 100, -1], [100, 100, 100, 0]]
+    >>> rooms.tolist()
+    [[0, 0, 0, 1], [0, 0, 0, 1], [0, 0, 0, 1]]
+    """
+    if cells == 0:
+        return grid, rooms
+    grown = ndimage.binary_dilation(grid.occupied, np.ones((3, 3), bool), iterations=cells)
+    walls = np.where(grown, OCCUPIED, grid.cells).astype(np.int8)
+    return OccupancyGrid(walls, grid.resolution, grid.origin), np.where(grown, 0, rooms)
+
+
 def resampled(
     grid: OccupancyGrid, rooms: NDArray[np.int32], factor: float
 ) -> tuple[OccupancyGrid, NDArray[np.int32]]:
@@ -183,6 +212,7 @@ def evaluate(
     shifts: tuple[tuple[int, int], ...] = ((0, 0),),
     rotations: tuple[float, ...] = (0.0,),
     cell_factors: tuple[float, ...] = (1.0,),
+    grown_walls: tuple[int, ...] = (0,),
     **options: Any,
 ) -> list[dict[str, Any]]:
     """Segment one map with each method (the spectral partition, the door-rule baseline) and
@@ -191,7 +221,8 @@ def evaluate(
     With ``rotations`` (degrees), the map and its people's rooms are turned alike
     (:func:`rotated`) and each turn is a record of its own (``rotation``); so with
     ``cell_factors``, the map on cells that many times as large (:func:`resampled`,
-    ``cell_factor``).
+    ``cell_factor``), and with ``grown_walls`` its walls that many cells thicker
+    (:func:`thickened`, ``grown_walls``).
 
     With several ``shifts`` (cells added left and on top, :meth:`OccupancyGrid.padded`), each
     method segments the map once per shift and its scores are their means, with
@@ -210,12 +241,19 @@ def evaluate(
     if not rooms.any():
         raise MapFormatError("no room drawn: nothing to score against", path=plan.truth)
     return [
-        record
+        record if record["variant"] == "rose2_released" else {**record, "grown_walls": grown}
         for factor in cell_factors
+        for grown in grown_walls
         for degrees in rotations
         for record in _evaluate_turned(
-            plan, *resampled(grid, rooms, factor), degrees, shifts, options, factor
+            plan,
+            *thickened(*resampled(grid, rooms, factor), grown),
+            degrees,
+            shifts,
+            options,
+            factor,
         )
+        if grown == 0 or record["variant"] != "rose2_released"
     ]
 
 
@@ -383,21 +421,28 @@ def _anchor(row: dict[str, str], path: Path, line: int) -> dict[str, Any]:
 
 
 def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Mean scores per (variant, furnished, rotation, cell factor), ours and the anchors', over
-    the maps we ran."""
+    """Mean scores per (variant, furnished, rotation, cell factor, walls grown), ours and the
+    anchors', over the maps we ran."""
     ours = {(r["map"], r["furnished"]) for r in records}
     rows = []
     for source in (records, [a for a in anchors if (a["map"], a["furnished"]) in ours]):
-        groups: dict[tuple[str, bool, float, float], list[dict[str, Any]]] = {}
+        groups: dict[tuple[str, bool, float, float, int], list[dict[str, Any]]] = {}
         for r in source:
-            key = (r["variant"], r["furnished"], r.get("rotation", 0.0), r.get("cell_factor", 1.0))
+            key = (
+                r["variant"],
+                r["furnished"],
+                r.get("rotation", 0.0),
+                r.get("cell_factor", 1.0),
+                r.get("grown_walls", 0),
+            )
             groups.setdefault(key, []).append(r)
-        for (variant, furnished, degrees, factor), group in groups.items():
+        for (variant, furnished, degrees, factor, grown), group in groups.items():
             row: dict[str, Any] = {
                 "method": variant,
                 "furnished": furnished,
                 "rotation": degrees,
                 "cell_factor": factor,
+                "grown_walls": grown,
                 "maps": len(group),
             }
             for metric in METRICS:
@@ -415,5 +460,12 @@ def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[
             row["max_s"] = round(float(np.max(times)), 2) if times else "-"
             rows.append(row)
     return sorted(
-        rows, key=lambda r: (r["furnished"], r["method"], r["cell_factor"], r["rotation"])
+        rows,
+        key=lambda r: (
+            r["furnished"],
+            r["method"],
+            r["cell_factor"],
+            r["grown_walls"],
+            r["rotation"],
+        ),
     )

@@ -46,6 +46,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "occupied where a beam ended, free where one passed) and half as large, its people's "
         "rooms alike; each scored apart (cell_factor)",
     )
+    eval_seg.add_argument(
+        "--thicker",
+        action="store_true",
+        help="also segment every map with its walls a cell thicker on every side (as a mapper "
+        "with more range noise draws them: doors and corridors two cells narrower), its "
+        "people's rooms without those cells; scored apart (grown_walls)",
+    )
     add_segmenter_options(eval_seg)
     eval_seg.set_defaults(func=cmd_eval_segment)
 
@@ -86,6 +93,7 @@ def _add_hand_labels(parser: argparse.ArgumentParser, what: str) -> None:
 def cmd_eval_segment(args: argparse.Namespace) -> int:
     from topomap.cli.evaluate import (
         CELL_FACTORS,
+        GROWN_WALLS,
         ROTATIONS,
         SHIFTS,
         evaluate_all,
@@ -105,9 +113,14 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
         shifts=shifts,
         rotations=rotations,
         cell_factors=CELL_FACTORS if args.resolutions else (1.0,),
+        grown_walls=GROWN_WALLS if args.thicker else (0,),
         **options,
     )
-    turns = (["rotation"] if args.rotations else []) + (["cell_factor"] if args.resolutions else [])
+    turns = (
+        (["rotation"] if args.rotations else [])
+        + (["cell_factor"] if args.resolutions else [])
+        + (["grown_walls"] if args.thicker else [])
+    )
     columns = ["map", "furnished", "variant", *turns, "segments", "rooms"]
     columns += ["recall", "precision", "mcc"]
     columns += ["mcc_spread"] if args.shifts else []
