@@ -5,6 +5,9 @@ and glass into unknown space, small free islands, specks left by people, tables 
 many small occupied blobs inside rooms. Every rule here is in metres of the robot and of the
 furniture, never in cells, so it holds at any resolution:
 
+0. **Blur.** Walls drawn thicker than the mapper's blur allows lose the whole cells of it on
+   each side (:func:`~segmentation.blur.sharpened`): what follows is measured on the walls'
+   surfaces, whichever mapper drew them.
 1. **Clutter.** Obstacles closer than ``robot_radius`` to each other form one obstacle (the
    robot cannot pass between them: a dotted SLAM wall is one wall). An obstacle that stands
    free of the map edge and fits in a box of ``clutter_size`` metres (a table with its chairs,
@@ -34,6 +37,7 @@ from numpy.typing import NDArray
 
 from maps.grid import OccupancyGrid, clearance_of
 from maps.limits import MAX_LENGTH, MAX_ROBOT_RADIUS, finite_in
+from segmentation.blur import sharpened
 from segmentation.errors import ParameterError
 from segmentation.walls import wall_stubs
 
@@ -50,7 +54,7 @@ class ConditionedMap:
     Attributes
     ----------
     grid
-        The map as given.
+        The map, its walls' blur taken off (:func:`~segmentation.blur.sharpened`).
     space
         Cells of the building's geometry: robot space plus the clutter inside it. Places,
         doors and clearance are measured in this space.
@@ -62,6 +66,8 @@ class ConditionedMap:
         Free cells left out, by reason: ``thin`` (no robot disc fits), ``islands`` (pieces
         under ``min_area``), ``outside`` (places bounded by unknown space, see
         :func:`drop_outside`).
+    blur
+        Cells of the mapper's blur taken off each side of the walls (0: the walls are sharp).
     """
 
     grid: OccupancyGrid
@@ -69,6 +75,7 @@ class ConditionedMap:
     free: NDArray[np.bool_]
     clutter: NDArray[np.bool_]
     dropped: dict[str, int]
+    blur: int = 0
 
     def __repr__(self) -> str:
         return f"ConditionedMap({self.summary()})"
@@ -80,6 +87,7 @@ class ConditionedMap:
             "kept_cells": int(self.free.sum()),
             "clutter_cells": int(self.clutter.sum()),
             **{f"dropped_{k}_cells": v for k, v in self.dropped.items()},
+            "wall_blur_cells": self.blur,
         }
 
 
@@ -155,6 +163,7 @@ def condition(
             raise ParameterError(problem)
     if not (isinstance(min_area, int | float) and min_area >= 0):
         raise ParameterError(f"min_area must be >= 0 square metres, got {min_area!r}")
+    grid, blur = sharpened(grid)
     free = grid.free
     clutter = find_clutter(grid, robot_radius, clutter_size)
     open_space = free | clutter
@@ -173,7 +182,7 @@ def condition(
         "islands": int((free & opened & ~space).sum()),
         "outside": 0,
     }
-    return ConditionedMap(grid, space, kept, clutter & space, dropped)
+    return ConditionedMap(grid, space, kept, clutter & space, dropped, blur)
 
 
 def wall_share(grid: OccupancyGrid, labels: NDArray[np.integer]) -> NDArray[np.float64]:
@@ -234,4 +243,5 @@ def drop_outside(
         conditioned.free & ~outside,
         conditioned.clutter & ~outside,
         dropped,
+        conditioned.blur,
     )

@@ -276,12 +276,13 @@ class MapSegmenter(Estimator):
             doors = pieces(space, merge_open_boundaries(space, places, places), self.min_area)
         lap("regions")
         stage("cover")
-        covered = self._cover(conditioned, unpool(dense, factor, conditioned.free))
+        covered = self._cover(conditioned, unpool(dense, factor, conditioned.free), grid)
         spectral_regions = regions = Regions(grid, covered.labels)
         if self.method == "doors":
-            covered = self._cover(conditioned, unpool(doors, factor, conditioned.free))
+            covered = self._cover(conditioned, unpool(doors, factor, conditioned.free), grid)
             regions = Regions(grid, covered.labels)
         lap("cover")
+        conditioned = replace(conditioned, free=conditioned.free & grid.free)
         conditioned = _count_unlabelled(conditioned, regions.labels)
         return Segmentation(
             conditioned,
@@ -366,13 +367,19 @@ class MapSegmenter(Estimator):
             return BlockSpectralSegmenter(spectral, blocks, per_block, self.n_jobs).fit(keyframes)
         return at_most(spectral, min(len(keyframes), count)).fit(keyframes)
 
-    def _cover(self, conditioned: ConditionedMap, labels: NDArray[np.int32]) -> Coverage:
+    def _cover(
+        self, conditioned: ConditionedMap, labels: NDArray[np.int32], grid: OccupancyGrid
+    ) -> Coverage:
+        """``labels`` over the building (:func:`cover`), pockets joined; the wall cells of
+        ``grid``, the map as given, stay without a region where its blur was taken off."""
         covered = cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
         # the partition's regions, not the rooms the cover saw through doors
         robot_regions = set(np.flatnonzero(np.bincount(covered.labels[labels > 0])).tolist())
         joined, pockets = join_pockets(
             conditioned.grid, covered.labels, robot_regions, robot_radius=self.robot_radius
         )
+        if conditioned.blur:
+            joined = consecutive(np.where(grid.occupied & ~conditioned.clutter, 0, joined))
         return replace(covered, labels=joined, pockets=pockets)
 
 
