@@ -13,12 +13,12 @@ from segmentation.blur import sharpened, wall_band
 from segmentation.pipeline import MapSegmenter
 
 
-def _room(wall: int) -> OccupancyGrid:
-    """A 3 x 3 m room (0.05 m cells) whose walls are ``wall`` cells thick, unknown outside."""
+def _room(wall: int, resolution: float = 0.1) -> OccupancyGrid:
+    """A 6 x 6 m room (0.1 m cells) whose walls are ``wall`` cells thick, unknown outside."""
     cells = np.full((80, 80), -1, np.int8)
     cells[10:70, 10:70] = 100
     cells[10 + wall : 70 - wall, 10 + wall : 70 - wall] = 0
-    return OccupancyGrid(cells, 0.05)
+    return OccupancyGrid(cells, resolution)
 
 
 def test_a_band_three_cells_thick_loses_a_cell_on_each_side_and_a_thin_one_none():
@@ -32,6 +32,8 @@ def test_a_band_three_cells_thick_loses_a_cell_on_each_side_and_a_thin_one_none(
     assert (sharp.free == np.pad(np.ones((56, 56), bool), 12)).all()  # the room a cell larger
     assert (sharp.unknown == ~ring & ~sharp.free).all()  # the outer cell went to the outside
     assert sharpened(_room(1))[1] == 0 and sharpened(_room(2))[1] == 0
+    # the same band on 0.025 m cells is a laser's own blur (2.5 cm on each side): it stays
+    assert sharpened(_room(3, 0.025))[1] == 0 and sharpened(_room(7, 0.025))[1] == 3
 
 
 @settings(max_examples=60, deadline=None)
