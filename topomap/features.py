@@ -274,7 +274,7 @@ def medial_axis(mask: NDArray[np.bool_], distance: NDArray[np.float64]) -> NDArr
     for _ in range(2):  # cutting spurs can leave a new, shorter one at a former branch point
         neighbours = _axis_neighbours(axis)
         junctions = axis & (neighbours >= 3)
-        near = ndimage.binary_dilation(junctions, np.ones((3, 3), bool))
+        near = cv2.dilate(junctions.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
         pieces, count = ndimage.label(axis & ~near, np.ones((3, 3), bool))
         if count == 0 or not junctions.any():
             break
@@ -333,7 +333,7 @@ def _fill_small_holes(mask: NDArray[np.bool_], most: int) -> NDArray[np.bool_]:
     small = stats[:, cv2.CC_STAT_AREA] <= most
     small[border] = False
     small[0] = False  # the mask itself
-    return mask | small[holes]
+    return mask | small[holes] if small.any() else mask
 
 
 def feature_matrix(features: Mapping[str, NDArray[np.float64]]) -> NDArray[np.float64]:
