@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid
-from segmentation.distinct import label_counts
+from segmentation.distinct import label_counts, nonzero_cells
 from segmentation.regions import consecutive
 from segmentation.working import ALL_AROUND, grow
 
@@ -133,7 +133,7 @@ def opening_spans(
     [0.0, 3.0, 1.0]
     """
     spans = np.zeros(count + 1)
-    rows, cols = np.nonzero(contact)
+    rows, cols = nonzero_cells(contact)
     which = pieces[rows, cols]
     order = np.argsort(which, kind="stable")
     rows, cols, which = rows[order], cols[order], which[order]

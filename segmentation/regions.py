@@ -15,7 +15,7 @@ from shapely import affinity
 from shapely.geometry.base import BaseGeometry
 
 from maps.grid import OccupancyGrid
-from segmentation.distinct import distinct, label_counts
+from segmentation.distinct import distinct, label_counts, nonzero_cells
 from segmentation.errors import SegmentationError
 
 
@@ -328,8 +328,8 @@ def _rectangles(labels: NDArray[np.integer]) -> tuple[NDArray[np.int64], ...]:
     the runs of each row, a run joined with the same run in the rows below."""
     padded = np.pad(labels, ((0, 0), (1, 1)), constant_values=-1)
     change = padded[:, 1:] != padded[:, :-1]
-    rows, cols = np.nonzero(change[:, :-1])  # a run of equal labels starts at (row, col)
-    ends = np.nonzero(change[:, 1:])[1] + 1  # ... and ends before this column
+    rows, cols = nonzero_cells(change[:, :-1])  # a run of equal labels starts at (row, col)
+    ends = nonzero_cells(change[:, 1:])[1] + 1  # ... and ends before this column
     values = labels[rows, cols].astype(np.int64)
     keep = values > 0
     rows, cols, ends, values = rows[keep], cols[keep], ends[keep], values[keep]

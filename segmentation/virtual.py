@@ -12,7 +12,7 @@ from maps.grid import OccupancyGrid
 from maps.scan import Keyframe
 from maps.seeding import RandomState
 from maps.sim.laser import LaserModel, simulate_scans
-from segmentation.distinct import label_counts
+from segmentation.distinct import label_counts, nonzero_cells
 from segmentation.errors import ParameterError, SegmentationError
 
 #: The default virtual laser: a full circle of 180 beams reaching 15 m, no noise.
@@ -78,7 +78,7 @@ def virtual_poses(
             f"{area:.0f} m^2 of free space, more than the {MAX_VIRTUAL_KEYFRAMES} allowed: "
             "give a larger spacing (--spacing)"
         )
-    rows, cols = np.nonzero(chosen)
+    rows, cols = nonzero_cells(chosen)
     x, y = grid.cell_to_world(rows, cols)
     return np.column_stack([x, y, np.zeros(len(rows))])
 
