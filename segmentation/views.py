@@ -44,23 +44,35 @@ def view_cells(keyframe: Keyframe, resolution: float, reach: float) -> NDArray[n
 def views_cells(
     keyframes: Sequence[Keyframe], resolution: float, reach: float
 ) -> list[NDArray[np.int64]]:
-    """:func:`view_cells` of every keyframe: the polygons of all the scans are computed in
-    one pass over all their beams (the same numbers, beam by beam), each then drawn alone."""
+    """:func:`view_cells` of every keyframe (see :func:`_stacked_views`)."""
+    i, j, sizes = _stacked_views(keyframes, resolution, reach)
+    return np.split(np.column_stack([i, j]), np.cumsum(sizes)[:-1]) if len(sizes) else []
+
+
+def _stacked_views(
+    keyframes: Sequence[Keyframe], resolution: float, reach: float
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """``(i, j, sizes)``: the cells of every keyframe's view (:func:`view_cells`) one view
+    after the other, and how many each view has. The polygons of all the scans are computed
+    in one pass over all their beams (the same numbers, beam by beam), each then drawn alone."""
     if len(keyframes) == 0:
-        return []
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64)
     stacked, starts, corners = _view_polygons(keyframes, resolution, reach)
     # drawn on the polygon's own box, a whole number of cells in from the reach's square (a
     # scan in a room fills a fraction of it): the same cells, a tenth of the pixels to scan
     lows = (np.minimum.reduceat(stacked, starts) >> SHIFT) - 1
-    sizes = (np.maximum.reduceat(stacked, starts) >> SHIFT) - lows + 2
-    polygons = np.split(stacked, starts[1:])
+    boxes = (np.maximum.reduceat(stacked, starts) >> SHIFT) - lows + 2
     views = []
-    for pixels, corner, low, (width, height) in zip(polygons, corners, lows, sizes, strict=True):
+    for pixels, low, (width, height) in zip(
+        np.split(stacked, starts[1:]), lows, boxes, strict=True
+    ):
         seen = np.zeros((height, width), np.uint8)
         cv2.fillPoly(seen, [pixels - (low << SHIFT).astype(np.int32)], 1, cv2.LINE_8, shift=SHIFT)
-        j, i = np.nonzero(seen)
-        views.append(np.column_stack([i, j]).astype(np.int64) + corner + low)
-    return views
+        found = cv2.findNonZero(seen)  # (i, j) row by row, as np.nonzero: five times faster
+        views.append(np.zeros((0, 2), np.int32) if found is None else found.reshape(-1, 2))
+    sizes = np.array([len(view) for view in views], np.int64)
+    cells = np.concatenate(views) + np.repeat(corners + lows, sizes, axis=0)  # on the map
+    return cells[:, 0], cells[:, 1], sizes
 
 
 def _view_polygons(
@@ -138,15 +150,12 @@ class SharedView:
         the box is mostly cells no view saw).
         """
         n = len(keyframes)
-        views = views_cells(keyframes, self.resolution, self.reach)
-        sizes = np.array([len(v) for v in views], np.int64)
-        cells = np.concatenate(views) if n else np.zeros((0, 2), np.int64)
-        # column by column: numpy reduces an (m, 2) array along its rows ten times slower
+        i, j, sizes = _stacked_views(keyframes, self.resolution, self.reach)
         low, span = np.zeros(2, np.int64), np.ones(2, np.int64)
-        if len(cells):
-            low = np.array([cells[:, 0].min(), cells[:, 1].min()])
-            span = np.array([cells[:, 0].max(), cells[:, 1].max()]) - low + 1
-        column = (cells[:, 1] - low[1]) * span[0] + (cells[:, 0] - low[0])
+        if len(i):
+            low = np.array([i.min(), j.min()])
+            span = np.array([i.max(), j.max()]) - low + 1
+        column = (j - low[1]) * span[0] + (i - low[0])
         width = int(span[0] * span[1])
         if width > 4 * len(column):  # views far apart: number only the cells seen, in order
             _, column = np.unique(column, return_inverse=True)
