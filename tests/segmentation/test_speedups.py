@@ -14,7 +14,7 @@ from shapely import affinity
 
 from maps.grid import OccupancyGrid, clearance_of
 from maps.scan import Keyframe, LaserScan
-from segmentation.distinct import distinct, label_counts
+from segmentation.distinct import distinct, label_counts, nonzero_cells
 from segmentation.regions import Regions, boundary_pairs, consecutive, fill_enclosed
 from segmentation.views import SharedView, view_cells, views_cells
 from segmentation.virtual import most_open_cells
@@ -355,3 +355,10 @@ def test_views_cells_are_each_scans_view_cells(frames, resolution, reach):
     ]
     for found, keyframe in zip(views_cells(keyframes, resolution, reach), keyframes, strict=True):
         assert np.array_equal(found, view_cells_plain(keyframe, resolution, reach))
+
+
+@given(arrays(bool, st.tuples(st.integers(1, 25), st.integers(1, 25))), st.booleans())
+def test_nonzero_cells_are_numpys_nonzero(mask, transposed):
+    mask = mask.T if transposed else mask
+    for found, expected in zip(nonzero_cells(mask), np.nonzero(mask), strict=True):
+        assert found.dtype == expected.dtype and np.array_equal(found, expected)
