@@ -14,6 +14,7 @@ from shapely import affinity
 
 from maps.grid import OccupancyGrid, clearance_of
 from maps.scan import Keyframe, LaserScan
+from segmentation.conditioning import wall_share
 from segmentation.distinct import distinct, label_counts, nonzero_cells
 from segmentation.regions import Regions, boundary_pairs, consecutive, fill_enclosed
 from segmentation.views import SharedView, view_cells, views_cells
@@ -362,3 +363,30 @@ def test_nonzero_cells_are_numpys_nonzero(mask, transposed):
     mask = mask.T if transposed else mask
     for found, expected in zip(nonzero_cells(mask), np.nonzero(mask), strict=True):
         assert found.dtype == expected.dtype and np.array_equal(found, expected)
+
+
+def wall_share_plain(grid, labels):
+    """Every cell and its four neighbours compared on the whole image, which
+    :func:`~segmentation.conditioning.wall_share` replaced (by the cells whose neighbour
+    differs, along the flattened image)."""
+    count = int(labels.max(initial=0)) + 1
+    wall, unknown = np.zeros(count), np.zeros(count)
+    for inner, outer in (
+        (np.s_[1:, :], np.s_[:-1, :]),
+        (np.s_[:-1, :], np.s_[1:, :]),
+        (np.s_[:, 1:], np.s_[:, :-1]),
+        (np.s_[:, :-1], np.s_[:, 1:]),
+    ):
+        own = labels[inner]
+        edge = (own > 0) & (labels[outer] == 0)
+        wall += np.bincount(own[edge & grid.occupied[outer]], minlength=count)
+        unknown += np.bincount(own[edge & grid.unknown[outer]], minlength=count)
+    wall[0], unknown[0] = wall.sum(), unknown.sum()
+    return np.divide(wall, wall + unknown, out=np.ones(count), where=wall + unknown > 0)
+
+
+@given(label_images, st.data())
+def test_wall_share_equals_the_plain_one(labels, data):
+    cells = data.draw(arrays(np.int8, labels.shape, elements=st.sampled_from([-1, 0, 100])))
+    grid = OccupancyGrid(cells, 0.1)
+    assert np.array_equal(wall_share(grid, labels), wall_share_plain(grid, labels))
