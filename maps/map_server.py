@@ -61,7 +61,12 @@ def cells_from_image(
         total += pixels[:, :, channel]
     # every sum's cell, looked up: the arithmetic on the 256 grey values, not on every pixel
     grey = np.arange(255 * averaged + 1) // averaged
-    cells = _cell_table(grey, mode, negate, occupied_thresh, free_thresh)[total]
+    table = _cell_table(grey, mode, negate, occupied_thresh, free_thresh)
+    if averaged == 1 and pixels.dtype == np.uint8:  # OpenCV's lookup, 5x numpy's gather
+        grey_pixels = np.ascontiguousarray(pixels[:, :, 0])
+        cells = cv2.LUT(grey_pixels, table.view(np.uint8)).view(np.int8)
+    else:
+        cells = table[total]
     if mode == "scale" and has_alpha:  # a fully transparent pixel is unknown
         transparent = pixels[:, :, -1] == 0
         trinary = _cell_table(grey, "trinary", negate, occupied_thresh, free_thresh)
