@@ -95,6 +95,11 @@ def check_output_file(path: str | Path, *, overwrite: bool, how: str = "overwrit
     """
     path = Path(path)
     check_output_folder(path.parent)
+    return _check_file(path, overwrite=overwrite, how=how)
+
+
+def _check_file(path: Path, *, overwrite: bool, how: str) -> Path:
+    """:func:`check_output_file` once its folder is checked."""
     if path.is_dir():
         raise OutputIsAFolderError(path, f"{path} is a folder, not a file: cannot write it")
     if path.exists() and not overwrite:
@@ -105,10 +110,15 @@ def check_output_file(path: str | Path, *, overwrite: bool, how: str = "overwrit
 def check_outputs(
     folder: str | Path, names: Iterable[str], *, overwrite: bool, how: str = "overwrite=True"
 ) -> Path:
-    """:func:`check_output_folder` and :func:`check_output_file` for every name in it."""
+    """:func:`check_output_folder` and :func:`check_output_file` for every name in it, each
+    folder checked once."""
     folder = check_output_folder(folder)
+    checked = {folder}
     for name in names:
-        check_output_file(folder / name, overwrite=overwrite, how=how)
+        path = folder / name
+        if path.parent not in checked:
+            checked.add(check_output_folder(path.parent))
+        _check_file(path, overwrite=overwrite, how=how)
     return folder
 
 

@@ -448,14 +448,28 @@ def clearance_of(space: NDArray[np.bool_], resolution: float) -> NDArray[np.floa
     >>> space = np.ones((3, 5), bool)
     >>> clearance_of(space, 0.5)[1].tolist()
     [0.5, 1.0, 1.0, 1.0, 0.5]
+
+    Only the box round ``space`` is transformed (a building takes a fraction of its map): the
+    cells just outside the box are outside ``space`` and nearer than any farther one, so the
+    distances are the same.
+
+    >>> space = np.zeros((4, 6), bool); space[1:3, 2:5] = True
+    >>> clearance_of(space, 1.0)[1:3].tolist()
+    [[0.0, 0.0, 1.0, 1.0, 1.0, 0.0], [0.0, 0.0, 1.0, 1.0, 1.0, 0.0]]
     """
     import cv2
 
-    padded = np.pad(space, 1).astype(np.uint8)
+    found = np.zeros(space.shape, np.float32)
+    rows, cols = np.flatnonzero(space.any(axis=1)), np.flatnonzero(space.any(axis=0))
+    if len(rows) == 0:
+        return found
+    box = np.s_[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+    padded = np.pad(space[box], 1).astype(np.uint8)
     distance = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     # the distance to the nearest outside cell's centre is the root of a whole number of
     # cells squared; OpenCV's last bits are not (on small images they differ from one call
     # to the next), so the squares are rounded to it: the same map gives the same places
     np.multiply(distance, distance, out=distance)
     np.sqrt(np.rint(distance, out=distance), out=distance)
-    return distance[1:-1, 1:-1] * np.float32(resolution)
+    np.multiply(distance[1:-1, 1:-1], np.float32(resolution), out=found[box])
+    return found

@@ -22,6 +22,7 @@ from scipy.spatial import cKDTree
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
 from segmentation.base import Estimator
+from segmentation.distinct import label_counts
 from segmentation.errors import ParameterError
 from segmentation.spectral import SpectralSegmenter, at_most, kmeans
 
@@ -40,7 +41,7 @@ def keyframe_blocks(
 
     Keyframes on no basin take the block of the nearest keyframe that has one.
     """
-    sizes = np.bincount(basin.ravel())
+    sizes = label_counts(basin)
     ids = np.flatnonzero(sizes * grid.resolution**2 >= min_area)
     ids = ids[ids > 0]
     rows, cols = np.nonzero(basin)

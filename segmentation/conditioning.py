@@ -202,17 +202,19 @@ def wall_share(grid: OccupancyGrid, labels: NDArray[np.integer]) -> NDArray[np.f
     """
     count = int(labels.max(initial=0)) + 1
     wall, unknown = np.zeros(count), np.zeros(count)
-    occupied, unseen = grid.occupied, grid.unknown
-    for inner, outer in (
-        (np.s_[1:, :], np.s_[:-1, :]),
-        (np.s_[:-1, :], np.s_[1:, :]),
-        (np.s_[:, 1:], np.s_[:, :-1]),
-        (np.s_[:, :-1], np.s_[:, 1:]),
-    ):
-        own = labels[inner]
-        edge = (own > 0) & (labels[outer] == 0)
-        wall += np.bincount(own[edge & occupied[outer]], minlength=count)
-        unknown += np.bincount(own[edge & unseen[outer]], minlength=count)
+    occupied, unseen = grid.occupied.ravel(), grid.unknown.ravel()
+    width = labels.shape[1]
+    flat = np.ascontiguousarray(labels).ravel()
+    for down in (True, False):  # a cell and the one below it, a cell and the one to its right
+        step = width if down else 1
+        at = np.flatnonzero(flat[:-step] != flat[step:])  # an edge is between two labels
+        if not down:
+            at = at[at % width != width - 1]  # not across the end of a row
+        for inner, outer in ((at, at + step), (at + step, at)):
+            own = flat[inner]
+            edge = (own > 0) & (flat[outer] == 0)
+            wall += np.bincount(own[edge & occupied[outer]], minlength=count)
+            unknown += np.bincount(own[edge & unseen[outer]], minlength=count)
     wall[0], unknown[0] = wall.sum(), unknown.sum()
     return np.divide(wall, wall + unknown, out=np.ones(count), where=wall + unknown > 0)
 

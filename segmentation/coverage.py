@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid
+from segmentation.distinct import label_counts, nonzero_cells
 from segmentation.regions import consecutive
 from segmentation.working import ALL_AROUND, grow
 
@@ -94,7 +95,7 @@ def cover(
     seen = 0
     if left.any():
         pieces, count = ndimage.label(left, structure=np.ones((3, 3)))
-        area = np.bincount(pieces.ravel(), minlength=count + 1) * grid.resolution**2
+        area = label_counts(pieces, count + 1) * grid.resolution**2
         touching = cv2.dilate((labels > 0).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
         contact = np.bincount(pieces[touching & left], minlength=count + 1) * grid.resolution
         large = area >= min_area
@@ -132,7 +133,7 @@ def opening_spans(
     [0.0, 3.0, 1.0]
     """
     spans = np.zeros(count + 1)
-    rows, cols = np.nonzero(contact)
+    rows, cols = nonzero_cells(contact)
     which = pieces[rows, cols]
     order = np.argsort(which, kind="stable")
     rows, cols, which = rows[order], cols[order], which[order]

@@ -197,9 +197,12 @@ def label_colours(labels: NDArray[np.integer]) -> NDArray[np.uint8]:
     count = int(labels.max(initial=0)) + 1
     hues = (np.arange(count) * 0.381966 * 180) % 180  # OpenCV hues are 0..179
     hsv = np.stack([hues, np.full(count, 150), np.full(count, 230)], axis=1).astype(np.uint8)
-    palette = cv2.cvtColor(hsv[None], cv2.COLOR_HSV2RGB)[0]
-    palette[0] = 235
-    return np.take(palette, np.maximum(labels, 0), axis=0)  # twice as fast as palette[labels]
+    palette = np.zeros((count, 4), np.uint8)  # RGB and a fourth byte: one 32-bit word each
+    palette[:, :3] = cv2.cvtColor(hsv[None], cv2.COLOR_HSV2RGB)[0]
+    palette[0, :3] = 235
+    # words are gathered twice as fast as rows of three bytes (and four times palette[labels])
+    words = np.take(palette.view(np.uint32).ravel(), np.maximum(labels, 0))
+    return cv2.cvtColor(words.view(np.uint8).reshape(*labels.shape, 4), cv2.COLOR_RGBA2RGB)
 
 
 def write_colour_image(labels: NDArray[np.integer], path: str | Path, *, overwrite: bool = False):

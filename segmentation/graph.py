@@ -6,6 +6,7 @@ import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 
+from segmentation.distinct import label_counts
 from segmentation.regions import Regions
 from segmentation.transitions import Transition, find_transitions
 from segmentation.virtual import most_open_cells
@@ -59,7 +60,7 @@ def region_graph(
     graph = nx.Graph(resolution=regions.grid.resolution, origin=tuple(regions.grid.origin))
     grid = regions.grid
     on_free = np.where(grid.free, regions.labels, 0)
-    ids = np.flatnonzero(np.bincount(on_free.ravel()))  # the ids on free cells, ascending
+    ids = np.flatnonzero(label_counts(on_free))  # the ids on free cells, ascending
     ids = ids[ids > 0]
     rows, cols = most_open_cells(grid.free_clearance(), on_free, ids)
     xs, ys = grid.cell_to_world(rows, cols)

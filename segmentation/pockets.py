@@ -16,9 +16,11 @@ from collections.abc import Collection
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.cluster.hierarchy import DisjointSet
+from scipy import sparse
+from scipy.sparse.csgraph import connected_components
 
 from maps.grid import OccupancyGrid
+from segmentation.distinct import label_counts
 from segmentation.regions import consecutive
 from segmentation.transitions import find_transitions
 
@@ -72,7 +74,7 @@ def join_pockets(
         for region, other in ((opening.a, opening.b), (opening.b, opening.a)):
             if opening.passable > widest.get(region, (-1.0, 0))[0]:
                 widest[region] = (opening.passable, other)
-    sizes = np.bincount(np.asarray(labels, np.int64).ravel())
+    sizes = label_counts(np.asarray(labels))
     short = SHORT_BY * grid.resolution
     pockets = {
         region: other
@@ -83,11 +85,20 @@ def join_pockets(
     }
     if not pockets:
         return np.asarray(labels, np.int32), 0
-    joined = DisjointSet(widest)
-    for region, other in pockets.items():
-        joined.merge(region, other)
     target = np.arange(len(sizes))
-    for group in joined.subsets():
-        target[list(group)] = max(group, key=lambda region: (sizes[region], -region))
+    for group in _chains(pockets, len(sizes)):
+        target[group] = max(group, key=lambda region: (sizes[region], -region))
     lost = (target != np.arange(len(sizes))) & (sizes > 0)
     return consecutive(target[labels]), int(lost[1:].sum())
+
+
+def _chains(pockets: dict[int, int], count: int) -> list[list[int]]:
+    """The regions joined through ``pockets`` (a pocket and the region it joins, of ids below
+    ``count``; at least one), group by group: the connected pieces of those links."""
+    regions, others = np.array(list(pockets.items())).T
+    links = sparse.coo_matrix((np.ones(len(regions)), (regions, others)), shape=(count, count))
+    _, piece = connected_components(links, directed=False)
+    groups: dict[int, list[int]] = {}
+    for region in sorted({*regions.tolist(), *others.tolist()}):
+        groups.setdefault(int(piece[region]), []).append(region)
+    return list(groups.values())

@@ -17,6 +17,7 @@ from scipy.sparse.csgraph import connected_components
 from skimage.segmentation import watershed
 
 from maps.grid import OccupancyGrid
+from segmentation.distinct import label_counts
 from segmentation.errors import ParameterError
 from segmentation.regions import boundary_pairs, consecutive
 
@@ -91,7 +92,7 @@ def basins(grid: OccupancyGrid, depth: float = PLACE_DEPTH) -> NDArray[np.int32]
 def count_basins(grid: OccupancyGrid, basin: NDArray[np.int32], min_area: float = 1.0) -> int:
     """Number of ``basin`` labels (from :func:`basins`) of at least ``min_area`` square metres:
     a guess of the number of places (rooms, corridor pieces) for the spectral ``k``."""
-    sizes = np.bincount(basin.ravel())[1:]
+    sizes = label_counts(basin)[1:]
     return max(1, int((sizes * grid.resolution**2 >= min_area).sum()))
 
 

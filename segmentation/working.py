@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.grid import OccupancyGrid, clearance_of
-from segmentation.distinct import distinct
+from segmentation.distinct import distinct, nonzero_cells
 
 
 def pool_factor(resolution: float, cell_size: float) -> int:
@@ -106,7 +106,7 @@ def grow(
     """
     height, width = keep.shape
     missing = keep & (labels == 0)
-    rows, cols = np.nonzero(missing)
+    rows, cols = nonzero_cells(missing)
     while len(rows):
         grown = np.zeros(len(rows), np.int32)
         for dr, dc in around:

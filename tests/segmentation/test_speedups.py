@@ -9,14 +9,15 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
-from scipy import sparse
+from scipy import ndimage, sparse
 from shapely import affinity
 
-from maps.grid import OccupancyGrid
+from maps.grid import OccupancyGrid, clearance_of
 from maps.scan import Keyframe, LaserScan
-from segmentation.distinct import distinct
-from segmentation.regions import Regions
-from segmentation.views import SharedView, view_cells
+from segmentation.conditioning import wall_share
+from segmentation.distinct import distinct, label_counts, nonzero_cells
+from segmentation.regions import Regions, boundary_pairs, consecutive, fill_enclosed
+from segmentation.views import SharedView, view_cells, views_cells
 from segmentation.virtual import most_open_cells
 
 label_images = arrays(
@@ -171,7 +172,10 @@ def test_the_free_cells_distance_transform_is_computed_once_per_grid(monkeypatch
     monkeypatch.setattr(cv2, "distanceTransform", counted)
     topo = TopoMap.from_grid(grid)
     for space in (grid.free, topo.regions.grid.free):
-        padded = np.pad(space, 1).astype(np.uint8)
+        # the transform is of the box round the space, an outside cell added round it
+        rows, cols = np.flatnonzero(space.any(axis=1)), np.flatnonzero(space.any(axis=0))
+        box = space[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+        padded = np.pad(box, 1).astype(np.uint8)
         assert sum(np.array_equal(image, padded) for image in seen) == 1
 
 
@@ -229,3 +233,160 @@ def test_view_cells_on_the_polygons_box_are_the_cells_on_the_whole_square(
     keyframe = Keyframe((x, y, yaw), scan)
     found = view_cells(keyframe, resolution, reach)
     assert np.array_equal(found, view_cells_plain(keyframe, resolution, reach))
+
+
+@given(label_images)
+def test_label_counts_are_numpys_bincount(labels):
+    found = label_counts(labels, minlength=9)
+    expected = np.bincount(labels.ravel(), minlength=9)
+    assert found.dtype == np.int64 and np.array_equal(found, expected)
+
+
+def consecutive_plain(labels):
+    """Every value looked up in the table of ranks, which
+    :func:`~segmentation.regions.consecutive` replaced (by the labels as they are, when they
+    are already ``1..N``)."""
+    labels = np.maximum(labels, 0)
+    present = np.bincount(labels.ravel()) > 0
+    present[0] = False
+    rank = np.cumsum(present).astype(np.int32)
+    rank[0] = 0
+    return rank[labels]
+
+
+@given(label_images.map(lambda labels: labels - 1))
+def test_consecutive_equals_the_plain_one(labels):
+    found = consecutive(labels)
+    assert found.dtype == np.int32 and np.array_equal(found, consecutive_plain(labels))
+
+
+def boundary_pairs_plain(labels):
+    """Both neighbours of every cell compared on the whole image, which
+    :func:`~segmentation.regions.boundary_pairs` replaced (by the cells whose neighbour
+    differs, along the flattened image)."""
+    found = []
+    for axis in (0, 1):
+        a = labels[:-1, :] if axis == 0 else labels[:, :-1]
+        b = labels[1:, :] if axis == 0 else labels[:, 1:]
+        rows, cols = np.nonzero((a != b) & (a > 0) & (b > 0))
+        step = (1, 0) if axis == 0 else (0, 1)
+        found.append(np.stack([rows, cols, rows + step[0], cols + step[1]]))
+    pairs = np.concatenate(found, axis=1)
+    swap = labels[pairs[0], pairs[1]] > labels[pairs[2], pairs[3]]
+    pairs[:, swap] = pairs[[2, 3, 0, 1]][:, swap]
+    return tuple(pairs.astype(np.int64))
+
+
+@given(label_images, st.booleans())
+def test_boundary_pairs_equal_the_plain_ones(labels, transposed):
+    labels = labels.T if transposed else labels
+    for found, expected in zip(boundary_pairs(labels), boundary_pairs_plain(labels), strict=True):
+        assert found.dtype == np.int64 and np.array_equal(found, expected)
+
+
+def fill_enclosed_plain(labels, most):
+    """The largest and smallest region beside every cell of the whole map, reduced per piece,
+    which :func:`~segmentation.regions.fill_enclosed` replaced (by each small piece off the
+    map's edge looked at on its box)."""
+    empty = labels == 0
+    pieces, count = ndimage.label(empty, structure=np.ones((3, 3)))
+    if count == 0:
+        return labels
+    sizes = np.bincount(pieces.ravel(), minlength=count + 1)
+    big = float(2**24)
+    ring = np.ones((3, 3), np.uint8)
+    ids = labels.astype(np.float32)
+    highest = cv2.dilate(ids, ring, borderType=cv2.BORDER_CONSTANT, borderValue=big)
+    lowest = cv2.erode(
+        np.where(empty, big, ids), ring, borderType=cv2.BORDER_CONSTANT, borderValue=big
+    )
+    small = sizes <= most
+    small[0] = False
+    at = small[pieces]
+    high, low = np.full(count + 1, -1.0), np.full(count + 1, big)
+    np.maximum.at(high, pieces[at], highest[at])
+    np.minimum.at(low, pieces[at], lowest[at])
+    enclosed = small & (high == low) & (high > 0) & (high < big)
+    if not enclosed.any():
+        return labels
+    region = np.where(enclosed, high, 0).astype(np.int32)
+    return np.where(empty & enclosed[pieces], region[pieces], labels).astype(np.int32)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    arrays(np.int32, st.tuples(st.integers(1, 20), st.integers(1, 20)), elements=st.integers(0, 3)),
+    st.integers(0, 12),
+)
+def test_fill_enclosed_equals_the_plain_one(labels, most):
+    found = fill_enclosed(labels, most)
+    assert found.dtype == np.int32 and np.array_equal(found, fill_enclosed_plain(labels, most))
+
+
+def clearance_plain(space, resolution):
+    """The distance transform of the whole image, which :func:`~maps.grid.clearance_of`
+    replaced (by that of the box round the space)."""
+    padded = np.pad(space, 1).astype(np.uint8)
+    distance = cv2.distanceTransform(padded, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    np.multiply(distance, distance, out=distance)
+    np.sqrt(np.rint(distance, out=distance), out=distance)
+    return distance[1:-1, 1:-1] * np.float32(resolution)
+
+
+@given(arrays(bool, st.tuples(st.integers(1, 25), st.integers(1, 25))), st.sampled_from([0.05, 1]))
+def test_clearance_of_the_box_is_that_of_the_whole_image(space, resolution):
+    found = clearance_of(space, resolution)
+    assert found.dtype == np.float32 and np.array_equal(found, clearance_plain(space, resolution))
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    st.lists(
+        st.tuples(poses, st.lists(st.floats(0.0, 14.0), min_size=1, max_size=30)),
+        min_size=1,
+        max_size=6,
+    ),
+    st.sampled_from([0.05, 0.2]),
+    st.floats(1.0, 12.0),
+)
+def test_views_cells_are_each_scans_view_cells(frames, resolution, reach):
+    keyframes = [
+        Keyframe((x * 20, y * 20, yaw), LaserScan(np.array(ranges), yaw, 0.1, 0.1, 10.0))
+        for (x, y, yaw), ranges in frames
+    ]
+    for found, keyframe in zip(views_cells(keyframes, resolution, reach), keyframes, strict=True):
+        assert np.array_equal(found, view_cells_plain(keyframe, resolution, reach))
+
+
+@given(arrays(bool, st.tuples(st.integers(1, 25), st.integers(1, 25))), st.booleans())
+def test_nonzero_cells_are_numpys_nonzero(mask, transposed):
+    mask = mask.T if transposed else mask
+    for found, expected in zip(nonzero_cells(mask), np.nonzero(mask), strict=True):
+        assert found.dtype == expected.dtype and np.array_equal(found, expected)
+
+
+def wall_share_plain(grid, labels):
+    """Every cell and its four neighbours compared on the whole image, which
+    :func:`~segmentation.conditioning.wall_share` replaced (by the cells whose neighbour
+    differs, along the flattened image)."""
+    count = int(labels.max(initial=0)) + 1
+    wall, unknown = np.zeros(count), np.zeros(count)
+    for inner, outer in (
+        (np.s_[1:, :], np.s_[:-1, :]),
+        (np.s_[:-1, :], np.s_[1:, :]),
+        (np.s_[:, 1:], np.s_[:, :-1]),
+        (np.s_[:, :-1], np.s_[:, 1:]),
+    ):
+        own = labels[inner]
+        edge = (own > 0) & (labels[outer] == 0)
+        wall += np.bincount(own[edge & grid.occupied[outer]], minlength=count)
+        unknown += np.bincount(own[edge & grid.unknown[outer]], minlength=count)
+    wall[0], unknown[0] = wall.sum(), unknown.sum()
+    return np.divide(wall, wall + unknown, out=np.ones(count), where=wall + unknown > 0)
+
+
+@given(label_images, st.data())
+def test_wall_share_equals_the_plain_one(labels, data):
+    cells = data.draw(arrays(np.int8, labels.shape, elements=st.sampled_from([-1, 0, 100])))
+    grid = OccupancyGrid(cells, 0.1)
+    assert np.array_equal(wall_share(grid, labels), wall_share_plain(grid, labels))

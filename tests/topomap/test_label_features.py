@@ -13,7 +13,13 @@ from maps.grid import OccupancyGrid
 from segmentation.graph import region_graph
 from segmentation.regions import Regions
 from topomap.classifiers import rule_classifier
-from topomap.features import FEATURES, _fill_small_holes, region_features, skeleton_shape
+from topomap.features import (
+    FEATURES,
+    _fill_small_holes,
+    _shape,
+    region_features,
+    skeleton_shape,
+)
 
 CELL = 0.05  # m
 
@@ -398,3 +404,22 @@ def test_a_region_too_large_for_the_axis_cells_is_traced_on_coarser_cells(monkey
         assert coarse[name][0] == pytest.approx(fine[name][0], rel=0.1), name
     assert fine["axis_width_median_m"][0] == pytest.approx(2.0, abs=0.1)
     assert coarse["axis_width_median_m"][0] == pytest.approx(2.0, abs=2 * 0.3)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 50), st.integers(0, 50), st.integers(3, 40), st.integers(3, 40)),
+        min_size=1,
+        max_size=4,
+    ),
+    st.integers(0, 6),
+)
+def test_the_shape_is_that_of_the_mask_in_a_wider_margin(boxes, margin):
+    # the shape is read on the mask cut to its box (the medial axis's cells kept in place):
+    # more empty cells round it change nothing
+    mask = np.zeros((90, 90), bool)
+    for row, col, height, width in boxes:
+        mask[row : row + height, col : col + width] = True
+    found, wider = _shape(mask, 0.05), _shape(np.pad(mask, 2 * margin), 0.05)
+    assert found == wider
