@@ -32,8 +32,8 @@ from maps.grid import OccupancyGrid
 #: is sharpened.
 LASER_BLUR = 0.05
 #: The thickest band read as blur, metres: a one-sided wall band thicker than this is a
-#: wall's own thickness or furniture against it (a laser's range noise is centimetres).
-BLUR_MAX = 0.3
+#: wall's own thickness (a drawn plan's outer walls, 0.3 m) or furniture against it.
+BLUR_MAX = 0.25
 
 #: A free cell with at least this many free cells in its 5 x 5 neighbourhood is a room's floor;
 #: fewer, a laser ray (a cell or two wide at any resolution), whose end says nothing of a
@@ -83,14 +83,14 @@ def sharpened(grid: OccupancyGrid) -> tuple[OccupancyGrid, int]:
 
     Examples
     --------
-    >>> cells = np.full((12, 16), -1, np.int8)
-    >>> cells[1:11, 1:7] = 0  # a room ...
-    >>> cells[1:11, 7:10] = 100  # ... its wall three cells thick (0.3 m), unknown behind
+    >>> cells = np.full((30, 16), -1, np.int8)
+    >>> cells[1:29, 1:7] = 0  # a room ...
+    >>> cells[1:29, 7:11] = 100  # ... its wall four cells thick (0.2 m), unknown behind
     >>> cells[5, 3] = 100  # a chair's leg
-    >>> sharp, blur = sharpened(OccupancyGrid(cells, 0.1))
-    >>> blur, sharp.cells[5, 6:11].tolist(), int(sharp.cells[5, 3])
-    (1, [0, 0, 100, -1, -1], 100)
-    >>> sharpened(sharp)[1]  # a wall a cell thick: nothing more comes off
+    >>> sharp, blur = sharpened(OccupancyGrid(cells, 0.05))
+    >>> blur, sharp.cells[5, 6:12].tolist(), int(sharp.cells[5, 3])
+    (1, [0, 0, 100, 100, -1, -1], 100)
+    >>> sharpened(sharp)[1]  # a wall two cells thick: nothing more comes off
     0
     """
     side = (wall_band(grid) - 1) / 2  # cells of blur on each side of the surface

@@ -13,27 +13,29 @@ from segmentation.blur import sharpened, wall_band
 from segmentation.pipeline import MapSegmenter
 
 
-def _room(wall: int, resolution: float = 0.1) -> OccupancyGrid:
-    """A 6 x 6 m room (0.1 m cells) whose walls are ``wall`` cells thick, unknown outside."""
+def _room(wall: int, resolution: float = 0.05) -> OccupancyGrid:
+    """A room of 80 x 80 cells whose walls are ``wall`` cells thick, unknown outside."""
     cells = np.full((80, 80), -1, np.int8)
     cells[10:70, 10:70] = 100
     cells[10 + wall : 70 - wall, 10 + wall : 70 - wall] = 0
     return OccupancyGrid(cells, resolution)
 
 
-def test_a_band_three_cells_thick_loses_a_cell_on_each_side_and_a_thin_one_none():
-    assert wall_band(_room(3)) == 3.0 and wall_band(_room(1)) == 1.0
-    sharp, blur = sharpened(_room(3))
+def test_a_band_four_cells_thick_loses_a_cell_on_each_side_and_a_thinner_one_none():
+    assert wall_band(_room(4)) == 4.0 and wall_band(_room(1)) == 1.0
+    sharp, blur = sharpened(_room(4))  # 0.2 m: 0.075 m of blur on each side
     assert blur == 1
     ring = np.zeros((80, 80), bool)  # the band's middle cells stay the wall
     ring[11:69, 11:69] = True
-    ring[12:68, 12:68] = False
+    ring[13:67, 13:67] = False
     assert (sharp.occupied == ring).all()
-    assert (sharp.free == np.pad(np.ones((56, 56), bool), 12)).all()  # the room a cell larger
+    assert (sharp.free == np.pad(np.ones((54, 54), bool), 13)).all()  # the room a cell larger
     assert (sharp.unknown == ~ring & ~sharp.free).all()  # the outer cell went to the outside
-    assert sharpened(_room(1))[1] == 0 and sharpened(_room(2))[1] == 0
-    # the same band on 0.025 m cells is a laser's own blur (2.5 cm on each side): it stays
-    assert sharpened(_room(3, 0.025))[1] == 0 and sharpened(_room(7, 0.025))[1] == 3
+    # a laser's own blur stays: 0.05 m a side or less (three cells of 0.05 m, or of 0.025 m)
+    assert sharpened(_room(3))[1] == 0 and sharpened(_room(3, 0.025))[1] == 0
+    assert sharpened(_room(7, 0.025))[1] == 3
+    # a band thicker than 0.25 m is a wall's own thickness (a drawn plan's outer walls)
+    assert wall_band(_room(6)) == 0.0 and sharpened(_room(6))[1] == 0
 
 
 @settings(max_examples=60, deadline=None)
