@@ -11,6 +11,7 @@ from sklearn.metrics import adjusted_rand_score
 from maps.grid import OccupancyGrid
 from segmentation.blur import sharpened, wall_band
 from segmentation.pipeline import MapSegmenter
+from tests.strategies import map_cells
 
 
 def _room(wall: int, resolution: float = 0.05) -> OccupancyGrid:
@@ -43,10 +44,7 @@ def test_a_band_four_cells_thick_loses_a_cell_on_each_side_and_a_thinner_one_non
 def test_sharpening_only_opens_obstacles_and_never_removes_one(
     height: int, width: int, data: st.DataObject
 ) -> None:
-    size = height * width
-    cells = np.array(
-        data.draw(st.lists(st.sampled_from([-1, 0, 100]), min_size=size, max_size=size)), np.int8
-    ).reshape(height, width)
+    cells = map_cells(data, height, width)
     grid = OccupancyGrid(cells, 0.05)
     sharp, blur = sharpened(grid)
     assert blur >= 0 and (blur == 0) == (sharp is grid)

@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 import maps
 from maps.grid import OccupancyGrid
+from tests.strategies import map_cells
 from topomap.classifiers import PLACE_TYPES, ForestClassifier, RuleClassifier
 from topomap.cli.main import main
 from topomap.features import FEATURES
@@ -239,6 +240,35 @@ def test_eval_segment_grows_each_maps_walls_and_takes_their_cells_from_its_rooms
     assert {("spectral", 1), ("doors", 0), ("doors", 1)} <= means
 
 
+def test_eval_segment_maps_each_map_half_a_cell_over_and_its_rooms_alike(tmp_path, data_dir):
+    results = _eval_one_plan(tmp_path, data_dir, "lab_ipa", "--half-cell")
+    spectral = {r["half_cell_over"]: r for r in results["maps"] if r["variant"] == "spectral"}
+    assert sorted(spectral) == [False, True]
+    for found in spectral.values():  # the same ten rooms, drawn half a cell over
+        assert found["rooms"] == 10 and found["mcc"] > 0.6
+    means = {(m["method"], m["half_cell_over"]) for m in results["means"]}
+    assert {("spectral", True), ("doors", True), ("doors", False)} <= means
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 12), st.integers(1, 12), st.data())
+def test_half_a_cell_over_a_cell_is_occupied_where_one_of_four_up_and_left_was(
+    height: int, width: int, data: st.DataObject
+) -> None:
+    from topomap.cli.evaluate import half_cell_over
+
+    cells = map_cells(data, height, width)
+    grid, rooms = half_cell_over(OccupancyGrid(cells, 0.05), np.ones(cells.shape, np.int32))
+    assert grid.shape == cells.shape and grid.resolution == 0.05
+    padded = np.pad(cells, ((1, 0), (1, 0)), constant_values=-1)
+    for r in range(height):
+        for c in range(width):
+            four = padded[r : r + 2, c : c + 2]
+            assert grid.occupied[r, c] == (four == 100).any()
+            assert grid.free[r, c] == (not (four == 100).any() and (four == 0).any())
+    assert (rooms[grid.occupied] == 0).all() and (rooms[~grid.occupied] == 1).all()
+
+
 @settings(max_examples=40, deadline=None)
 @given(st.integers(1, 12), st.integers(1, 12), st.integers(0, 2), st.data())
 def test_thickened_walls_take_the_cells_beside_them_and_nothing_else(
@@ -246,13 +276,10 @@ def test_thickened_walls_take_the_cells_beside_them_and_nothing_else(
 ) -> None:
     from topomap.cli.evaluate import thickened
 
-    size = height * width
-    cells = np.array(
-        data.draw(st.lists(st.sampled_from([-1, 0, 100]), min_size=size, max_size=size)), np.int8
-    ).reshape(height, width)
-    rooms = np.array(data.draw(st.lists(st.integers(0, 3), min_size=size, max_size=size))).reshape(
-        cells.shape
-    )
+    cells = map_cells(data, height, width)
+    rooms = np.array(
+        data.draw(st.lists(st.integers(0, 3), min_size=cells.size, max_size=cells.size))
+    ).reshape(cells.shape)
     grid, thick_rooms = thickened(OccupancyGrid(cells, 0.05), rooms, grown)
     rows, cols = np.indices(cells.shape)
     walls = np.argwhere(cells == 100)
@@ -276,16 +303,7 @@ def test_resampled_cells_are_what_a_mapper_makes_and_a_split_map_comes_back(
 ) -> None:
     from topomap.cli.evaluate import resampled
 
-    cells = np.array(
-        data.draw(
-            st.lists(
-                st.sampled_from([-1, 0, 100]),
-                min_size=4 * height * width,
-                max_size=4 * height * width,
-            )
-        ),
-        np.int8,
-    ).reshape(2 * height, 2 * width)
+    cells = map_cells(data, 2 * height, 2 * width)
     rooms = np.array(
         data.draw(st.lists(st.integers(0, 3), min_size=cells.size, max_size=cells.size))
     ).reshape(cells.shape)

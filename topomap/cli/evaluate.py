@@ -121,6 +121,28 @@ CELL_FACTORS = (1.0, 2.0, 0.5)
 GROWN_WALLS = (0, 1)
 
 
+def half_cell_over(
+    grid: OccupancyGrid, rooms: NDArray[np.int32]
+) -> tuple[OccupancyGrid, NDArray[np.int32]]:
+    """``grid`` and its people's ``rooms`` as a mapper whose cells fall half a cell over
+    (right and down) would draw them: each cell split in four (:func:`resampled`), moved one
+    split cell, and merged again as a mapper makes a cell of four. A wall or a ray that fell
+    in one cell now falls across two: a cell is occupied where one of the two by two cells
+    up and left of it was.
+
+    Examples
+    --------
+    >>> cells = np.array([[0, 0, 0], [0, 100, 0], [0, 0, -1]], np.int8)
+    >>> grid, rooms = half_cell_over(OccupancyGrid(cells, 0.05), np.ones((3, 3), np.int32))
+    >>> grid.cells.tolist(), rooms.tolist()
+    ([[0, 0, 0], [0, 100, 100], [0, 100, 100]], [[1, 1, 1], [1, 0, 0], [1, 0, 0]])
+    """
+    split, split_rooms = resampled(grid, rooms, 0.5)
+    cells = np.pad(split.cells, ((1, 0), (1, 0)), constant_values=UNKNOWN)[:-1]
+    moved = np.pad(split_rooms, ((1, 0), (1, 0)))[:-1]
+    return resampled(OccupancyGrid(cells, split.resolution, split.origin), moved, 2.0)
+
+
 def thickened(
     grid: OccupancyGrid, rooms: NDArray[np.int32], cells: int
 ) -> tuple[OccupancyGrid, NDArray[np.int32]]:
@@ -213,6 +235,7 @@ def evaluate(
     rotations: tuple[float, ...] = (0.0,),
     cell_factors: tuple[float, ...] = (1.0,),
     grown_walls: tuple[int, ...] = (0,),
+    half_cells: tuple[bool, ...] = (False,),
     **options: Any,
 ) -> list[dict[str, Any]]:
     """Segment one map with each method (the spectral partition, the door-rule baseline) and
@@ -221,8 +244,9 @@ def evaluate(
     With ``rotations`` (degrees), the map and its people's rooms are turned alike
     (:func:`rotated`) and each turn is a record of its own (``rotation``); so with
     ``cell_factors``, the map on cells that many times as large (:func:`resampled`,
-    ``cell_factor``), and with ``grown_walls`` its walls that many cells thicker
-    (:func:`thickened`, ``grown_walls``).
+    ``cell_factor``), with ``grown_walls`` its walls that many cells thicker
+    (:func:`thickened`, ``grown_walls``), and with ``half_cells`` as a mapper whose cells fall
+    half a cell over would draw it (:func:`half_cell_over`, ``half_cell_over``).
 
     With several ``shifts`` (cells added left and on top, :meth:`OccupancyGrid.padded`), each
     method segments the map once per shift and its scores are their means, with
@@ -241,20 +265,34 @@ def evaluate(
     if not rooms.any():
         raise MapFormatError("no room drawn: nothing to score against", path=plan.truth)
     return [
-        record if record["variant"] == "rose2_released" else {**record, "grown_walls": grown}
+        record
+        if record["variant"] == "rose2_released"
+        else {**record, "grown_walls": grown, "half_cell_over": over}
         for factor in cell_factors
+        for over in half_cells
         for grown in grown_walls
         for degrees in rotations
         for record in _evaluate_turned(
             plan,
-            *thickened(*resampled(grid, rooms, factor), grown),
+            *_drawn(grid, rooms, factor, over, grown),
             degrees,
             shifts,
             options,
             factor,
         )
-        if grown == 0 or record["variant"] != "rose2_released"
+        if (grown == 0 and not over) or record["variant"] != "rose2_released"
     ]
+
+
+def _drawn(
+    grid: OccupancyGrid, rooms: NDArray[np.int32], factor: float, over: bool, grown: int
+) -> tuple[OccupancyGrid, NDArray[np.int32]]:
+    """``grid`` and ``rooms`` on cells ``factor`` times as large, half a cell over if
+    ``over``, their walls ``grown`` cells thicker."""
+    grid, rooms = resampled(grid, rooms, factor)
+    if over:
+        grid, rooms = half_cell_over(grid, rooms)
+    return thickened(grid, rooms, grown)
 
 
 def _evaluate_turned(
@@ -421,12 +459,12 @@ def _anchor(row: dict[str, str], path: Path, line: int) -> dict[str, Any]:
 
 
 def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Mean scores per (variant, furnished, rotation, cell factor, walls grown), ours and the
-    anchors', over the maps we ran."""
+    """Mean scores per (variant, furnished, rotation, cell factor, walls grown, half a cell
+    over), ours and the anchors', over the maps we ran."""
     ours = {(r["map"], r["furnished"]) for r in records}
     rows = []
     for source in (records, [a for a in anchors if (a["map"], a["furnished"]) in ours]):
-        groups: dict[tuple[str, bool, float, float, int], list[dict[str, Any]]] = {}
+        groups: dict[tuple[str, bool, float, float, int, bool], list[dict[str, Any]]] = {}
         for r in source:
             key = (
                 r["variant"],
@@ -434,15 +472,17 @@ def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[
                 r.get("rotation", 0.0),
                 r.get("cell_factor", 1.0),
                 r.get("grown_walls", 0),
+                r.get("half_cell_over", False),
             )
             groups.setdefault(key, []).append(r)
-        for (variant, furnished, degrees, factor, grown), group in groups.items():
+        for (variant, furnished, degrees, factor, grown, over), group in groups.items():
             row: dict[str, Any] = {
                 "method": variant,
                 "furnished": furnished,
                 "rotation": degrees,
                 "cell_factor": factor,
                 "grown_walls": grown,
+                "half_cell_over": over,
                 "maps": len(group),
             }
             for metric in METRICS:
@@ -465,6 +505,7 @@ def means(records: list[dict[str, Any]], anchors: list[dict[str, Any]]) -> list[
             r["furnished"],
             r["method"],
             r["cell_factor"],
+            r["half_cell_over"],
             r["grown_walls"],
             r["rotation"],
         ),

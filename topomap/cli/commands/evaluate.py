@@ -53,6 +53,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "with more range noise draws them: doors and corridors two cells narrower), its "
         "people's rooms without those cells; scored apart (grown_walls)",
     )
+    eval_seg.add_argument(
+        "--half-cell",
+        action="store_true",
+        help="also segment every map as a mapper whose cells fall half a cell over draws it "
+        "(each cell split in four, moved one, merged again as a mapper would: walls and rays "
+        "a cell wider where they fall across cells), its people's rooms alike; scored apart "
+        "(half_cell_over)",
+    )
     add_segmenter_options(eval_seg)
     eval_seg.set_defaults(func=cmd_eval_segment)
 
@@ -114,12 +122,14 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
         rotations=rotations,
         cell_factors=CELL_FACTORS if args.resolutions else (1.0,),
         grown_walls=GROWN_WALLS if args.thicker else (0,),
+        half_cells=(False, True) if args.half_cell else (False,),
         **options,
     )
     turns = (
         (["rotation"] if args.rotations else [])
         + (["cell_factor"] if args.resolutions else [])
         + (["grown_walls"] if args.thicker else [])
+        + (["half_cell_over"] if args.half_cell else [])
     )
     columns = ["map", "furnished", "variant", *turns, "segments", "rooms"]
     columns += ["recall", "precision", "mcc"]
