@@ -126,9 +126,10 @@ def half_cell_over(
 ) -> tuple[OccupancyGrid, NDArray[np.int32]]:
     """``grid`` and its people's ``rooms`` as a mapper whose cells fall half a cell over
     (right and down) would draw them: each cell split in four (:func:`resampled`), moved one
-    split cell, and merged again as a mapper makes a cell of four. A wall or a ray that fell
-    in one cell now falls across two: a cell is occupied where one of the two by two cells
-    up and left of it was.
+    split cell, and merged again as a mapper makes a cell of four. A wall that fell in one
+    cell now falls across two: a cell is occupied where one of the two by two cells up and
+    left of it was. A ray too, which a real mapper draws a cell wide whatever the offset: on
+    fans of rays the test is harsher than such a mapper.
 
     Examples
     --------

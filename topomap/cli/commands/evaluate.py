@@ -57,9 +57,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--half-cell",
         action="store_true",
         help="also segment every map as a mapper whose cells fall half a cell over draws it "
-        "(each cell split in four, moved one, merged again as a mapper would: walls and rays "
-        "a cell wider where they fall across cells), its people's rooms alike; scored apart "
-        "(half_cell_over)",
+        "(each cell split in four, moved one, merged again as a mapper would: walls a cell "
+        "wider where they fall across cells, and every ray two cells wide, harsher than a real "
+        "mapper), its people's rooms alike; scored apart (half_cell_over)",
     )
     add_segmenter_options(eval_seg)
     eval_seg.set_defaults(func=cmd_eval_segment)
