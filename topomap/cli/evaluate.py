@@ -267,8 +267,6 @@ def evaluate(
         raise MapFormatError("no room drawn: nothing to score against", path=plan.truth)
     return [
         record
-        if record["variant"] == "rose2_released"
-        else {**record, "grown_walls": grown, "half_cell_over": over}
         for factor in cell_factors
         for over in half_cells
         for grown in grown_walls
@@ -279,9 +277,8 @@ def evaluate(
             degrees,
             shifts,
             options,
-            factor,
+            {"cell_factor": factor, "grown_walls": grown, "half_cell_over": over},
         )
-        if (grown == 0 and not over) or record["variant"] != "rose2_released"
     ]
 
 
@@ -303,8 +300,11 @@ def _evaluate_turned(
     degrees: float,
     shifts: tuple[tuple[int, int], ...],
     options: dict[str, Any],
-    factor: float = 1.0,
+    drawn: dict[str, Any],
 ) -> list[dict[str, Any]]:
+    """Both methods' records of ``grid`` turned ``degrees``, each with the ``drawn`` fields
+    (how the map was redrawn, :func:`_drawn`); and the released segmentation's, scored on the
+    map as given."""
     truth = rotated(rooms, degrees, 0)
     if degrees:
         grid = OccupancyGrid(rotated(grid.cells, degrees, UNKNOWN).astype(np.int8), grid.resolution)
@@ -331,7 +331,7 @@ def _evaluate_turned(
             "furnished": plan.furnished,
             "variant": method,
             "rotation": degrees,
-            "cell_factor": factor,
+            **drawn,
         }
         for key, value in runs[0].items():
             mean = float(np.mean([run[key] for run in runs]))
@@ -341,7 +341,8 @@ def _evaluate_turned(
             mccs = [run["mcc"] for run in runs]
             record["mcc_spread"] = round(max(mccs) - min(mccs), 4)
         records.append(record)
-    if degrees == 0 and factor == 1 and plan.released is not None:  # the other's, as released
+    as_given = drawn == {"cell_factor": 1.0, "grown_walls": 0, "half_cell_over": False}
+    if degrees == 0 and as_given and plan.released is not None:  # the other's, as released
         records.append(
             {
                 "map": plan.name,
