@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import gzip
 import math
+import zlib
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
-from maps.errors import InvalidScanError, LogFormatError, MapFileNotFoundError
+from maps.errors import InvalidScanError, LogFormatError
 from maps.limits import MAX_COORDINATE, finite_in, no_valid_beam, pose_jump
+from maps.map_server import check_input_file
 from maps.scan import Keyframe, LaserScan
 
 #: Metres under which a reading is no reading (the logs write 0 for a failed one; their
@@ -19,6 +21,12 @@ MIN_RANGE = 0.01
 #: Old-style lines: ``FLASER n r1 .. rn x y theta odom_x odom_y odom_theta ipc_ts host log_ts``.
 OLD_STYLE = ("FLASER", "RLASER")
 ROBOTLASER = "ROBOTLASER1"
+#: Characters a log line may have: a laser line of 100,000 beams at 10 characters each is
+#: 1 MB. A longer line is not a laser line (a damaged or hostile file): it is never read whole.
+MAX_LINE_CHARS = 1 << 20
+#: Lines a log may have: a day of a 75 Hz laser and its odometry is about 13 million. A file
+#: of more (a gzip bomb of empty lines) is refused after them, not read for hours.
+MAX_LOG_LINES = 50_000_000
 
 
 def carmen_angle_increment(beams: int) -> float:
@@ -37,12 +45,24 @@ def _lines(path: Path) -> Iterator[tuple[int, str]]:
             gzipped = raw.read(2) == b"\x1f\x8b"
         opener = gzip.open if gzipped else open
         with opener(path, "rt", encoding="utf-8", errors="strict") as text:
-            yield from enumerate(text, start=1)
-    except (OSError, EOFError, UnicodeDecodeError) as err:
+            for number in range(1, MAX_LOG_LINES + 2):
+                line = text.readline(MAX_LINE_CHARS)
+                if not line:
+                    return
+                if number > MAX_LOG_LINES:
+                    raise LogFormatError(f"more than {MAX_LOG_LINES} lines", path=path)
+                if len(line) == MAX_LINE_CHARS and not line.endswith("\n"):
+                    raise LogFormatError(
+                        f"line longer than {MAX_LINE_CHARS} characters", path=path, line=number
+                    )
+                yield number, line
+    except (OSError, EOFError, UnicodeDecodeError, zlib.error) as err:
         raise LogFormatError(f"cannot be read as a text log ({err})", path=path) from err
 
 
 def _is_number(token: str) -> bool:
+    if "_" in token:  # Python and numpy read "1_0" as 10; a log never writes it
+        return False
     try:
         float(token)
     except ValueError:
@@ -67,10 +87,9 @@ class _Line:
 
     def number_at(self, index: int, field: str) -> float:
         self.need(index + 1, field)
-        try:
-            value = float(self.tokens[index])
-        except ValueError:
-            raise self.error(f"expected a number, got {self.tokens[index]!r}", field) from None
+        if not _is_number(self.tokens[index]):
+            raise self.error(f"expected a number, got {self.tokens[index]!r}", field)
+        value = float(self.tokens[index])
         if not math.isfinite(value):
             raise self.error(f"expected a finite number, got {self.tokens[index]!r}", field)
         return value
@@ -85,10 +104,12 @@ class _Line:
         self.need(start + count, "ranges")
         tokens = self.tokens[start : start + count]
         try:
-            return np.array(tokens, dtype=float)
+            if not any("_" in token for token in tokens):
+                return np.array(tokens, dtype=float)
         except ValueError:
-            bad = next(i for i, token in enumerate(tokens) if not _is_number(token))
-            raise self.error(f"expected a number, got {tokens[bad]!r}", f"range {bad}") from None
+            pass
+        bad = next(i for i, token in enumerate(tokens) if not _is_number(token))
+        raise self.error(f"expected a number, got {tokens[bad]!r}", f"range {bad}")
 
     def pose_at(self, index: int, names: tuple[str, str, str]) -> tuple[float, float, float]:
         x, y, t = (self.number_at(index + i, name) for i, name in enumerate(names))
@@ -155,15 +176,15 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
     MapFileNotFoundError
         If ``path`` does not exist.
     LogFormatError
-        For a line that is cut short, has a non-number or more or fewer fields than its count
-        asks for (see :meth:`_Line.check_numbers`), or whose laser pose jumps farther
-        than :data:`~maps.limits.MAX_POSE_JUMP` from the previous line's; the message names
-        line and field. For a log without one valid beam (readings under :data:`MIN_RANGE`
-        are none).
+        If it is not a regular file this user may read (a folder, a FIFO, a device). For a
+        line that is cut short, has a non-number or more or fewer fields than its count
+        asks for (see :meth:`_Line.check_numbers`), a field of view of more than a turn, or
+        whose laser pose jumps farther than :data:`~maps.limits.MAX_POSE_JUMP` from the
+        previous line's; the message names line and field. For a log without one valid beam
+        (readings under :data:`MIN_RANGE` are none), a damaged gzip stream, a line longer
+        than :data:`MAX_LINE_CHARS` or more than :data:`MAX_LOG_LINES` lines.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise MapFileNotFoundError(path, "CARMEN log")
+    path = check_input_file(path, "CARMEN log", error=LogFormatError)
     problem = finite_in(max_range, "max_range", 0.0, 1e4, unit="m", low_open=True)
     if problem is not None:
         raise InvalidScanError(problem)
@@ -198,6 +219,12 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
             stamp = line.stamp_at(2 + beams + 6)
         if increment == 0:
             raise line.error("angular resolution must not be 0", "angular_resolution")
+        if abs(start) > 2 * math.pi or abs(increment) * (beams - 1) > 2 * math.pi + 1e-6:
+            raise line.error(
+                f"a scan from {start:g} rad in {beams} steps of {increment:g} rad is not a "
+                "laser's field of view (at most a turn, starting within a turn)",
+                "start_angle" if abs(start) > 2 * math.pi else "angular_resolution",
+            )
         jump = None if not frames else pose_jump(frames[-1].pose, pose)
         if jump is not None:
             raise line.error(f"{jump}; the previous laser line is line {last_line}", names[0])

@@ -96,6 +96,25 @@ class OutputNotWritableError(OutputPathError, PermissionError):
     code = errno.EACCES
 
 
+class OutputWriteError(OutputPathError):
+    """An output the system refused while it was being written (the disk full, a quota, an
+    I/O error): nothing half-written is left.
+
+    Examples
+    --------
+    >>> import errno
+    >>> err = OutputWriteError("out/map.pgm", OSError(errno.ENOSPC, "No space left on device"))
+    >>> str(err), err.errno == errno.ENOSPC
+    ('could not write out/map.pgm: No space left on device', True)
+    """
+
+    def __init__(self, path: str | Path, err: OSError) -> None:
+        self.code = err.errno or errno.EIO
+        reason = err.strerror or str(err)
+        super().__init__(path, f"could not write {path}: {reason}")
+        self._arguments = (path, OSError(self.code, reason))  # type: ignore[assignment]
+
+
 class MapError(TopomapError):
     """Base class of every error raised by :mod:`maps`."""
 

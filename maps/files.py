@@ -7,6 +7,7 @@ nothing, never half of a new one. :class:`OutputFolder` does the same for a fold
 
 from __future__ import annotations
 
+import errno
 import os
 import shutil
 import uuid
@@ -20,6 +21,8 @@ from maps.errors import (
     OutputNotAFolderError,
     OutputNotWritableError,
     OutputPathError,
+    OutputWriteError,
+    TopomapError,
 )
 
 
@@ -133,7 +136,8 @@ def written(
     path: str | Path, *, overwrite: bool = False, how: str = "overwrite=True"
 ) -> Iterator[Path]:
     """Write a file atomically: yields a temporary path beside ``path`` to write to; on
-    success it is renamed to ``path``, on any error or interruption removed.
+    success it is renamed to ``path``, on any error or interruption removed. An ``OSError``
+    while writing (the disk full) is an :class:`~maps.errors.OutputWriteError` naming ``path``.
 
     Examples
     --------
@@ -153,10 +157,12 @@ def written(
     try:
         yield partial
         if not partial.exists():
-            raise OSError(f"nothing was written to {path}")
+            raise OSError(errno.EIO, "nothing was written")
         os.replace(partial, path)
-    except BaseException:
+    except BaseException as err:
         partial.unlink(missing_ok=True)
+        if isinstance(err, OSError) and not isinstance(err, TopomapError):
+            raise OutputWriteError(path, err) from err  # the disk full, a device gone
         raise
 
 

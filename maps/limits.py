@@ -30,6 +30,9 @@ MAX_POSE_JUMP = 100.0
 MAX_ROBOT_RADIUS = 10.0
 #: Metres any other length option (spacing, clutter size, keyframe distance) may have.
 MAX_LENGTH = 1000.0
+#: Furniture blocks per 10 m^2 a generated building may have: one per square metre of floor
+#: leaves no floor to furnish.
+MAX_FURNITURE = 10.0
 #: Cells a map may have whatever the memory: 2^28 (16384 x 16384).
 MAX_CELLS = 1 << 28
 #: Bytes the command line holds per cell of a map at its peak: about 60 drawing ``map.png``

@@ -8,6 +8,7 @@ raw, ``negate`` inverts the grey values, and a pixel is occupied when
 
 from __future__ import annotations
 
+import errno
 import stat
 from pathlib import Path
 from typing import Any
@@ -17,7 +18,7 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from maps.errors import MapFileNotFoundError, MapFormatError
+from maps.errors import FormatError, MapFileNotFoundError, MapFormatError
 from maps.files import check_output_file, written
 from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from maps.limits import MAX_COORDINATE, RESOLUTION_RANGE, check_map_size, finite_in
@@ -111,11 +112,19 @@ _KINDS = (
 )
 
 
-def _unreadable(path: Path, field: str | None, err: OSError) -> MapFormatError:
-    return MapFormatError(f"cannot be read ({err.strerror or err})", path=path, field=field)
+def _unreadable(
+    path: Path, field: str | None, err: OSError, error: type[FormatError] = MapFormatError
+) -> FormatError:
+    return error(f"cannot be read ({err.strerror or err})", path=path, field=field)
 
 
-def check_input_file(path: str | Path, what: str = "file", *, field: str | None = None) -> Path:
+def check_input_file(
+    path: str | Path,
+    what: str = "file",
+    *,
+    field: str | None = None,
+    error: type[FormatError] = MapFormatError,
+) -> Path:
     """``path`` as a :class:`~pathlib.Path` once it is known to be a regular file this user
     may read (opened and closed: a FIFO or a device is never opened).
 
@@ -124,7 +133,8 @@ def check_input_file(path: str | Path, what: str = "file", *, field: str | None 
     MapFileNotFoundError
         Nothing is at ``path`` (``what`` names it).
     MapFormatError
-        A folder, FIFO or device is, or it cannot be opened (no permission, a name too long).
+        A folder, FIFO or device is, or it cannot be opened (no permission, a name too long);
+        ``error`` instead, when given (a log's :class:`~maps.errors.LogFormatError`).
     """
     path = Path(path)
     try:
@@ -132,14 +142,14 @@ def check_input_file(path: str | Path, what: str = "file", *, field: str | None 
     except (FileNotFoundError, NotADirectoryError):
         raise MapFileNotFoundError(path, what) from None
     except OSError as err:
-        raise _unreadable(path, field, err) from None
+        raise _unreadable(path, field, err, error) from None
     if not stat.S_ISREG(mode):
         kind = next((name for test, name in _KINDS if test(mode)), "not a file")
-        raise MapFormatError(f"{what} is {kind}, not a regular file", path=path, field=field)
+        raise error(f"{what} is {kind}, not a regular file", path=path, field=field)
     try:
         path.open("rb").close()
     except OSError as err:
-        raise _unreadable(path, field, err) from None
+        raise _unreadable(path, field, err, error) from None
     return path
 
 
@@ -314,18 +324,30 @@ def grid_from_image(
 def _number(doc: dict[str, Any], key: str, path: Path, lo: float, hi: float) -> float:
     if key not in doc:
         raise MapFormatError("required field is missing", path=path, field=key)
-    value = doc[key]
-    if isinstance(value, str):  # map_server's yaml-cpp reads "1e-3" as a number; PyYAML not
-        try:
-            value = float(value)
-        except ValueError:
-            raise MapFormatError(
-                f"expected a number, got {_short(repr(value))}", path=path, field=key
-            ) from None
+    value = _yaml_number(doc[key])
+    if isinstance(value, str):
+        raise MapFormatError(f"expected a number, got {_short(repr(value))}", path=path, field=key)
     problem = finite_in(value, key, lo, hi)
     if problem is not None:
         raise MapFormatError(_short(problem), path=path, field=key)
     return float(value)
+
+
+def _yaml_number(value: Any) -> Any:
+    """``value``, a string that is a number read as one: map_server's yaml-cpp reads "1e-3"
+    as a number, PyYAML as a string (it wants "1.0e-3"). Anything else as it is.
+
+    Examples
+    --------
+    >>> _yaml_number("1e3"), _yaml_number("-2.5e-1"), _yaml_number("abc"), _yaml_number([1])
+    (1000.0, -0.25, 'abc', [1])
+    """
+    if isinstance(value, str) and "_" not in value:
+        try:
+            return float(value)
+        except ValueError:
+            pass
+    return value
 
 
 def _short(text: str, limit: int = 200) -> str:
@@ -404,6 +426,8 @@ def load_map(path: str | Path) -> OccupancyGrid:
     if mode not in MODES:
         raise MapFormatError(f"expected one of {MODES}, got {mode!r}", path=path, field="mode")
     origin = doc.get("origin")
+    if isinstance(origin, list):
+        origin = [_yaml_number(v) for v in origin]
     if (
         not isinstance(origin, list)
         or len(origin) != 3
@@ -416,6 +440,7 @@ def load_map(path: str | Path) -> OccupancyGrid:
             field="origin",
         )
     image_path = Path(image) if Path(image).is_absolute() else path.parent / image
+    check_input_file(image_path, f"image {image!r} of {path}", field="image")
     pixels = read_image(image_path, field="image")
     cells = cells_from_image(
         pixels, mode=mode, negate=bool(negate), occupied_thresh=occupied, free_thresh=free
@@ -455,7 +480,7 @@ def save_map(grid: OccupancyGrid, path: str | Path, *, overwrite: bool = False) 
     }
     with written(image_path, overwrite=overwrite) as partial:
         if not cv2.imwrite(str(partial), pixels):
-            raise OSError(f"could not write {image_path}")
+            raise OSError(errno.EIO, "the image encoder wrote nothing")
     with written(path, overwrite=overwrite) as partial:
         partial.write_text(yaml.safe_dump(doc, sort_keys=False))
     return path

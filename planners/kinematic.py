@@ -278,11 +278,12 @@ def check_pose(cspace: HeadingCSpace, pose: ArrayLike, what: str) -> Pose:
         raise InvalidQueryError(f"{what} must be finite (x, y) or (x, y, yaw), got {pose!r}")
     x, y = float(p[0]), float(p[1])
     if len(p) == 3:
-        if not cspace.valid(x, y, float(p[2])):
+        yaw = ompl_yaw(float(p[2]))  # a heading of many turns is checked where OMPL puts it
+        if not cspace.valid(x, y, yaw):
             raise InvalidQueryError(
                 f"{what} ({x:g}, {y:g}, {p[2]:g}) puts the footprint in collision or off the map"
             )
-        return x, y, float(p[2])
+        return x, y, yaw
     yaws = cspace.free_headings(x, y)
     if len(yaws) == 0:
         raise InvalidQueryError(

@@ -8,6 +8,7 @@ same encoding. Every reader returns an object equal to the one written.
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 from pathlib import Path
@@ -180,7 +181,7 @@ def write_label_image(labels: NDArray[np.integer], path: str | Path, *, overwrit
         raise ExportFormatError(f"{path}: {labels.max()} regions do not fit a 16-bit PNG")
     with written(path, overwrite=overwrite) as partial:
         if not cv2.imwrite(str(partial), labels.astype(np.uint16)):
-            raise OSError(f"could not write {path}")
+            raise OSError(errno.EIO, "the image encoder wrote nothing")
     return path
 
 
@@ -212,7 +213,7 @@ def write_colour_image(labels: NDArray[np.integer], path: str | Path, *, overwri
     with written(path, overwrite=overwrite) as partial:
         bgr = cv2.cvtColor(label_colours(labels), cv2.COLOR_RGB2BGR)
         if not cv2.imwrite(str(partial), bgr):
-            raise OSError(f"could not write {path}")
+            raise OSError(errno.EIO, "the image encoder wrote nothing")
     return path
 
 

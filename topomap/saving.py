@@ -228,6 +228,13 @@ def load(folder: str | Path) -> Saved:
     info = check_input_file(folder / "topomap.json", "topomap.json (written by TopoMap.save)")
     try:
         about = json.loads(info.read_text())
+    except (ValueError, RecursionError) as err:
+        raise ExportFormatError(f"{info}: not a topomap.json file: not JSON ({err})") from None
+    if not isinstance(about, dict):
+        raise ExportFormatError(
+            f"{info}: not a topomap.json file: a JSON {type(about).__name__}, not an object"
+        )
+    try:
         seconds = {str(k): float(v) for k, v in about.get("seconds", {}).items()}
         files = dict(about.get("files", {}))
         method = str(about.get("method", "doors"))  # folders from before kept no method
@@ -235,7 +242,10 @@ def load(folder: str | Path) -> Saved:
         next_id = int(about.get("next_id", 0))
         version = about.get("version", 1)
     except (ValueError, AttributeError, TypeError, KeyError, RecursionError) as err:
-        raise ExportFormatError(f"{info}: not a topomap.json file: {err!r}") from None
+        raise ExportFormatError(
+            f"{info}: not a topomap.json file: a field is not as TopoMap.save writes it "
+            f"({type(err).__name__}: {err})"
+        ) from None
     if about.get("format") != "topomap":
         raise ExportFormatError(f"{info}: field 'format' is {about.get('format')!r}, not 'topomap'")
     if not isinstance(version, int) or isinstance(version, bool) or not 1 <= version <= VERSION:

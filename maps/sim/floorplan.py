@@ -19,6 +19,7 @@ from scipy import ndimage
 
 from maps.errors import InvalidMapError
 from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
+from maps.limits import MAX_FURNITURE, check_map_size
 from maps.seeding import RandomState, as_generator
 
 RoomType = Literal["room", "corridor", "hall"]
@@ -222,8 +223,14 @@ def generate_floor_plan(
         raise InvalidMapError(f"a building must be at least 12 x 10 m, got {width} x {height}")
     if not 0 < resolution <= 0.5:
         raise InvalidMapError(f"resolution must lie in (0, 0.5] metres, got {resolution}")
-    if not furniture >= 0:
-        raise InvalidMapError(f"furniture density must be >= 0, got {furniture}")
+    if not 0 <= furniture <= MAX_FURNITURE:
+        raise InvalidMapError(
+            f"furniture density must lie in [0, {MAX_FURNITURE:g}] blocks per 10 m^2, "
+            f"got {furniture}"
+        )
+    check_map_size(
+        (height + 2 * MARGIN) / resolution, (width + 2 * MARGIN) / resolution, what="building"
+    )
     rng = as_generator(random_state)
     b = _Builder(width, height, resolution, rng)
 

@@ -95,6 +95,11 @@ def test_an_origin_far_away_is_refused(tmp_path):
     assert info.value.field == "origin"
 
 
+def test_an_origin_written_as_map_server_reads_it_is_a_number(tmp_path):
+    text = (YAML + THRESHOLDS).replace("origin: [0, 0, 0]", "origin: [1e3, -2.5e1, 0]")
+    assert load_map(_map(tmp_path, text)).origin == (1000.0, -25.0, 0.0)
+
+
 def _frames(poses):
     scan = LaserScan(np.array([1.0, 1.0, 1.0]), -0.5, 0.5, 0.0, 10.0)
     return [Keyframe(p, scan, scan_index=i) for i, p in enumerate(poses)]
@@ -260,9 +265,9 @@ def test_a_map_file_that_is_no_regular_file_or_cannot_be_read(tmp_path, monkeypa
     os.mkfifo(tmp_path / "fifo.pgm")
     (tmp_path / "dir.pgm").mkdir()
     for name, shown in [
-        ("fifo.pgm", "image is a FIFO, not a regular file"),
-        ("dir.pgm", "image is a folder, not a regular file"),
-        ("/dev/zero", "image is a device, not a regular file"),
+        ("fifo.pgm", "image 'fifo.pgm' of .*map.yaml is a FIFO, not a regular file"),
+        ("dir.pgm", "image 'dir.pgm' of .*map.yaml is a folder, not a regular file"),
+        ("/dev/zero", "image '/dev/zero' of .*map.yaml is a device, not a regular file"),
         (long_name, r"cannot be read \(File name too long\)"),
     ]:
         yaml.write_text(f"image: {name}\n" + (YAML + THRESHOLDS).split("\n", 1)[1])
@@ -450,6 +455,64 @@ def test_a_log_or_bag_that_cannot_be_read_is_a_typed_error(tmp_path, monkeypatch
         assert info.value.path == str(path)
 
 
+def test_a_damaged_gzip_log_is_a_located_error(tmp_path):
+    import gzip
+
+    data = bytearray(gzip.compress(_flaser(3, [1.0, 2.0, 3.0]).encode() * 200))
+    data[30:60] = bytes(b ^ 0xFF for b in data[30:60])  # damaged inside the deflate stream
+    path = tmp_path / "run.log.gz"
+    path.write_bytes(bytes(data))
+    with pytest.raises(LogFormatError, match="cannot be read as a text log") as info:
+        read_carmen(path)
+    assert info.value.path == str(path)
+
+
+def test_a_log_line_or_a_log_too_long_is_refused_before_it_is_read(tmp_path, monkeypatch):
+    import maps.carmen
+
+    long = tmp_path / "long.log"
+    long.write_text(_flaser(3, [1.0, 2.0, 3.0]) + "#" * (maps.carmen.MAX_LINE_CHARS + 5))
+    with pytest.raises(LogFormatError, match="line 2: line longer than"):
+        read_carmen(long)
+    many = tmp_path / "many.log"
+    many.write_text(_flaser(3, [1.0, 2.0, 3.0]) + "\n" * 20)
+    monkeypatch.setattr(maps.carmen, "MAX_LOG_LINES", 10)
+    with pytest.raises(LogFormatError, match="more than 10 lines"):
+        read_carmen(many)
+
+
+@pytest.mark.parametrize("token", ["1_0", "nan_", "2_0.5"])
+def test_a_number_with_an_underscore_is_no_number_in_a_log(tmp_path, token):
+    path = tmp_path / "run.log"
+    path.write_text(_flaser(3, [1.0, token, 3.0]))
+    with pytest.raises(LogFormatError, match=f"line 1, field 'range 1'.*{token}"):
+        read_carmen(path)
+    path.write_text(_flaser(3, [1.0, 2.0, 3.0], pose=(token, 2.0, 0.5)))
+    with pytest.raises(LogFormatError, match=f"field 'x'.*{token}"):
+        read_carmen(path)
+
+
+@pytest.mark.parametrize(
+    "start, step, field", [(1e300, 0.01, "start_angle"), (-1.5, 1e300, "angular_resolution")]
+)
+def test_a_robotlaser_line_wider_than_a_turn_is_refused(tmp_path, start, step, field):
+    path = tmp_path / "run.log"
+    ranges = " ".join(["1.0"] * 3)
+    path.write_text(
+        f"ROBOTLASER1 0 {start} 3.14 {step} 80 0.01 0 3 {ranges} 0 1 2 0.5 1 2 0.5 0 0 0 0 0 "
+        "7.0 host 7.0\n"
+    )
+    with pytest.raises(LogFormatError, match=f"line 1, field '{field}'.*field of view"):
+        read_carmen(path)
+
+
+def test_a_fifo_is_no_log(tmp_path):
+    fifo = tmp_path / "run.log"
+    os.mkfifo(fifo)
+    with pytest.raises(LogFormatError, match="CARMEN log is a FIFO, not a regular file"):
+        read_carmen(fifo)  # never opened: opening a FIFO would wait for a writer
+
+
 def test_a_folder_of_outputs_replaces_the_old_one_whole(tmp_path):
     (tmp_path / "frames").mkdir()
     (tmp_path / "frames" / "old.png").write_text("old")
@@ -458,6 +521,31 @@ def test_a_folder_of_outputs_replaces_the_old_one_whole(tmp_path):
         (work / "frames").mkdir()
         (work / "frames" / "new.png").write_text("new")
     assert [p.name for p in (tmp_path / "frames").iterdir()] == ["new.png"]
+
+
+def test_a_disk_full_while_writing_is_a_typed_error_naming_the_file(tmp_path, monkeypatch):
+    import errno
+    import pickle
+
+    import cv2
+
+    from maps.errors import OutputWriteError
+
+    path = tmp_path / "map.yaml"
+    path.write_text("old")
+    full = pytest.raises(OutputWriteError, match=r"could not write .*map\.yaml: No space")
+    with full as info, written(path, overwrite=True) as partial:
+        partial.write_text("half")
+        raise OSError(errno.ENOSPC, "No space left on device")
+    assert info.value.errno == errno.ENOSPC and info.value.filename == str(path)
+    assert path.read_text() == "old" and sorted(p.name for p in tmp_path.iterdir()) == ["map.yaml"]
+    again = pickle.loads(pickle.dumps(info.value))  # crosses process pools whole
+    assert type(again) is OutputWriteError and str(again) == str(info.value)
+    monkeypatch.setattr(cv2, "imwrite", lambda *args: False)  # libpng: "Write Error"
+    grid = OccupancyGrid(np.zeros((4, 4), np.int8), 0.1)
+    with pytest.raises(OutputWriteError, match=r"new\.pgm: the image encoder wrote nothing"):
+        grid.save(tmp_path / "new.yaml")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["map.yaml"]
 
 
 def test_an_interrupted_write_leaves_the_old_file(tmp_path):

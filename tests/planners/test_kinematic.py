@@ -181,6 +181,21 @@ def test_bad_queries_are_typed_errors():
         planner.plan((1.0, 2.0), 9)
 
 
+@given(st.floats(-1e17, 1e17, allow_nan=False), st.booleans())
+def test_a_heading_of_many_turns_is_checked_where_ompl_puts_it(yaw, beside_the_wall):
+    from planners.kinematic import check_pose, ompl_yaw
+
+    grid, _ = _rooms(1.0)
+    space = HeadingCSpace(grid, parse_robot(ROBOTS[1]))
+    x, y = (1.0, 0.45) if beside_the_wall else (1.0, 1.0)  # some headings collide there
+    heading = ompl_yaw(yaw)  # the state OMPL plans from, whatever the turns
+    if space.valid(x, y, heading):
+        assert check_pose(space, (x, y, yaw), "start") == (x, y, heading)
+    else:
+        with pytest.raises(InvalidQueryError, match="in collision"):
+            check_pose(space, (x, y, yaw), "start")
+
+
 _SEEDED = """
 import json, math, sys
 sys.path[:0] = [".", "tests/planners"]

@@ -63,6 +63,10 @@ def _copy(saved: Path, to: Path) -> Path:
         (["map", "LOG", "--max-range", "nan"], "--max-range"),
         (["map", "LOG", "--resolution", "0.0001"], "--resolution"),
         (["generate", "--resolution", "1e300"], "--resolution"),
+        (["generate", "--seed", "-1"], "--seed"),
+        (["generate", "--furniture", "1000"], "--furniture"),
+        (["demo", "--seed", "-1"], "--seed"),
+        (["demo", "--jobs", "0"], "--jobs"),
         (["plan", "MAP", "--start", "1,1", "--goal", "2", "--robot-radius", "1000"], "radius"),
     ],
 )
@@ -83,6 +87,25 @@ def test_an_image_header_too_large_is_one_line(tmp_path, capsys):
     assert main(["segment", str(tmp_path / "map.yaml"), "--out", str(tmp_path / "o")]) == 2
     line = _error_line(capsys)
     assert "img.pgm" in line and "2000000000 x 2000000000 cells" in line
+
+
+def test_a_generated_building_too_large_for_memory_is_refused_before_it_is_drawn(
+    tmp_path, capsys
+):
+    argv = ["generate", "--size", "campus", "--resolution", "0.001", "--out", str(tmp_path / "o")]
+    assert main(["-q", *argv]) == 2
+    assert "building of 301000 x 201000 cells" in _error_line(capsys)
+    assert not (tmp_path / "o").exists()
+
+
+def test_points_west_and_south_of_the_origin_are_values_not_options():
+    from topomap.cli.main import build_parser
+
+    parser = build_parser()
+    args = parser.parse_args(["plan", "m.yaml", "--start", "-55.6,4.5", "--goal", "-.5,-18"])
+    assert args.start == (-55.6, 4.5) and args.goal == (-0.5, -18.0)
+    args = parser.parse_args(["export", "m.yaml", "--path", "-1,2", "-3.5,-4"])
+    assert args.path == [[(-1.0, 2.0), (-3.5, -4.0)]]
 
 
 # ---------------------------------------------------------------- outputs
@@ -360,6 +383,21 @@ def test_json_in_topomap_json_is_data_only(tmp_path, saved):
     about["files"]["../../etc/passwd"] = "0"
     (folder / "topomap.json").write_text(json.dumps(about))
     with pytest.raises(ExportFormatError, match="not a saved file"):
+        TopoMap.load(folder)
+
+
+@pytest.mark.parametrize(
+    ("text", "shown"),
+    [
+        ("[1, 2]", "a JSON list, not an object"),
+        ("{", "not JSON"),
+        ('{"format": "topomap", "seconds": [1]}', "a field is not as TopoMap.save writes it"),
+    ],
+)
+def test_a_damaged_topomap_json_says_what_it_is(tmp_path, saved, text, shown):
+    folder = _copy(saved, tmp_path / "damaged")
+    (folder / "topomap.json").write_text(text)
+    with pytest.raises(ExportFormatError, match=f"topomap.json: not a topomap.json file: {shown}"):
         TopoMap.load(folder)
 
 

@@ -119,6 +119,18 @@ def test_online_writes_its_folder_at_once_and_honours_no_picture(short_log, tmp_
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "short.log"]
 
 
+def test_online_refuses_a_k_beyond_its_keyframes_and_takes_the_default_criterion(
+    short_log, tmp_path, capsys
+):
+    assert _online(short_log, tmp_path / "centres", "--online-method", "centres") == 0
+    keyframes = json.loads((tmp_path / "centres" / "summary.json").read_text())["keyframes"]
+    assert 10 < keyframes <= 40  # the options left unset are the segmenter's, either method
+    assert _online(short_log, tmp_path / "out", "--k", str(keyframes + 1)) == 2
+    shown = f"--k must lie in 1..{keyframes} (the keyframes), got {keyframes + 1}"
+    assert shown in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 def test_online_refuses_a_run_without_a_region(short_log, tmp_path, capsys):
     blind = tmp_path / "blind.log"
     with short_log.open() as log:  # every beam 2 cm: valid, but no free space seen

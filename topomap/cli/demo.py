@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.files import write_text, written
+from maps.files import check_output_folder, write_text, written
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array
@@ -357,7 +357,7 @@ def run_demo(
     from joblib import Parallel, delayed
 
     clock = time.perf_counter()
-    run = DemoRun(Path(out), size=size, seed=seed)
+    run = DemoRun(check_output_folder(out), size=size, seed=seed)
     run.out.mkdir(parents=True, exist_ok=True)
 
     def announce(stage: Callable[[DemoRun], None]) -> None:

@@ -9,12 +9,14 @@ left for the caller to close.
 
 from __future__ import annotations
 
+import errno
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from maps.errors import OutputWriteError
 from maps.files import written
 from maps.grid import OccupancyGrid
 
@@ -178,7 +180,7 @@ def write_png(path: str | Path, image: NDArray[Any]) -> Path:
     path = Path(path)
     ok, encoded = cv2.imencode(".png", image)
     if not ok:
-        raise OSError(f"could not encode {path}")
+        raise OutputWriteError(path, OSError(errno.EIO, "the PNG encoder failed"))
     with written(path, overwrite=True) as partial:
         partial.write_bytes(encoded.tobytes())
     return path

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import gc
 import logging
+import re
 import signal
 import sys
 import threading
@@ -81,6 +82,10 @@ def _add_output_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "-q", "--quiet", action="store_true", default=argparse.SUPPRESS, help="no progress"
     )
+    # argparse reads a value starting with a minus sign as an option unless it is a plain
+    # negative number ("-5.5"); points west or south of the origin ("-55.6,4.5") and
+    # stamps like "-1e3" are values too (no option of this command starts with "-<digit>")
+    parser._negative_number_matcher = re.compile(r"^-\.?\d")
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
             for subcommand in action.choices.values():

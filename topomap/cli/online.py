@@ -149,13 +149,17 @@ def run_online(
         )
     if frames_every is not None and frames_every < 1:
         raise UsageError(f"--frames must be a number of keyframes >= 1, got {frames_every}")
+    options = {name: value for name, value in options.items() if value is not None}
+    k = options.get("k")
+    if k is not None and not 1 <= k <= len(keyframes):
+        raise UsageError(f"--k must lie in 1..{len(keyframes)} (the keyframes), got {k}")
     seed = keyframes[:seed_keyframes]
     start = time.perf_counter()
     online: IncrementalSegmenter | OnlineSegmenter
     if method == "windows":
         from topomap.topomap import pipeline_from_options
 
-        pipeline = pipeline_from_options({k: v for k, v in options.items() if v is not None})
+        pipeline = pipeline_from_options(options)
         online = IncrementalSegmenter(pipeline, random_state=random_state)
     else:
         online = OnlineSegmenter(offline_segmenter(seed, random_state, **options), theta=theta)

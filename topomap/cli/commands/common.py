@@ -186,6 +186,13 @@ def worker_count(text: str) -> int:
     return int(text)
 
 
+def seed(text: str) -> int:
+    """``--seed``: a whole number of at least 0 (NumPy's seeds)."""
+    if not text.isdigit():
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 0, got {text!r}")
+    return int(text)
+
+
 def pose(text: str) -> tuple[float, ...]:
     """``"X,Y"`` or ``"X,Y,YAW"`` (metres, radians) as floats (an argparse type)."""
     try:

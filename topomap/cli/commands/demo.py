@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from topomap.cli.commands.common import seed, worker_count
 from topomap.cli.tables import markdown_table
 
 
@@ -12,9 +13,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     demo = sub.add_parser("demo", help="run the whole pipeline on a generated building")
     demo.add_argument("--out", default="out/demo")
     demo.add_argument("--size", default="office", choices=["flat", "office", "campus"])
-    demo.add_argument("--seed", type=int, default=0)
+    demo.add_argument("--seed", type=seed, default=0)
     demo.add_argument(
-        "--jobs", type=int, default=2, help="processes for the stages that run side by side"
+        "--jobs",
+        type=worker_count,
+        default=2,
+        help="processes for the stages that run side by side",
     )
     demo.set_defaults(func=cmd_demo)
 

@@ -91,10 +91,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     eval_corridors.set_defaults(func=cmd_eval_corridors)
 
 
+#: The hand-drawn labels kept with the repository (not installed with the package).
+HAND_LABELS = Path(__file__).resolve().parents[3] / "tests" / "data" / "labels"
+
+
 def _add_hand_labels(parser: argparse.ArgumentParser, what: str) -> None:
-    """``--hand-labels DIR``: the folder of the files ``what`` names, drawn by hand."""
+    """``--hand-labels DIR``: the folder of the files ``what`` names, drawn by hand (by
+    default the repository's, wherever the command is run from)."""
     parser.add_argument(
-        "--hand-labels", default="tests/data/labels", metavar="DIR", help=f"{what} drawn by hand"
+        "--hand-labels",
+        default=str(HAND_LABELS),
+        metavar="DIR",
+        help=f"{what} drawn by hand (default: the repository's tests/data/labels)",
     )
 
 

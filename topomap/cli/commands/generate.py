@@ -7,24 +7,34 @@ import json
 from pathlib import Path
 
 from maps.files import OutputFolder, write_text
-from topomap.cli.commands.common import RESOLUTION, add_output_options, refuse_existing
+from maps.limits import MAX_FURNITURE
+from topomap.cli.commands.common import (
+    RESOLUTION,
+    add_output_options,
+    number_type,
+    refuse_existing,
+    seed,
+)
+
+FURNITURE = number_type(0.0, MAX_FURNITURE, unit="blocks per 10 m^2")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Add the command to the subcommands ``sub``."""
     gen = sub.add_parser("generate", help="generate a building: map YAML + ground-truth rooms")
     gen.add_argument("--size", default="office", choices=["flat", "office", "campus"])
-    gen.add_argument("--seed", type=int, default=0)
+    gen.add_argument("--seed", type=seed, default=0)
     gen.add_argument("--resolution", type=RESOLUTION, default=0.05)
-    gen.add_argument("--furniture", type=float, default=0.0, help="blocks per 10 m^2")
+    gen.add_argument(
+        "--furniture", type=FURNITURE, default=0.0, help="blocks per 10 m^2 (at most 10)"
+    )
     add_output_options(gen, force="overwrite existing map files")
     gen.set_defaults(func=cmd_generate)
 
 
 def cmd_generate(args: argparse.Namespace) -> int:
-    import cv2
-
     from maps.sim.floorplan import generate_floor_plan
+    from segmentation.export import write_label_image
 
     out = Path(args.out)
     names = ["map.yaml", "map.pgm", "rooms.png", "rooms.json"]
@@ -35,7 +45,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     )
     with OutputFolder(out, names, overwrite=args.force, how="--force") as work:
         plan.grid.save(work / "map.yaml")
-        cv2.imwrite(str(work / "rooms.png"), plan.labels.astype("uint16"))
+        write_label_image(plan.labels, work / "rooms.png")
         rooms = [{"id": i, "type": t} for i, t in enumerate(plan.types, start=1)]
         write_text(work / "rooms.json", json.dumps(rooms, indent=1))
     print(f"{plan.n_rooms} spaces, {len(plan.doors)} doors -> {out}")
