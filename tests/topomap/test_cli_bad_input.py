@@ -67,11 +67,12 @@ def _copy(saved: Path, to: Path) -> Path:
         (["generate", "--furniture", "1000"], "--furniture"),
         (["demo", "--seed", "-1"], "--seed"),
         (["demo", "--jobs", "0"], "--jobs"),
+        (["view", "REGIONS", "--max-paths", "-1"], "--max-paths"),
         (["plan", "MAP", "--start", "1,1", "--goal", "2", "--robot-radius", "1000"], "radius"),
     ],
 )
 def test_numbers_out_of_range_are_usage_errors(tmp_path, capsys, argv, shown):
-    argv = [str(tmp_path / "x") if a in ("MAP", "LOG") else a for a in argv]
+    argv = [str(tmp_path / "x") if a in ("MAP", "LOG", "REGIONS") else a for a in argv]
     assert main([*argv, "--out", str(tmp_path / "out")] if argv[0] != "plan" else argv) == 2
     line = capsys.readouterr().err.strip().splitlines()[-1]
     assert shown in line and "must" in line
@@ -89,9 +90,7 @@ def test_an_image_header_too_large_is_one_line(tmp_path, capsys):
     assert "img.pgm" in line and "2000000000 x 2000000000 cells" in line
 
 
-def test_a_generated_building_too_large_for_memory_is_refused_before_it_is_drawn(
-    tmp_path, capsys
-):
+def test_a_generated_building_too_large_for_memory_is_refused_before_it_is_drawn(tmp_path, capsys):
     argv = ["generate", "--size", "campus", "--resolution", "0.001", "--out", str(tmp_path / "o")]
     assert main(["-q", *argv]) == 2
     assert "building of 301000 x 201000 cells" in _error_line(capsys)

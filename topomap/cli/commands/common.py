@@ -186,8 +186,8 @@ def worker_count(text: str) -> int:
     return int(text)
 
 
-def seed(text: str) -> int:
-    """``--seed``: a whole number of at least 0 (NumPy's seeds)."""
+def whole_number(text: str) -> int:
+    """``--seed`` (NumPy's seeds) and ``--max-paths``: a whole number of at least 0."""
     if not text.isdigit():
         raise argparse.ArgumentTypeError(f"must be a whole number >= 0, got {text!r}")
     return int(text)

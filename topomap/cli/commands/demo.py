@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from topomap.cli.commands.common import seed, worker_count
+from topomap.cli.commands.common import whole_number, worker_count
 from topomap.cli.tables import markdown_table
 
 
@@ -13,7 +13,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     demo = sub.add_parser("demo", help="run the whole pipeline on a generated building")
     demo.add_argument("--out", default="out/demo")
     demo.add_argument("--size", default="office", choices=["flat", "office", "campus"])
-    demo.add_argument("--seed", type=seed, default=0)
+    demo.add_argument("--seed", type=whole_number, default=0)
     demo.add_argument(
         "--jobs",
         type=worker_count,

@@ -13,7 +13,7 @@ from topomap.cli.commands.common import (
     add_output_options,
     number_type,
     refuse_existing,
-    seed,
+    whole_number,
 )
 
 FURNITURE = number_type(0.0, MAX_FURNITURE, unit="blocks per 10 m^2")
@@ -23,7 +23,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     """Add the command to the subcommands ``sub``."""
     gen = sub.add_parser("generate", help="generate a building: map YAML + ground-truth rooms")
     gen.add_argument("--size", default="office", choices=["flat", "office", "campus"])
-    gen.add_argument("--seed", type=seed, default=0)
+    gen.add_argument("--seed", type=whole_number, default=0)
     gen.add_argument("--resolution", type=RESOLUTION, default=0.05)
     gen.add_argument(
         "--furniture", type=FURNITURE, default=0.0, help="blocks per 10 m^2 (at most 10)"

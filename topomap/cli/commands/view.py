@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from topomap.cli.commands.common import RADIUS, add_output_options
+from topomap.cli.commands.common import RADIUS, add_output_options, whole_number
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -15,7 +15,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     view.add_argument("--robot-radius", type=RADIUS, default=0.2, help="metres")
     view.add_argument(
         "--max-paths",
-        type=int,
+        type=whole_number,
         default=400,
         help="plan every pair of regions up to this many pairs, else neighbours' legs",
     )
