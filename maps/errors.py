@@ -179,6 +179,11 @@ class InvalidMapError(MapError, ValueError):
     """Map parameters that make no sense (a zero resolution, a wrong array shape...)."""
 
 
+class RandomStateError(MapError, TypeError):
+    """A ``random_state`` that is neither a seed (a whole number >= 0), a numpy Generator nor
+    None."""
+
+
 class InvalidScanError(MapError, ValueError):
     """A laser scan or pose with values that make no sense (NaN pose, negative angle step...)."""
 

@@ -69,18 +69,22 @@ class OccupancyGrid:
         if problem is not None:
             raise InvalidMapError(problem)
         resolution = float(self.resolution)
-        if len(self.origin) != 3 or any(
-            finite_in(v, "origin", -MAX_COORDINATE, MAX_COORDINATE) for v in self.origin
+        try:
+            origin = tuple(self.origin)
+        except TypeError:  # None, a number
+            origin = ()
+        if len(origin) != 3 or any(
+            finite_in(v, "origin", -MAX_COORDINATE, MAX_COORDINATE) for v in origin
         ):
             raise InvalidMapError(
                 f"origin must be three finite numbers (x, y, yaw) within {MAX_COORDINATE:g} m, "
-                f"got {self.origin}"
+                f"got {self.origin!r}"
             )
         cells = np.array(cells, dtype=np.int8, copy=True)
         cells.setflags(write=False)
         object.__setattr__(self, "cells", cells)
         object.__setattr__(self, "resolution", resolution)
-        object.__setattr__(self, "origin", tuple(float(v) for v in self.origin))
+        object.__setattr__(self, "origin", tuple(float(v) for v in origin))
 
     # ------------------------------------------------------------------ construction and I/O
     @classmethod

@@ -7,6 +7,7 @@ error naming the value, never in an ``OverflowError``, a ``MemoryError`` or a ha
 from __future__ import annotations
 
 import math
+import numbers
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -147,10 +148,11 @@ def finite_in(
     'robot_radius must lie in (0, 10] m, got 1000.0'
     >>> finite_in(float("nan"), "max_range", 0, 1e3, low_open=True)
     'max_range must be a finite number, got nan'
-    >>> finite_in(0.5, "p", 0, 1) is None
-    True
+    >>> import numpy as np
+    >>> finite_in(0.5, "p", 0, 1) is None, finite_in(np.float32(0.05), "resolution", 0, 1)
+    (True, None)
     """
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):  # numpy's numbers too
         return f"{name} must be a number, got {value!r}"
     try:
         number = float(value)

@@ -273,7 +273,10 @@ def check_pose(cspace: HeadingCSpace, pose: ArrayLike, what: str) -> Pose:
         Not two or three finite numbers, or a pose (or every heading at a point) in
         collision.
     """
-    p = np.asarray(pose, float).ravel()
+    try:
+        p = np.asarray(pose, float).ravel()
+    except (TypeError, ValueError):  # strings, a dict, complex numbers
+        p = np.zeros(0)
     if p.shape not in ((2,), (3,)) or not np.all(np.isfinite(p)):
         raise InvalidQueryError(f"{what} must be finite (x, y) or (x, y, yaw), got {pose!r}")
     x, y = float(p[0]), float(p[1])

@@ -15,7 +15,8 @@ from dataclasses import dataclass
 
 import networkx as nx
 
-from planners.errors import NoPathError
+from maps.limits import MAX_LENGTH, finite_in
+from planners.errors import InvalidQueryError, NoPathError
 from segmentation.names import find_region
 from segmentation.transitions import Transition
 
@@ -71,6 +72,8 @@ def region_route(
     ------
     RegionNotFoundError
         An unknown region.
+    InvalidQueryError
+        A width that is not a number >= 0, a closed pair that is not two regions with a door.
     NoPathError
         No route through open doors.
 
@@ -112,7 +115,19 @@ def region_routes(
         No route at all through open doors wide enough.
     """
     a, b = find_region(graph, source), find_region(graph, target)
-    shut = {(min(u, v), max(u, v)) for u, v in closed}
+    problem = finite_in(min_width, "the robot's width (twice its radius)", 0, MAX_LENGTH)
+    if problem is not None:
+        raise InvalidQueryError(problem + " m")
+    shut = set()
+    for pair in closed:
+        try:
+            u, v = pair
+            shared = graph.has_edge(u, v)
+        except (TypeError, ValueError):  # not a pair, or not hashable
+            shared = False
+        if not shared:
+            raise InvalidQueryError(f"{pair!r} is not two regions that share a door to close")
+        shut.add((min(u, v), max(u, v)))
 
     def usable(u: int, v: int) -> Transition | None:
         doors = [d for d in graph.edges[u, v].get("doors") or () if d.passable > min_width]

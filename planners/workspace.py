@@ -291,7 +291,10 @@ class Workspace:
     def check(self, point: ArrayLike, what: str = "point") -> Point:
         """``point`` as ``(x, y)`` if a robot can stand there, else :class:`InvalidQueryError`
         saying why (not two numbers, off the map, unknown, in or too close to a wall)."""
-        p = np.asarray(point, float)
+        try:
+            p = np.asarray(point, float)
+        except (TypeError, ValueError):  # strings, a dict, complex numbers
+            p = np.zeros(0)
         if p.shape != (2,) or not np.all(np.isfinite(p)):
             raise InvalidQueryError(f"{what} must be two finite numbers (x, y), got {point!r}")
         x, y = float(p[0]), float(p[1])

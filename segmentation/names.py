@@ -67,7 +67,7 @@ def find_region(graph: nx.Graph, query: int | np.integer | str) -> int:
     """
     if isinstance(query, int | np.integer) and not isinstance(query, bool):
         region = int(query)
-    elif isinstance(query, str) and query.strip().isdigit():
+    elif isinstance(query, str) and _is_id(query.strip()):
         region = int(query.strip())
     elif isinstance(query, str):
         return _by_name(graph, query)
@@ -95,3 +95,15 @@ def _by_name(graph: nx.Graph, query: str) -> int:
     raise RegionNotFoundError(
         f"no region named {query!r}{hint}; known names: {', '.join(known) or 'none'}"
     )
+
+
+def _is_id(text: str) -> bool:
+    """Whether ``text`` reads as a region id: ASCII digits ("²" is a digit, not a number),
+    fewer than 19 of them (an id fits 64 bits; a longer run of digits is a name).
+
+    Examples
+    --------
+    >>> _is_id("12"), _is_id("²"), _is_id("9" * 5000), _is_id("")
+    (True, False, False, False)
+    """
+    return text.isascii() and text.isdecimal() and len(text) < 19

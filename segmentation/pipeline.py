@@ -263,11 +263,18 @@ class MapSegmenter(Estimator):
             )
         if len(seeing) < len(keyframes):
             log.info("%d keyframes saw no wall and are not clustered", len(keyframes) - len(seeing))
+        poses = poses_array(seeing)
+        rows, cols = space.world_to_cell(poses[:, 0], poses[:, 1])
+        if not space.contains(rows, cols).any():
+            x0, y0, x1, y1 = grid.bounds()
+            raise SegmentationError(
+                f"none of the {len(seeing)} keyframes stands on the map (x {x0:.6g}..{x1:.6g}, "
+                f"y {y0:.6g}..{y1:.6g} m; the first at ({poses[0, 0]:.6g}, {poses[0, 1]:.6g})): "
+                "the keyframes and the map are in different frames"
+            )
         fitted = self.partition(space, places, seeing, spectral)
         lap("spectral")
         stage("regions")
-        poses = poses_array(seeing)
-        rows, cols = space.world_to_cell(poses[:, 0], poses[:, 1])
         if self.spectral.k is None:  # the places vote: regions are whole places
             dense = pieces(space, by_place(places, rows, cols, fitted.labels_), self.min_area)
         else:  # the user's k: the clusters decide, a place split between them if need be

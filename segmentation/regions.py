@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import heapq
+import math
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -15,8 +16,9 @@ from shapely import affinity
 from shapely.geometry.base import BaseGeometry
 
 from maps.grid import OccupancyGrid
+from maps.limits import finite_in
 from segmentation.distinct import distinct, label_counts, nonzero_cells
-from segmentation.errors import SegmentationError
+from segmentation.errors import ParameterError, SegmentationError
 
 
 def boundary_pairs(labels: NDArray[np.integer]) -> tuple[NDArray[np.int64], ...]:
@@ -223,7 +225,17 @@ class Regions:
 
     def at(self, x: float, y: float) -> int:
         """The region at map point ``(x, y)`` (or the region round it, :attr:`enclosing`), 0 if
-        none."""
+        none.
+
+        Raises
+        ------
+        ParameterError
+            ``x`` or ``y`` is not a finite number (NaN is nowhere, not "no region").
+        """
+        for name, value in (("x", x), ("y", y)):
+            problem = finite_in(value, name, -math.inf, math.inf)
+            if problem is not None:
+                raise ParameterError(f"a point is two finite numbers in metres: {problem}")
         row, col = self.grid.world_to_cell(x, y)
         if not self.grid.contains(row, col):
             return 0

@@ -252,9 +252,15 @@ class Pairwise:
         cloud = ScanCloud.from_keyframes(keyframes, self.resolution)
         i, j = candidate_pairs(cloud, _positive("reach", self.reach))
         points = cloud.split()
-        values = np.array(
-            [float(self.similarity(points[a], points[b])) for a, b in zip(i, j, strict=True)]
-        )
+        try:
+            values = np.array(
+                [float(self.similarity(points[a], points[b])) for a, b in zip(i, j, strict=True)]
+            )
+        except Exception as err:  # the user's function, whatever it raised
+            raise ParameterError(
+                f"similarity {self.similarity!r} failed on two keyframes' points "
+                f"({type(err).__name__}: {err}); it takes two (n, 2) arrays and returns a float"
+            ) from err
         if not np.all(np.isfinite(values)) or np.any(values < 0):
             raise ParameterError(f"similarity {self.similarity!r} must return finite values >= 0")
         return symmetric(values, i, j, cloud.n_keyframes)

@@ -28,6 +28,7 @@ from scipy.sparse import linalg as splinalg
 from scipy.sparse.csgraph import connected_components, laplacian, minimum_spanning_tree
 from threadpoolctl import threadpool_limits
 
+from maps.limits import finite_in
 from maps.scan import Keyframe
 from maps.seeding import RandomState, as_generator
 from segmentation.base import Estimator, clone
@@ -36,6 +37,8 @@ from segmentation.similarity import Criterion, PointsSimilarity, as_criterion
 
 log = logging.getLogger(__name__)
 
+#: k-means runs per ``k`` at most: the best of a thousand is as good as it gets.
+MAX_N_INIT = 1000
 #: Above this many keyframes the silhouette is estimated on a random sample of this size.
 SILHOUETTE_SAMPLE = 1500
 #: Up to this many keyframes a dense eigensolver is faster than the sparse one.
@@ -279,12 +282,14 @@ class SpectralSegmenter(Estimator):
     def _validate_params(self) -> None:
         if self.k is not None and not (isinstance(self.k, int | np.integer) and self.k >= 1):
             raise ParameterError(f"k must be an integer >= 1, got {self.k!r}")
-        if not (isinstance(self.p, int | float) and 0 <= self.p < 1):
+        if finite_in(self.p, "p", 0, 1) is not None or self.p == 1:
             raise ParameterError(f"p must lie in [0, 1), got {self.p!r}")
         for name in ("spread", "n_init", "max_regions"):
             value = getattr(self, name)
             if not isinstance(value, int | np.integer) or value < (0 if name == "spread" else 1):
                 raise ParameterError(f"{name} must be a positive integer, got {value!r}")
+        if self.n_init > MAX_N_INIT:
+            raise ParameterError(f"n_init must be at most {MAX_N_INIT}, got {self.n_init!r}")
         as_criterion(self.criterion)
 
     def _check(self, n: int) -> None:
@@ -365,7 +370,7 @@ class SpectralSegmenter(Estimator):
         top = max(top, 1)
         values, vectors = spectrum(affinity, min(n - 1, top + 1))
         guess = self.k if self.k is not None else eigengap(values, max(2, components))
-        ks = [k for k in range(guess - self.spread, guess + self.spread + 1) if 2 <= k < n]
+        ks = list(range(max(2, guess - self.spread), min(n, guess + self.spread + 1)))
         ks = [k for k in ks if k <= vectors.shape[1]] or [min(max(2, guess), vectors.shape[1])]
         best: tuple[float, NDArray[np.int64]] = (-math.inf, np.zeros(n, np.int64))
         for k in ks:

@@ -283,14 +283,30 @@ def classify(
     LabelError
         Naming the classifier, when it returns the wrong number of labels or an unknown one.
     """
-    classifier = rule_classifier if classifier is None else classifier
+    if classifier is None:
+        return _checked(rule_classifier, rule_classifier(features), features)
     name = getattr(classifier, "__name__", type(classifier).__name__)
-    if hasattr(classifier, "predict"):
-        found = classifier.predict(feature_matrix(features))
-    elif callable(classifier):
-        found = classifier(features)
-    else:
+    if not (hasattr(classifier, "predict") or callable(classifier)):
         raise LabelError(f"classifier {name} is neither callable nor has predict()")
+    try:
+        if hasattr(classifier, "predict"):
+            found = classifier.predict(feature_matrix(features))
+        else:
+            found = classifier(features)
+        found = [str(label) for label in found]
+    except Exception as err:  # the user's classifier, whatever it raised or returned
+        raise LabelError(
+            f"classifier {name} failed ({type(err).__name__}: {err}); it returns one place "
+            "type per region"
+        ) from err
+    return _checked(classifier, found, features)
+
+
+def _checked(
+    classifier: Classifier, found: Sequence[str], features: Mapping[str, NDArray[np.float64]]
+) -> list[str]:
+    """``found`` as known place types, one per region (synonyms read as their type)."""
+    name = getattr(classifier, "__name__", type(classifier).__name__)
     found = [str(label).strip().lower() for label in found]
     count = len(features["id"])
     if len(found) != count:

@@ -7,6 +7,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 
 import networkx as nx
@@ -69,11 +70,24 @@ def label_graph(
     return labels
 
 
+#: Characters a saved name cannot carry: XML 1.0 holds no control characters but tab, line
+#: feed and carriage return (and reads a carriage return back as a line feed), no lone
+#: surrogates and not U+FFFE / U+FFFF.
+_UNSAVEABLE = re.compile("[\x00-\x1f\x7f\ud800-\udfff\ufffe\uffff]")
+
+
 def rename(graph: nx.Graph, old: int | str, new: str) -> None:
     """Give a region (by id or name) a new name, kept when the map is labelled again; a name
     already taken, empty or only digits (it would read as a region id) is refused and nothing
     changes."""
     region = find_region(graph, old)
+    if not isinstance(new, str):
+        raise LabelError(f"a region name is a string, got {new!r}")
+    if _UNSAVEABLE.search(new):
+        raise LabelError(
+            f"a region name holds printable characters and spaces only (it is saved in "
+            f"GraphML), got {new!r}"
+        )
     wanted = normalise_name(new)
     if not wanted:
         raise LabelError("a region name cannot be empty")

@@ -48,6 +48,7 @@ from segmentation.export import (
     write_label_image,
     write_node_link,
 )
+from segmentation.pipeline import METHODS
 from segmentation.regions import Regions
 
 if TYPE_CHECKING:
@@ -241,11 +242,13 @@ def load(folder: str | Path) -> Saved:
         partition = _partition(about.get("partition"))
         next_id = int(about.get("next_id", 0))
         version = about.get("version", 1)
-    except (ValueError, AttributeError, TypeError, KeyError, RecursionError) as err:
+    except (ValueError, AttributeError, TypeError, KeyError, RecursionError, OverflowError) as err:
         raise ExportFormatError(
             f"{info}: not a topomap.json file: a field is not as TopoMap.save writes it "
             f"({type(err).__name__}: {err})"
         ) from None
+    if method not in METHODS:
+        raise ExportFormatError(f"{info}: field 'method' is {method!r}, not one of {METHODS}")
     if about.get("format") != "topomap":
         raise ExportFormatError(f"{info}: field 'format' is {about.get('format')!r}, not 'topomap'")
     if not isinstance(version, int) or isinstance(version, bool) or not 1 <= version <= VERSION:

@@ -15,6 +15,8 @@ from maps.seeding import RandomState, as_generator
 
 #: Rays traced together; bounds memory at about 100 bytes a ray.
 _CHUNK = 262_144
+#: Beams a simulated laser may have: a 3D lidar's ring of 0.01 degree steps is 36,000.
+MAX_BEAMS = 100_000
 
 
 @dataclass(frozen=True)
@@ -46,13 +48,15 @@ class LaserModel:
     def __post_init__(self) -> None:
         if not 0 < self.fov <= 2 * math.pi:
             raise InvalidScanError(f"fov must lie in (0, 2 pi] radians, got {self.fov}")
-        if self.beams < 2:
-            raise InvalidScanError(f"a laser needs at least 2 beams, got {self.beams}")
+        if not (isinstance(self.beams, int | np.integer) and 2 <= self.beams <= MAX_BEAMS):
+            raise InvalidScanError(
+                f"a laser has a whole number of beams in 2..{MAX_BEAMS}, got {self.beams!r}"
+            )
         if not 0 <= self.min_range < self.max_range < math.inf:
             raise InvalidScanError(
                 f"need 0 <= min_range < max_range < inf, got {self.min_range}, {self.max_range}"
             )
-        if self.noise < 0 or not 0 <= self.dropout <= 1:
+        if not (self.noise >= 0 and 0 <= self.dropout <= 1):  # NaN fails both
             raise InvalidScanError(
                 f"need noise >= 0 and dropout in [0, 1], got {self.noise}, {self.dropout}"
             )

@@ -1,0 +1,140 @@
+"""Bad input through the Python API: typed errors naming the value, no hang, no silent answer
+(found by a review that called every public function with wrong values, 2026-12-06)."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from maps.errors import InvalidMapError, InvalidScanError, RandomStateError
+from maps.grid import OccupancyGrid
+from maps.scan import Keyframe
+from maps.seeding import as_generator
+from maps.sim.floorplan import generate_floor_plan
+from maps.sim.laser import LaserModel
+from planners.errors import InvalidQueryError
+from segmentation.errors import ExportFormatError, ParameterError, SegmentationError
+from segmentation.spectral import SpectralSegmenter
+from topomap.errors import LabelError
+from topomap.topomap import TopoMap
+
+
+@pytest.fixture(scope="module")
+def topo() -> TopoMap:
+    return TopoMap.from_grid(generate_floor_plan("flat", random_state=0).grid, random_state=0)
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, True, "x", np.random.RandomState(0)])
+def test_a_random_state_that_is_no_seed_is_a_typed_error(seed):
+    with pytest.raises(RandomStateError, match="random_state must be a whole number >= 0"):
+        as_generator(seed)
+
+
+def test_numpy_numbers_are_numbers_and_an_origin_that_is_none_is_refused():
+    cells = np.zeros((4, 4), np.int8)
+    grid = OccupancyGrid(cells, np.float32(0.05), np.array([1, 2, 0]))
+    assert grid.origin == (1.0, 2.0, 0.0) and isinstance(grid.resolution, float)
+    assert SpectralSegmenter(p=np.float32(0.3))._validate_params() is None
+    for origin in (None, 5, (0.0, 0.0)):
+        with pytest.raises(InvalidMapError, match="origin must be three finite numbers"):
+            OccupancyGrid(cells, 0.05, origin)
+
+
+@pytest.mark.parametrize("beams", [1, 10**9, 2.5])
+def test_a_laser_of_absurd_beams_is_refused_before_tracing(beams):
+    with pytest.raises(InvalidScanError, match="whole number of beams"):
+        LaserModel(beams=beams)
+
+
+def test_k_means_restarts_and_the_k_range_are_bounded(topo):
+    with pytest.raises(ParameterError, match="n_init must be at most"):
+        SpectralSegmenter(n_init=100_000).fit(topo.keyframes)
+    start = time.perf_counter()  # a huge spread walks only the k that can be (2 .. n - 1)
+    SpectralSegmenter(spread=10**10, random_state=0).fit(topo.keyframes[:30])
+    assert time.perf_counter() - start < 30
+
+
+def test_a_similarity_that_fails_is_named(topo):
+    def broken(a, b):
+        return 1 / 0
+
+    with pytest.raises(ParameterError, match=r"similarity .*broken.* failed .*\(ZeroDivisionError"):
+        SpectralSegmenter(criterion=broken).fit(topo.keyframes[:20])
+
+
+def test_keyframes_that_are_nowhere_on_the_map_are_refused(topo):
+    far = [
+        Keyframe((k.pose[0] + 1000.0, k.pose[1], k.pose[2]), k.scan, scan_index=k.scan_index)
+        for k in topo.keyframes
+    ]
+    with pytest.raises(SegmentationError, match=r"none of the .* keyframes stands on the map"):
+        TopoMap.from_keyframes(far, topo.grid)
+
+
+@given(st.sampled_from([math.nan, math.inf, None, "1"]), st.booleans())
+def test_a_point_that_is_no_point_is_no_region_query(topo, value, first):
+    point = (value, 1.0) if first else (1.0, value)
+    with pytest.raises(ParameterError, match="a point is two finite numbers"):
+        topo.region_at(*point)
+
+
+@pytest.mark.parametrize("start", [("a", "b"), {"x": 1}, (1 + 0j, 2.0), (math.nan, 1.0)])
+def test_a_start_that_is_no_point_is_a_query_error(topo, start):
+    with pytest.raises(InvalidQueryError, match="start must be two finite numbers"):
+        topo.plan(start, 2)
+
+
+def test_a_route_for_a_robot_of_no_width_or_through_doors_that_are_none(topo):
+    a, b = sorted(topo.graph.nodes)[:2]
+    for radius in (-1.0, math.nan):
+        with pytest.raises(InvalidQueryError, match="robot's width"):
+            topo.route(a, b, robot_radius=radius)
+    for closed in ([(999, 998)], [("a", "b")], [(1,)]):
+        with pytest.raises(InvalidQueryError, match="share a door to close"):
+            topo.route(a, b, closed=closed)
+
+
+@pytest.mark.parametrize("name", ["a\x1bb", "a\x00", "\ud800", "x\ufffe", None, 3])
+def test_a_name_graphml_cannot_hold_is_refused_and_nothing_changes(topo, name):
+    region = sorted(topo.graph.nodes)[0]
+    before = topo.graph.nodes[region]["name"]
+    with pytest.raises(LabelError, match="a region name"):
+        topo.rename(region, name)
+    assert topo.graph.nodes[region]["name"] == before
+
+
+@pytest.mark.parametrize("query", ["²", "9" * 5000])
+def test_digits_that_are_no_id_are_looked_up_as_names(topo, query):
+    from segmentation.errors import RegionNotFoundError
+
+    with pytest.raises(RegionNotFoundError):
+        topo.region(query)
+
+
+def test_a_classifier_that_fails_is_named(topo):
+    def broken(features):
+        return 1 / 0
+
+    with pytest.raises(LabelError, match=r"classifier broken failed .*ZeroDivisionError"):
+        topo.label(broken)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "shown"),
+    [("method", "bogus", "field 'method' is 'bogus'"), ("next_id", "1e400", "OverflowError")],
+)
+def test_a_saved_folder_with_a_field_out_of_bounds_is_refused(topo, tmp_path, field, value, shown):
+    topo.save(tmp_path / "t")
+    about_path = tmp_path / "t" / "topomap.json"
+    about = json.loads(about_path.read_text())
+    about[field] = value
+    text = json.dumps(about).replace('"1e400"', "1e400")
+    about_path.write_text(text)
+    with pytest.raises(ExportFormatError, match=shown):
+        TopoMap.load(tmp_path / "t")
