@@ -58,8 +58,10 @@ def check_output_folder(folder: str | Path) -> Path:
     OutputNotWritableError
         ``folder``, or the nearest existing parent it would be made in, may not be written,
         or a parent may not be looked into.
+    OutputPathError
+        ``folder`` is no path (None, a number, a name with a NUL byte).
     """
-    folder = Path(folder)
+    folder = _as_path(folder)
     try:
         blocking = folder if folder.exists() and not folder.is_dir() else _blocking_file(folder)
         nearest = next(p for p in (folder, *folder.parents) if p.exists())
@@ -96,18 +98,30 @@ def check_output_file(path: str | Path, *, overwrite: bool, how: str = "overwrit
     OutputNotAFolderError
         A parent of the file is a file.
     """
-    path = Path(path)
+    path = _as_path(path)
     check_output_folder(path.parent)
     return _check_file(path, overwrite=overwrite, how=how)
 
 
 def _check_file(path: Path, *, overwrite: bool, how: str) -> Path:
     """:func:`check_output_file` once its folder is checked."""
-    if path.is_dir():
+    try:
+        is_dir, exists = path.is_dir(), path.exists()
+    except OSError as err:  # a name too long
+        raise OutputPathError(path, f"cannot write {path}: {err.strerror or err}") from None
+    if is_dir:
         raise OutputIsAFolderError(path, f"{path} is a folder, not a file: cannot write it")
-    if path.exists() and not overwrite:
+    if exists and not overwrite:
         raise OutputExistsError(path, how)
     return path
+
+
+def _as_path(path: object) -> Path:
+    """``path`` as a :class:`~pathlib.Path`, refusing what no file system takes (not a path,
+    a NUL byte in it) with an :class:`~maps.errors.OutputPathError`."""
+    if not isinstance(path, str | os.PathLike) or "\x00" in str(path):
+        raise OutputPathError(str(path), f"{path!r} is no path to write an output to")
+    return Path(path)
 
 
 def check_outputs(

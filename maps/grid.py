@@ -56,7 +56,12 @@ class OccupancyGrid:
     )
 
     def __post_init__(self) -> None:
-        cells = np.asarray(self.cells)
+        try:
+            cells = np.asarray(self.cells)
+        except ValueError:  # rows of different lengths
+            raise InvalidMapError(
+                "cells must be a 2-D array, got rows of different lengths"
+            ) from None
         if cells.ndim != 2 or cells.size == 0:
             raise InvalidMapError(f"cells must be a non-empty 2-D array, got shape {cells.shape}")
         if not np.issubdtype(cells.dtype, np.integer):

@@ -9,6 +9,7 @@ raw, ``negate`` inverts the grey values, and a pixel is occupied when
 from __future__ import annotations
 
 import errno
+import os
 import stat
 from pathlib import Path
 from typing import Any
@@ -136,6 +137,8 @@ def check_input_file(
         A folder, FIFO or device is, or it cannot be opened (no permission, a name too long);
         ``error`` instead, when given (a log's :class:`~maps.errors.LogFormatError`).
     """
+    if not isinstance(path, str | os.PathLike):
+        raise error(f"{what} must be a path, got {path!r}", field=field)
     path = Path(path)
     try:
         mode = path.stat().st_mode
@@ -143,6 +146,10 @@ def check_input_file(
         raise MapFileNotFoundError(path, what) from None
     except OSError as err:
         raise _unreadable(path, field, err, error) from None
+    except ValueError as err:  # a NUL byte in the name
+        raise error(
+            f"{what} path cannot be used ({err})", path=repr(str(path)), field=field
+        ) from None
     if not stat.S_ISREG(mode):
         kind = next((name for test, name in _KINDS if test(mode)), "not a file")
         raise error(f"{what} is {kind}, not a regular file", path=path, field=field)

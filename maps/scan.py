@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -12,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from maps.errors import InvalidScanError
 from maps.grid import Pose
-from maps.limits import MAX_COORDINATE
+from maps.limits import MAX_COORDINATE, finite_in
 
 
 @dataclass(frozen=True, eq=False)
@@ -32,14 +33,20 @@ class LaserScan:
     range_max: float = math.inf
 
     def __post_init__(self) -> None:
-        ranges = np.array(self.ranges, dtype=np.float64, copy=True)
+        try:
+            ranges = np.array(self.ranges, dtype=np.float64, copy=True)
+        except (TypeError, ValueError):  # strings, a ragged list
+            raise InvalidScanError(f"ranges must be numbers, got {self.ranges!r:.200}") from None
         if ranges.ndim != 1 or ranges.size == 0:
             raise InvalidScanError(
                 f"ranges must be a non-empty 1-D array, got shape {ranges.shape}"
             )
         for name in ("angle_min", "angle_increment", "range_min"):
-            if not math.isfinite(getattr(self, name)):
-                raise InvalidScanError(f"{name} must be finite, got {getattr(self, name)}")
+            problem = finite_in(getattr(self, name), name, -math.inf, math.inf)
+            if problem is not None:
+                raise InvalidScanError(problem)
+        if not isinstance(self.range_max, numbers.Real) or isinstance(self.range_max, bool):
+            raise InvalidScanError(f"range_max must be a number, got {self.range_max!r}")
         if self.angle_increment == 0:
             raise InvalidScanError("angle_increment must not be 0")
         if self.range_min < 0 or not self.range_max > self.range_min:
@@ -160,8 +167,11 @@ class Keyframe:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "pose", check_pose(self.pose))
-        if int(self.scan_index) != self.scan_index or self.scan_index < 0:
-            raise InvalidScanError(f"scan_index must be an integer >= 0, got {self.scan_index!r}")
+        if not isinstance(self.scan, LaserScan):
+            raise InvalidScanError(f"a keyframe's scan is a LaserScan, got {self.scan!r:.200}")
+        index = self.scan_index
+        if finite_in(index, "scan_index", 0, math.inf) is not None or int(index) != index:
+            raise InvalidScanError(f"scan_index must be an integer >= 0, got {index!r}")
 
     def __repr__(self) -> str:
         pose = ", ".join(f"{v:.3f}" for v in self.pose)

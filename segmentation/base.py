@@ -72,7 +72,13 @@ class Estimator:
             else:
                 setattr(self, name, value)
         for name, sub_params in nested.items():
-            getattr(self, name).set_params(**sub_params)
+            inner = getattr(self, name)
+            if not hasattr(inner, "set_params"):
+                raise ParameterError(
+                    f"{type(self).__name__}.{name} is {inner!r}, not an estimator: "
+                    f"{', '.join(f'{name}__{sub}' for sub in sub_params)} cannot be set"
+                )
+            inner.set_params(**sub_params)
         return self
 
     def _validate_params(self) -> None:

@@ -197,6 +197,15 @@ class MapSegmenter(Estimator):
         if not (isinstance(self.block_places, int) and self.block_places >= 2):
             raise ParameterError(f"block_places must be an integer >= 2, got {self.block_places!r}")
         check_n_jobs(self.n_jobs)
+        for name, kind in (("spectral", SpectralSegmenter), ("laser", LaserModel)):
+            if not isinstance(getattr(self, name), kind):
+                raise ParameterError(
+                    f"{name} must be a {kind.__name__}, got {getattr(self, name)!r}"
+                )
+        if self.on_stage is not None and not callable(self.on_stage):
+            raise ParameterError(
+                f"on_stage must be a function of the stage's name or None, got {self.on_stage!r}"
+            )
         self.spectral._validate_params()
 
     def segment(
@@ -219,6 +228,11 @@ class MapSegmenter(Estimator):
             a wall.
         """
         self._validate_params()
+        if not isinstance(grid, OccupancyGrid):
+            raise ParameterError(
+                "the map must be an OccupancyGrid (OccupancyGrid.load('map.yaml')), got "
+                f"{type(grid).__name__}"
+            )
         seconds: dict[str, float] = {}
         clock = [time.perf_counter()]
 

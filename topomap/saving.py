@@ -23,6 +23,7 @@ import io
 import json
 import logging
 import math
+import os
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -34,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.errors import MapFileNotFoundError
-from maps.files import OutputFolder, write_text
+from maps.files import OutputFolder, check_output_folder, write_text
 from maps.grid import OccupancyGrid
 from maps.map_server import check_input_file
 from maps.scan import Keyframe
@@ -112,7 +113,7 @@ def save(
     OutputExistsError
         A file exists and ``overwrite`` is false; nothing is written then.
     """
-    out, door_graphs = Path(out), list(door_graphs)
+    out, door_graphs = check_output_folder(out), list(door_graphs)
     names = [*SAVED, "map.yaml", "map.pgm"]
     caches = [door_graph_name(radius) for radius in door_graphs]
     folder = OutputFolder(out, [*names, *caches], overwrite=overwrite, last="topomap.json")
@@ -225,6 +226,8 @@ def load(folder: str | Path) -> Saved:
         (label image and map of different sizes, graph nodes that are not the regions, a file
         changed since it was saved).
     """
+    if not isinstance(folder, str | os.PathLike):
+        raise ExportFormatError(f"a saved topomap is a folder's path, got {folder!r}")
     folder = Path(folder)
     info = check_input_file(folder / "topomap.json", "topomap.json (written by TopoMap.save)")
     try:

@@ -138,3 +138,51 @@ def test_a_saved_folder_with_a_field_out_of_bounds_is_refused(topo, tmp_path, fi
     about_path.write_text(text)
     with pytest.raises(ExportFormatError, match=shown):
         TopoMap.load(tmp_path / "t")
+
+
+def test_settings_of_the_wrong_kind_are_parameter_errors(topo):
+    from segmentation.pipeline import MapSegmenter
+
+    with pytest.raises(ParameterError, match=r"p is 0\.3, not an estimator: p__x cannot be set"):
+        SpectralSegmenter().set_params(p__x=1)
+    for settings, shown in (
+        ({"spectral": None}, "spectral must be a SpectralSegmenter"),
+        ({"laser": "x"}, "laser must be a LaserModel"),
+        ({"on_stage": 5}, "on_stage must be a function"),
+    ):
+        with pytest.raises(ParameterError, match=shown):
+            MapSegmenter(**settings).segment(topo.grid)
+    with pytest.raises(ParameterError, match="the map must be an OccupancyGrid"):
+        MapSegmenter().segment(np.zeros((5, 5), np.int8))
+
+
+def test_scans_and_cells_that_are_not_numbers_are_typed_errors():
+    from maps.scan import LaserScan
+
+    with pytest.raises(InvalidMapError, match="rows of different lengths"):
+        OccupancyGrid([[0, 0], [0]], 0.05)
+    with pytest.raises(InvalidScanError, match="angle_min must be a number"):
+        LaserScan(np.ones(3), "0", 0.1)
+    with pytest.raises(InvalidScanError, match="ranges must be numbers"):
+        LaserScan(["a", "b"], 0.0, 0.1)
+    scan = LaserScan(np.ones(3), 0.0, 0.1)
+    with pytest.raises(InvalidScanError, match="scan is a LaserScan"):
+        Keyframe((0.0, 0.0, 0.0), "x")
+    for index in (None, math.nan, -1, 1.5):
+        with pytest.raises(InvalidScanError, match="scan_index must be an integer >= 0"):
+            Keyframe((0.0, 0.0, 0.0), scan, scan_index=index)
+
+
+@pytest.mark.parametrize("path", [None, 5, "a\x00b"])
+def test_a_path_that_is_no_path_is_a_typed_error(topo, tmp_path, path):
+    from maps.carmen import read_carmen
+    from maps.errors import LogFormatError, MapFormatError, OutputPathError
+
+    with pytest.raises(OutputPathError, match="no path to write an output to"):
+        topo.save(path)
+    with pytest.raises((ExportFormatError, MapFormatError)):
+        TopoMap.load(path)
+    with pytest.raises(LogFormatError):
+        read_carmen(path)
+    with pytest.raises(OutputPathError, match="File name too long"):
+        topo.save(tmp_path / ("x" * 300))
