@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from maps.errors import InvalidMapError
-from maps.limits import MAX_COORDINATE, RESOLUTION_RANGE, check_map_size, finite_in
+from maps.limits import MAX_COORDINATE, MAX_LENGTH, RESOLUTION_RANGE, check_map_size, finite_in
 from maps.tf import quaternion_from_yaw, yaw_from_quaternion
 
 if TYPE_CHECKING:
@@ -420,8 +420,9 @@ class OccupancyGrid:
         ``radius + resolution / 2`` away, i.e. a disc of ``radius`` centred on the cell clears
         that cell's edge. Unknown cells block like occupied ones.
         """
-        if not np.isfinite(radius) or radius < 0:
-            raise InvalidMapError(f"inflation radius must be >= 0 metres, got {radius}")
+        problem = finite_in(radius, "inflation radius", 0.0, MAX_LENGTH, unit="m")
+        if problem is not None:
+            raise InvalidMapError(problem)
         blocked = self.free & (self.clearance() <= radius + self.resolution / 2)
         cells = self.cells.copy()
         cells[blocked] = OCCUPIED

@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 
 from maps.errors import InvalidScanError, MapTooLargeError
 from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
-from maps.limits import RESOLUTION_RANGE, check_map_size, finite_in
+from maps.limits import MAX_LENGTH, RESOLUTION_RANGE, check_map_size, finite_in
 from maps.scan import Keyframe, transform_points
 
 #: Sub-pixel bits used when filling scan polygons with OpenCV.
@@ -50,6 +50,9 @@ def grid_from_keyframes(
     """
     if not keyframes:
         raise InvalidScanError("cannot build a map from no keyframes")
+    problem = finite_in(margin, "margin", 0.0, MAX_LENGTH, unit="m")
+    if problem is not None:
+        raise InvalidScanError(problem)
     builder = MapBuilder(resolution, max_range=max_range, occupied_ratio=occupied_ratio)
     ends = [builder.end_points(frame) for frame in keyframes]
     every = np.vstack([p[k] for p, k in ends] + [[frame.pose[:2] for frame in keyframes]])
@@ -96,6 +99,7 @@ class MapBuilder:
         for problem in (
             finite_in(resolution, "resolution", *RESOLUTION_RANGE, unit="m per cell"),
             finite_in(max_range, "max_range", 0.0, 1e4, unit="m", low_open=True),
+            finite_in(occupied_ratio, "occupied_ratio", 0.0, 1.0, low_open=True),
         ):
             if problem is not None:
                 raise InvalidScanError(problem)

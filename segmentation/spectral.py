@@ -32,7 +32,7 @@ from maps.limits import finite_in
 from maps.scan import Keyframe
 from maps.seeding import RandomState, as_generator
 from segmentation.base import Estimator, clone
-from segmentation.errors import ParameterError
+from segmentation.errors import ParameterError, SegmentationError
 from segmentation.similarity import Criterion, PointsSimilarity, as_criterion
 
 log = logging.getLogger(__name__)
@@ -303,6 +303,12 @@ class SpectralSegmenter(Estimator):
         Keyframes with the same pose and the same scan (a robot standing still) are clustered
         once and share their cluster; ``k`` is capped at the number of distinct keyframes.
         """
+        if not isinstance(keyframes, Sequence) or not all(
+            isinstance(k, Keyframe) for k in keyframes
+        ):
+            raise ParameterError(f"fit takes a list of Keyframes, got {keyframes!r:.200}")
+        if not keyframes:  # whatever the criterion
+            raise SegmentationError("no keyframes to segment")
         self._check(len(keyframes))
         criterion = as_criterion(self.criterion)
         keys = [(tuple(k.pose), k.scan.ranges.tobytes()) for k in keyframes]
@@ -322,8 +328,20 @@ class SpectralSegmenter(Estimator):
         return self
 
     def fit_affinity(self, affinity: sparse.spmatrix) -> SpectralSegmenter:
-        """Cluster from a precomputed symmetric affinity matrix."""
+        """Cluster from a precomputed symmetric affinity matrix (finite values >= 0)."""
+        if getattr(affinity, "shape", None) == (0, 0):  # nothing to cluster: no clusters
+            self._check(0)
+            self._set_fitted(sparse.csr_matrix((0, 0)), np.zeros(0), {}, np.zeros(0, np.int64))
+            return self
+        try:
+            affinity = sparse.csr_matrix(affinity, dtype=float)
+        except (TypeError, ValueError) as err:
+            raise ParameterError(f"the affinity must be a matrix of numbers ({err})") from None
         n = affinity.shape[0]
+        if affinity.shape != (n, n):
+            raise ParameterError(f"the affinity must be square, got shape {affinity.shape}")
+        if not np.all(np.isfinite(affinity.data)) or (affinity.data < 0).any():
+            raise ParameterError("the affinity's values must be finite and >= 0")
         self._check(n)
         rng = as_generator(self.random_state)
         sparse_affinity = sparsify(affinity, self.p, connected=self.connected)
@@ -355,7 +373,7 @@ class SpectralSegmenter(Estimator):
         self.eigenvalues_ = eigenvalues
         self.silhouette_by_k_ = silhouettes
         self.labels_ = labels
-        self.n_regions_ = int(labels.max()) + 1
+        self.n_regions_ = int(labels.max(initial=-1)) + 1
 
     def _cluster(
         self, affinity: sparse.csr_matrix, rng: np.random.Generator, silhouettes: dict[int, float]

@@ -186,3 +186,41 @@ def test_a_path_that_is_no_path_is_a_typed_error(topo, tmp_path, path):
         read_carmen(path)
     with pytest.raises(OutputPathError, match="File name too long"):
         topo.save(tmp_path / ("x" * 300))
+
+
+@pytest.mark.parametrize(
+    ("affinity", "shown"),
+    [
+        (np.ones((2, 3)), "must be square"),
+        (np.array([[0.0, np.nan], [np.nan, 0.0]]), "finite and >= 0"),
+        (np.array([[0.0, -1.0], [-1.0, 0.0]]), "finite and >= 0"),
+        ("x", "a matrix of numbers"),
+    ],
+)
+def test_an_affinity_that_is_no_affinity_is_refused(affinity, shown):
+    with pytest.raises(ParameterError, match=shown):
+        SpectralSegmenter().fit_affinity(affinity)
+
+
+@pytest.mark.parametrize("criterion", ["nn", "features", "view"])
+def test_no_keyframes_and_a_stream_of_keyframes_are_named_with_any_criterion(criterion, topo):
+    with pytest.raises(SegmentationError, match="no keyframes"):
+        SpectralSegmenter(criterion=criterion).fit([])
+    assert SpectralSegmenter().fit_affinity(np.zeros((0, 0))).n_regions_ == 0
+    with pytest.raises(ParameterError, match="a list of Keyframes"):
+        SpectralSegmenter(criterion=criterion).fit(iter(topo.keyframes))
+
+
+def test_map_building_and_inflation_settings_out_of_range(topo):
+    from maps.mapping import grid_from_keyframes
+
+    for options, shown in (
+        ({"occupied_ratio": math.nan}, "occupied_ratio must be a finite number"),
+        ({"occupied_ratio": 2.0}, "occupied_ratio must lie in"),
+        ({"margin": -5.0}, "margin must lie in"),
+    ):
+        with pytest.raises(InvalidScanError, match=shown):
+            grid_from_keyframes(topo.keyframes[:5], 0.05, **options)
+    for radius in ("x", None, -1.0):
+        with pytest.raises(InvalidMapError, match="inflation radius must"):
+            topo.grid.inflate(radius)
