@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 from maps.errors import TopomapError
+from maps.limits import finite_in
+
+#: Seconds a planner may be given for one query at most: a day.
+MAX_SECONDS = 86_400.0
 
 
 class PlanningError(TopomapError):
@@ -31,3 +35,21 @@ class StaleDoorGraphError(PlanningError, ValueError):
 class DoorGraphFileError(PlanningError, ValueError):
     """A saved door graph file that cannot be read: not one, damaged, or written by a newer
     topomap (:func:`planners.prepared.read_prepared`)."""
+
+
+def checked_time_limit(time_limit: object) -> float:
+    """``time_limit`` in seconds, once it is a number in (0, :data:`MAX_SECONDS`].
+
+    Examples
+    --------
+    >>> checked_time_limit(5)
+    5.0
+    >>> checked_time_limit("x")
+    Traceback (most recent call last):
+    ...
+    planners.errors.PlannerParameterError: time_limit must be a number, got 'x'
+    """
+    problem = finite_in(time_limit, "time_limit", 0.0, MAX_SECONDS, unit="s", low_open=True)
+    if problem is not None:
+        raise PlannerParameterError(problem)
+    return float(time_limit)  # type: ignore[arg-type]

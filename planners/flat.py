@@ -11,8 +11,14 @@ from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
 
+from maps.limits import MAX_COORDINATE, finite_in
 from maps.seeding import RandomState, as_generator
-from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
+from planners.errors import (
+    InvalidQueryError,
+    NoPathError,
+    PlannerParameterError,
+    checked_time_limit,
+)
 from planners.path import PlannedPath
 from planners.workspace import Workspace
 
@@ -150,8 +156,17 @@ class FlatPlanner:
             raise PlannerParameterError(
                 f"unknown OMPL planner {planner!r}; known: {', '.join(PLANNERS)}"
             )
-        if not time_limit > 0:
-            raise PlannerParameterError(f"time_limit must be > 0 seconds, got {time_limit}")
+        time_limit = checked_time_limit(time_limit)
+        if bounds is not None and not (
+            len(bounds) == 4
+            and all(finite_in(v, "bound", -MAX_COORDINATE, MAX_COORDINATE) is None for v in bounds)
+            and bounds[0] < bounds[2]
+            and bounds[1] < bounds[3]
+        ):
+            raise PlannerParameterError(
+                "bounds are (xmin, ymin, xmax, ymax) with xmin < xmax and ymin < ymax, "
+                f"got {bounds!r}"
+            )
         ou.setLogLevel(ou.LOG_WARN)  # OMPL's console: warnings and errors only, once planning
         _seed_once(random_state)
         self.space, self.time_limit, self.simplify = space, float(time_limit), simplify

@@ -42,6 +42,7 @@ from planners.errors import InvalidQueryError, NoPathError
 from planners.path import PlannedPath, shortcut, tighten
 from planners.prepared import Prepared
 from planners.workspace import Point, Workspace, sample_polyline
+from segmentation.errors import RegionNotFoundError
 from segmentation.names import find_region
 
 log = logging.getLogger(__name__)
@@ -176,6 +177,8 @@ class HierarchicalPlanner:
 
     def centre(self, region: int) -> Point:
         """The free point of ``region`` farthest from its walls (where a region goal leads)."""
+        if region not in self._centres and region not in self.graph:
+            raise RegionNotFoundError(f"no region {region!r} in this planner's map")
         if region not in self._centres:
             sub = self.region_space(region)
             depth = ndimage.distance_transform_edt(sub.free)

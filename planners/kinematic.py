@@ -25,7 +25,12 @@ from ompl import util as ou
 
 from maps.seeding import RandomState
 from planners.cspace import HeadingCSpace
-from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
+from planners.errors import (
+    InvalidQueryError,
+    NoPathError,
+    PlannerParameterError,
+    checked_time_limit,
+)
 from planners.flat import (
     PLANNERS,
     ROADMAP_PLANNERS,
@@ -343,8 +348,7 @@ class FlatKinematicPlanner:
         time_limit: float = 10.0,
         random_state: RandomState = 0,
     ) -> None:
-        if not time_limit > 0:
-            raise PlannerParameterError(f"time_limit must be > 0 seconds, got {time_limit}")
+        time_limit = checked_time_limit(time_limit)
         self.cspace, self.time_limit = cspace, float(time_limit)
         self.name = f"flat_{planner.lower()}"
         self.ompl = KinematicOMPL(cspace, planner, random_state)

@@ -34,7 +34,13 @@ from scipy import ndimage
 
 from maps.seeding import RandomState
 from planners.cspace import HeadingCSpace
-from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError, PlanningError
+from planners.errors import (
+    InvalidQueryError,
+    NoPathError,
+    PlannerParameterError,
+    PlanningError,
+    checked_time_limit,
+)
 from planners.flat import _seed_once
 from planners.hierarchical import HierarchicalPlanner, regions_along
 from planners.kinematic import KinematicOMPL, Pose, describe, end_poses
@@ -135,8 +141,7 @@ class KinematicHierarchicalPlanner:
         random_state: RandomState = 0,
     ) -> None:
         clock = time.perf_counter()
-        if not time_limit > 0:
-            raise PlannerParameterError(f"time_limit must be > 0 seconds, got {time_limit}")
+        time_limit = checked_time_limit(time_limit)
         if routes < 1:
             raise PlannerParameterError(f"routes must be >= 1, got {routes}")
         if mode not in MODES:

@@ -92,6 +92,10 @@ class OnlineEstimator(Estimator):
             raise OnlineStateError("partial_fit before fit: fit the seed keyframes first")
         if isinstance(keyframes, Keyframe):
             return self._arrive(keyframes)
+        if not isinstance(keyframes, Sequence):  # each keyframe is checked as it arrives
+            raise SegmentationError(
+                f"partial_fit takes a Keyframe or a list of them, got {keyframes!r:.200}"
+            )
         return [self._arrive(k) for k in keyframes]
 
     def _arrive(self, keyframe: Keyframe) -> int:

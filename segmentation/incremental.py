@@ -58,6 +58,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.grid import OccupancyGrid
+from maps.limits import RESOLUTION_RANGE, finite_in
 from maps.mapping import MapBuilder
 from maps.scan import Keyframe
 from segmentation.arrivals import KeptSimilarities, one_to_many
@@ -177,7 +178,13 @@ class IncrementalSegmenter(OnlineEstimator):
         whole = self.whole
         if not (isinstance(whole, int | float) and (whole == 0 or 1 < whole < np.inf)):
             raise ParameterError(f"whole must be 0 or a finite number > 1, got {whole!r}")
-        check_lengths(self, "reach", "region_resolution", "resolution", "margin", "max_gap")
+        check_lengths(self, "reach", "margin", "max_gap")
+        for name in ("region_resolution", "resolution"):
+            problem = finite_in(getattr(self, name), name, *RESOLUTION_RANGE, unit="m per cell")
+            if problem is not None:
+                raise ParameterError(problem)
+        if not isinstance(self.pipeline, MapSegmenter):
+            raise ParameterError(f"pipeline must be a MapSegmenter, got {self.pipeline!r}")
         self.pipeline._validate_params()
 
     # ----------------------------------------------------------------------------- fitting

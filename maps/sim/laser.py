@@ -170,7 +170,10 @@ def simulate_scans(
         from ``random_state``; readings below ``min_range`` become ``-inf`` (REP-117).
     """
     model = model or LaserModel()
-    pose_array = np.asarray(poses, float).reshape(-1, 3)
+    pose_array = np.asarray(poses, float)
+    if pose_array.size == 0:
+        return []
+    pose_array = pose_array.reshape(-1, 3)
     for pose in pose_array:
         check_pose(pose)
     caster = caster or RayCaster(grid)

@@ -224,3 +224,37 @@ def test_map_building_and_inflation_settings_out_of_range(topo):
     for radius in ("x", None, -1.0):
         with pytest.raises(InvalidMapError, match="inflation radius must"):
             topo.grid.inflate(radius)
+
+
+def test_planner_and_online_arguments_below_the_facade(topo):
+    from planners.errors import PlannerParameterError
+    from planners.flat import FlatPlanner
+    from planners.workspace import Workspace
+    from segmentation.errors import RegionNotFoundError
+    from segmentation.incremental import IncrementalSegmenter
+
+    with pytest.raises(RegionNotFoundError, match="no region 999"):
+        topo.planner().centre(999)
+    space = Workspace(topo.grid, 0.2)
+    for options, shown in (
+        ({"time_limit": "x"}, "time_limit must be a number"),
+        ({"time_limit": 0}, "time_limit must lie in"),
+        ({"bounds": (5.0, 5.0, 0.0, 0.0)}, "xmin < xmax"),
+    ):
+        with pytest.raises(PlannerParameterError, match=shown):
+            FlatPlanner(space, **options)
+    for options, shown in (
+        ({"pipeline": None}, "pipeline must be a MapSegmenter"),
+        ({"region_resolution": 1e-9}, "region_resolution must lie in"),
+    ):
+        with pytest.raises(ParameterError, match=shown):
+            IncrementalSegmenter(**options).fit(topo.keyframes)
+    online = IncrementalSegmenter(random_state=0).fit(topo.keyframes[:40])
+    with pytest.raises(SegmentationError, match="partial_fit takes a Keyframe or a list"):
+        online.partial_fit(None)
+
+
+def test_no_poses_make_no_scans(topo):
+    from maps.sim.laser import simulate_scans
+
+    assert simulate_scans(topo.grid, []) == []
