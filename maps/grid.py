@@ -161,6 +161,10 @@ class OccupancyGrid:
             origin = _field(info, "origin")
             position, rotation = _field(origin, "position"), _field(origin, "orientation")
             quaternion = [float(_field(rotation, k)) for k in "xyzw"]
+            if not math.hypot(*quaternion) > 1e-9:  # NaN fails too
+                raise InvalidMapError(
+                    f"OccupancyGrid field 'info.origin.orientation' is no rotation: {quaternion}"
+                )
             pose = (
                 float(_field(position, "x")),
                 float(_field(position, "y")),
@@ -185,6 +189,12 @@ class OccupancyGrid:
             raise InvalidMapError(
                 f"OccupancyGrid field 'data' holds {data.size} values, expected "
                 f"info.width * info.height = {width} * {height}"
+            )
+        if data.dtype.kind not in "iuf" or (
+            data.dtype.kind == "f" and not np.all(np.isfinite(data) & (data == np.round(data)))
+        ):
+            raise InvalidMapError(
+                f"OccupancyGrid field 'data' must hold whole numbers, got {data.dtype} values"
             )
         if data.size and (data.min() < UNKNOWN or data.max() > OCCUPIED):
             raise InvalidMapError(

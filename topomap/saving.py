@@ -308,11 +308,18 @@ def _partition(saved: Any) -> SavedPartition | None:
     """The ``partition`` field of ``topomap.json`` (None when absent)."""
     if saved is None:
         return None
-    return SavedPartition(
-        np.asarray(saved["labels"], np.int64),
-        int(saved["clusters"]),
-        {int(k): float(v) for k, v in dict(saved["silhouette_by_k"]).items()},
-    )
+    labels = np.asarray(saved["labels"])
+    clusters = int(saved["clusters"])
+    silhouettes = {int(k): float(v) for k, v in dict(saved["silhouette_by_k"]).items()}
+    if (
+        labels.ndim != 1
+        or (labels.size and (labels.dtype.kind not in "iu" or labels.min() < 0))
+        or not 0 <= clusters <= labels.size
+        or (labels.size and labels.max() >= clusters)
+        or not all(-1 <= v <= 1 for v in silhouettes.values())
+    ):
+        raise ValueError("partition: labels 0..clusters-1, silhouettes in [-1, 1]")
+    return SavedPartition(labels.astype(np.int64), clusters, silhouettes)
 
 
 def _check_graph(graph: nx.Graph, regions: Regions, grid: OccupancyGrid, source: Path) -> None:

@@ -258,3 +258,42 @@ def test_no_poses_make_no_scans(topo):
     from maps.sim.laser import simulate_scans
 
     assert simulate_scans(topo.grid, []) == []
+
+
+@pytest.mark.parametrize(
+    ("change", "shown"),
+    [
+        ({"data": [0.5, 0, 0, 100]}, "whole numbers"),
+        ({"data": ["a", "b", "c", "d"]}, "whole numbers"),
+        ({"orientation": {"x": 0, "y": 0, "z": 0, "w": 0}}, "is no rotation"),
+    ],
+)
+def test_a_map_message_of_fractions_or_no_rotation_is_refused(change, shown):
+    grid = OccupancyGrid(np.array([[0, 100], [-1, 0]], np.int8), 0.5)
+    fields = grid.to_msg_fields()
+    if "data" in change:
+        fields["data"] = change["data"]
+    else:
+        fields["info"]["origin"]["orientation"] = change["orientation"]
+    with pytest.raises(InvalidMapError, match=shown):
+        OccupancyGrid.from_msg_fields(fields)
+
+
+@pytest.mark.parametrize(
+    "partition",
+    [
+        {"labels": [0, -1], "clusters": 1, "silhouette_by_k": {}},
+        {"labels": [0.5, 1], "clusters": 2, "silhouette_by_k": {}},
+        {"labels": [0, 3], "clusters": 2, "silhouette_by_k": {}},
+        {"labels": [0, 1], "clusters": -3, "silhouette_by_k": {}},
+        {"labels": [0, 1], "clusters": 2, "silhouette_by_k": {"2": "nan"}},
+    ],
+)
+def test_a_saved_partition_that_no_fit_makes_is_refused(topo, tmp_path, partition):
+    topo.save(tmp_path / "t")
+    about_path = tmp_path / "t" / "topomap.json"
+    about = json.loads(about_path.read_text())
+    about["partition"] = partition
+    about_path.write_text(json.dumps(about))
+    with pytest.raises(ExportFormatError, match=r"partition: labels 0\.\.clusters-1"):
+        TopoMap.load(tmp_path / "t")
