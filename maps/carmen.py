@@ -103,11 +103,11 @@ class _Line:
     def ranges(self, start: int, count: int) -> np.ndarray:
         self.need(start + count, "ranges")
         tokens = self.tokens[start : start + count]
-        try:
-            if not any("_" in token for token in tokens):
+        if not any("_" in token for token in tokens):
+            try:
                 return np.array(tokens, dtype=float)
-        except ValueError:
-            pass
+            except ValueError:
+                pass  # found below
         bad = next(i for i, token in enumerate(tokens) if not _is_number(token))
         raise self.error(f"expected a number, got {tokens[bad]!r}", f"range {bad}")
 

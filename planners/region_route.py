@@ -115,9 +115,9 @@ def region_routes(
         No route at all through open doors wide enough.
     """
     a, b = find_region(graph, source), find_region(graph, target)
-    problem = finite_in(min_width, "the robot's width (twice its radius)", 0, MAX_LENGTH)
+    problem = finite_in(min_width, "the robot's width (twice its radius)", 0, MAX_LENGTH, unit="m")
     if problem is not None:
-        raise InvalidQueryError(problem + " m")
+        raise InvalidQueryError(problem)
     shut = set()
     for pair in closed:
         try:

@@ -47,9 +47,11 @@ def test_numpy_numbers_are_numbers_and_an_origin_that_is_none_is_refused():
 
 
 @pytest.mark.parametrize("beams", [1, 10**9, 2.5])
-def test_a_laser_of_absurd_beams_is_refused_before_tracing(beams):
+def test_a_laser_of_absurd_beams_or_noise_is_refused_before_tracing(beams):
     with pytest.raises(InvalidScanError, match="whole number of beams"):
         LaserModel(beams=beams)
+    with pytest.raises(InvalidScanError, match="noise >= 0"):
+        LaserModel(noise=math.nan)
 
 
 def test_k_means_restarts_and_the_k_range_are_bounded(topo):

@@ -97,6 +97,18 @@ def test_a_generated_building_too_large_for_memory_is_refused_before_it_is_drawn
     assert not (tmp_path / "o").exists()
 
 
+def test_demo_into_a_file_and_the_hand_labels_from_any_folder(tmp_path, capsys, monkeypatch):
+    from topomap.cli.main import build_parser
+
+    mine = tmp_path / "mine.txt"
+    mine.write_text("mine")
+    assert main(["-q", "demo", "--out", str(mine)]) == 2
+    assert "mine.txt is a file, not a folder" in _error_line(capsys)
+    monkeypatch.chdir(tmp_path)  # not the repository
+    args = build_parser().parse_args(["eval", "corridors", "data"])
+    assert (Path(args.hand_labels) / "carmen.json").is_file()
+
+
 def test_points_west_and_south_of_the_origin_are_values_not_options():
     from topomap.cli.main import build_parser
 
