@@ -87,23 +87,8 @@ class PassageAffinity:
         self.route_[0, :] = self.route_[:, 0] = 1.0  # a keyframe on no place: nothing between
 
     def keyframe_places(self, keyframes: Sequence[Keyframe]) -> NDArray[np.int64]:
-        """The place each keyframe stands in, or the nearest within :data:`BESIDE` metres (a
-        robot in a door frame or a closed wall gap stands beside the place it passes
-        through); 0 if none."""
-        poses = poses_array(keyframes)
-        rows, cols = self.grid.world_to_cell(poses[:, 0], poses[:, 1])
-        inside = self.grid.contains(rows, cols)
-        found = np.zeros(len(poses), np.int64)
-        found[inside] = self.places[rows[inside], cols[inside]]
-        off = np.flatnonzero(inside & (found == 0))
-        if len(off):
-            distance, (near_rows, near_cols) = ndimage.distance_transform_edt(
-                self.places == 0, return_indices=True
-            )
-            r, c = rows[off], cols[off]
-            beside = distance[r, c] * self.grid.resolution <= BESIDE
-            found[off[beside]] = self.places[near_rows[r, c], near_cols[r, c]][beside]
-        return found
+        """:func:`standing_places` of ``keyframes`` among these places."""
+        return standing_places(self.grid, self.places, poses_array(keyframes))
 
     def affinity(self, keyframes: Sequence[Keyframe]) -> sparse.csr_matrix:
         """``W`` of all pairs of ``keyframes`` (see the module docstring); keyframes on no
@@ -114,3 +99,32 @@ class PassageAffinity:
         return sparse.csr_matrix(
             (similarity.data * weight, (similarity.row, similarity.col)), shape=similarity.shape
         )
+
+
+def standing_places(
+    grid: OccupancyGrid, places: NDArray[np.integer], poses: NDArray[np.float64]
+) -> NDArray[np.int64]:
+    """The place (of ``places`` on ``grid``) each of ``poses`` (x, y, ...) stands in, or the
+    nearest within :data:`BESIDE` metres (a robot in a door frame or a closed wall gap stands
+    beside the place it passes through); 0 if none.
+
+    Examples
+    --------
+    >>> places = np.array([[1] + [0] * 12 + [2]])  # 0.1 m cells
+    >>> grid = OccupancyGrid.from_masks(places > 0, 0.1)
+    >>> standing_places(grid, places, np.array([[0.25, 0.05], [0.75, 0.05], [1.15, 0.05]]))
+    array([1, 0, 2])
+    """
+    rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])
+    inside = grid.contains(rows, cols)
+    found = np.zeros(len(poses), np.int64)
+    found[inside] = places[rows[inside], cols[inside]]
+    off = np.flatnonzero(inside & (found == 0))
+    if len(off):
+        distance, (near_rows, near_cols) = ndimage.distance_transform_edt(
+            places == 0, return_indices=True
+        )
+        r, c = rows[off], cols[off]
+        beside = distance[r, c] * grid.resolution <= BESIDE
+        found[off[beside]] = places[near_rows[r, c], near_cols[r, c]][beside]
+    return found

@@ -61,6 +61,7 @@ from maps.grid import OccupancyGrid
 from maps.limits import RESOLUTION_RANGE, finite_in
 from maps.mapping import MapBuilder
 from maps.scan import Keyframe
+from segmentation.affinity import standing_places
 from segmentation.arrivals import KeptSimilarities, one_to_many
 from segmentation.base import check_lengths, clone
 from segmentation.errors import ParameterError, SegmentationError
@@ -466,7 +467,7 @@ class IncrementalSegmenter(OnlineEstimator):
             log.info("re-partition of %d keyframes skipped: %s", len(keyframes), err)
             return None
         rows, cols = space.world_to_cell(poses[:, 0], poses[:, 1])
-        voted = by_place(places, rows, cols, fitted.labels_)
+        voted = by_place(places, standing_places(space, places, poses), fitted.labels_)
         inside = space.contains(rows, cols)
         found = fitted.labels_ + 1
         found[inside] = np.where(

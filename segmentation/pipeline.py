@@ -36,14 +36,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
 from maps.grid import OccupancyGrid
 from maps.limits import MAX_LENGTH, finite_in
 from maps.scan import Keyframe, poses_array
 from maps.seeding import RandomState
 from maps.sim.laser import LaserModel
-from segmentation.affinity import PassageAffinity
+from segmentation.affinity import BESIDE, PassageAffinity, standing_places
 from segmentation.base import Estimator, clone
 from segmentation.blocks import BlockSpectralSegmenter, check_n_jobs, keyframe_blocks
 from segmentation.conditioning import ConditionedMap, condition, drop_outside
@@ -54,7 +53,7 @@ from segmentation.pockets import join_pockets
 from segmentation.refine import PLACE_DEPTH, basins, count_basins, merge_open_boundaries
 from segmentation.regions import Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter, at_most
-from segmentation.virtual import VIRTUAL_LASER, most_open_cells, virtual_keyframes
+from segmentation.virtual import VIRTUAL_LASER, virtual_keyframes
 from segmentation.walls import seen_walls, wall_gaps
 from segmentation.working import pool, pool_factor, unpool
 
@@ -290,7 +289,15 @@ class MapSegmenter(Estimator):
         lap("spectral")
         stage("regions")
         if self.spectral.k is None:  # the places vote: regions are whole places
-            dense = pieces(space, by_place(places, rows, cols, fitted.labels_), self.min_area)
+            standing = standing_places(space, places, poses)
+            if not standing.any():
+                raise SegmentationError(
+                    f"none of the {len(seeing)} keyframes stands within {BESIDE} m of the "
+                    "space a robot fits in: the keyframes and the map are in different frames"
+                )
+            voted = by_place(places, standing, fitted.labels_)
+            # a place no keyframe stands in: its cells go to the regions around it
+            dense = pieces(space, voted, self.min_area, claim_unlabelled=False)
         else:  # the user's k: the clusters decide, a place split between them if need be
             dense = dense_labels(space, rows, cols, fitted.labels_, min_area=self.min_area)
         if self.method == "doors":
@@ -406,37 +413,31 @@ class MapSegmenter(Estimator):
 
 def by_place(
     places: NDArray[np.integer],
-    rows: NDArray[np.intp],
-    cols: NDArray[np.intp],
+    keyframe_places: NDArray[np.integer],
     keyframe_labels: NDArray[np.integer],
 ) -> NDArray[np.int32]:
-    """Each place labelled with the cluster (``+ 1``) of most of its keyframes (at cells
-    ``rows, cols``), or of the keyframe nearest to its first cell (row-major) when it has none.
+    """Each of ``places`` labelled with the cluster (``+ 1``) of most of the keyframes that
+    stand in it (``keyframe_places``, 0: none, :func:`~segmentation.affinity.standing_places`);
+    0 for a place no keyframe stands in, which the partition says nothing about (in a robot's
+    log: part of a room behind its furniture, a room seen through its door): its cells take
+    the region they reach first, as the map's cells between places do
+    (:func:`~segmentation.working.unpool`).
 
     Examples
     --------
     >>> places = np.array([[1, 1, 2, 2, 3]])
-    >>> by_place(places, np.array([0, 0, 0]), np.array([0, 1, 2]), np.array([4, 4, 7])).tolist()
-    [[5, 5, 8, 8, 8]]
+    >>> by_place(places, np.array([1, 1, 2, 0]), np.array([4, 4, 7, 9])).tolist()
+    [[5, 5, 8, 8, 0]]
     """
     count = int(places.max(initial=0)) + 1
-    inside = (rows >= 0) & (rows < places.shape[0]) & (cols >= 0) & (cols < places.shape[1])
-    rows, cols, keyframe_labels = rows[inside], cols[inside], keyframe_labels[inside]
-    place = places[rows, cols]
-    on = place > 0
+    on = keyframe_places > 0
     winner = np.zeros(count, np.int64)
     if on.any():
         pair, votes = np.unique(
-            np.stack([place[on], keyframe_labels[on] + 1]), axis=1, return_counts=True
+            np.stack([keyframe_places[on], keyframe_labels[on] + 1]), axis=1, return_counts=True
         )
         order = np.lexsort((votes, pair[0]))  # per place, the most votes last
         winner[pair[0, order]] = pair[1, order]
-    empty = np.flatnonzero(winner == 0)
-    empty = empty[empty > 0]
-    if len(empty) and len(rows):
-        at_r, at_c = most_open_cells((places > 0).astype(np.float64), places, empty)
-        nearest = cKDTree(np.column_stack([rows, cols])).query(np.column_stack([at_r, at_c]))[1]
-        winner[places[at_r, at_c]] = keyframe_labels[nearest] + 1
     return winner[places].astype(np.int32)
 
 

@@ -165,15 +165,33 @@ def dense_labels(
     return pieces(grid, labels, min_area)
 
 
-def pieces(grid: OccupancyGrid, labels: NDArray[np.integer], min_area: float) -> NDArray[np.int32]:
-    """Regions made connected: free cells without a label get one per connected piece, each
-    label is split into its 4-connected pieces, and pieces under ``min_area`` square metres
-    merge into a neighbour."""
+def pieces(
+    grid: OccupancyGrid,
+    labels: NDArray[np.integer],
+    min_area: float,
+    *,
+    claim_unlabelled: bool = True,
+) -> NDArray[np.int32]:
+    """Regions made connected: free cells without a label get one per connected piece (with
+    ``claim_unlabelled``, else they stay 0), each label is split into its 4-connected pieces,
+    and pieces under ``min_area`` square metres merge into a neighbour (0 if they have none).
+
+    Examples
+    --------
+    >>> free = np.ones((1, 6), bool)
+    >>> labels = np.array([[1, 1, 0, 0, 2, 2]])
+    >>> pieces(OccupancyGrid.from_masks(free, 1.0), labels, 1.0).tolist()
+    [[1, 1, 2, 2, 3, 3]]
+    >>> pieces(OccupancyGrid.from_masks(free, 1.0), labels, 1.0, claim_unlabelled=False).tolist()
+    [[1, 1, 0, 0, 2, 2]]
+    """
     from skimage.measure import label as connected_pieces  # as in dense_labels
 
     free = grid.free
-    unreached, _ = ndimage.label(free & (labels == 0))
-    labels = np.where(unreached > 0, unreached + labels.max(), np.where(free, labels, 0))
+    labels = np.where(free, labels, 0)
+    if claim_unlabelled:
+        unreached, _ = ndimage.label(free & (labels == 0))
+        labels = np.where(unreached > 0, unreached + labels.max(), labels)
     labels = connected_pieces(labels, background=0, connectivity=1)
     min_cells = max(1, round(min_area / grid.resolution**2))
     return consecutive(merge_small(labels.astype(np.int32), min_cells))
