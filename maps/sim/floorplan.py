@@ -84,6 +84,61 @@ class FloorPlan:
         """Number of labelled spaces (rooms, corridors and halls)."""
         return len(self.types)
 
+    def corridor_systems(self) -> NDArray[np.int32]:
+        """``labels`` with the corridors that meet with no door between them (at a junction,
+        a corner) as one space each, as people name a corridor system: one label per system
+        (the lowest of its corridors' labels), the other spaces as they are.
+
+        Examples
+        --------
+        >>> plan = generate_floor_plan("office", random_state=0)
+        >>> corridors = [i for i, t in enumerate(plan.types, start=1) if t == "corridor"]
+        >>> systems = plan.corridor_systems()
+        >>> len(corridors) > 1, len(set(systems[np.isin(plan.labels, corridors)].tolist()))
+        (True, 1)
+        """
+        corridor = np.zeros(self.n_rooms + 1, bool)
+        corridor[1:] = np.array(self.types) == "corridor"
+        parent = np.arange(self.n_rooms + 1)
+
+        def root(i: int) -> int:
+            while parent[i] != i:
+                i = int(parent[i])
+            return i
+
+        for a, b in (
+            (self.labels[:, :-1], self.labels[:, 1:]),
+            (self.labels[:-1], self.labels[1:]),
+        ):
+            touching = (a != b) & corridor[a] & corridor[b]
+            for x, y in set(zip(a[touching].tolist(), b[touching].tolist(), strict=True)):
+                low, high = sorted((root(x), root(y)))
+                parent[high] = low
+        system = np.array([root(i) for i in range(self.n_rooms + 1)], np.int32)
+        return system[self.labels]
+
+    def rooms_on(
+        self, grid: OccupancyGrid, labels: NDArray[np.int32] | None = None
+    ) -> NDArray[np.int32]:
+        """The plan's ``labels`` (its spaces', by default; :meth:`corridor_systems`) at the
+        centres of ``grid``'s cells (a map of this building, as a robot built it): 0 outside
+        the plan and on its walls.
+
+        Examples
+        --------
+        >>> plan = generate_floor_plan("flat", random_state=0)
+        >>> bool((plan.rooms_on(plan.grid) == plan.labels).all())
+        True
+        """
+        labels = self.labels if labels is None else labels
+        rows, cols = np.indices(grid.shape)
+        x, y = grid.cell_to_world(rows.ravel(), cols.ravel())
+        plan_rows, plan_cols = self.grid.world_to_cell(x, y)
+        inside = self.grid.contains(plan_rows, plan_cols)
+        rooms = np.zeros(rows.size, np.int32)
+        rooms[inside] = labels[plan_rows[inside], plan_cols[inside]]
+        return rooms.reshape(grid.shape)
+
 
 class _Builder:
     """Collects spaces and doors in metres, then rasterises them."""

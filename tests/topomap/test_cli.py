@@ -337,6 +337,37 @@ def test_eval_corridors_finds_intels_ring_corridor_in_one_region(tmp_path, data_
     assert intel["log"] == "intel" and intel["largest_share"] > 0.8 and intel["pieces"] <= 2
 
 
+def test_eval_runs_scores_both_methods_on_each_run(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["eval", "runs", "--sizes", "flat", "--seeds", "2", "--out", str(out)]) == 0
+    results = json.loads((out / "results.json").read_text())
+    assert [(r["seed"], r["method"]) for r in results["runs"]] == [
+        (seed, method) for seed in (0, 1) for method in ("spectral", "doors")
+    ]
+    for run in results["runs"]:
+        assert run["keyframes"] > 50 and run["rooms"] >= 5
+        assert 0.5 < run["mcc"] <= 1 and 0.5 < run["keyframe_ari"] <= 1
+    spectral = results["means"][0]
+    assert spectral["method"] == "spectral" and spectral["runs"] == 2
+    assert spectral["min_mcc"] == min(r["mcc"] for r in results["runs"][::2])
+    assert "| flat | spectral | 2 |" in capsys.readouterr().out
+    # a usage error naming the size
+    assert main(["eval", "runs", "--sizes", "castle", "--out", str(out)]) == 2
+    assert "unknown building size(s) ['castle']" in capsys.readouterr().err
+
+
+def test_corridor_systems_join_corridors_that_meet_without_a_door():
+    plan = maps.generate_floor_plan("office", random_state=1)
+    systems = plan.corridor_systems()
+    for index, kind in enumerate(plan.types, start=1):
+        cells = systems[plan.labels == index]
+        if kind != "corridor":  # every other space keeps its own label
+            assert (cells == index).all()
+    corridor_ids = [i for i, kind in enumerate(plan.types, start=1) if kind == "corridor"]
+    assert len(np.unique(systems[np.isin(plan.labels, corridor_ids)])) == 1
+    assert (plan.rooms_on(plan.grid, systems) == systems).all()
+
+
 def test_rotated_keeps_every_label_and_holds_the_whole_image():
     from topomap.cli.evaluate import rotated
 

@@ -20,14 +20,14 @@ from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, select_keyframes
 from maps.sim.exploration import wander
 from maps.sim.floorplan import generate_floor_plan
-from maps.sim.laser import LaserModel, simulate_scans
+from maps.sim.laser import simulate_scans
+from maps.sim.survey import SURVEY_LASER
 from segmentation.incremental import IncrementalSegmenter
 from segmentation.metrics import score
 from segmentation.online import OnlineSegmenter
 from segmentation.pipeline import MapSegmenter
 from segmentation.spectral import SpectralSegmenter
 from topomap.cli.bench import robot_keyframes
-from topomap.cli.demo import _truth_on
 from topomap.cli.online import (
     ONLINE_METHODS,
     agreement,
@@ -197,12 +197,11 @@ def bench_quality(
         if name == "demo office":
             plan = generate_floor_plan("office", furniture=0.3, random_state=seed)
             route = wander(plan.grid, plan.labels, random_state=seed)
-            model = LaserModel(noise=0.01, dropout=0.01)
-            scans = simulate_scans(plan.grid, route.poses, model, random_state=seed)
+            scans = simulate_scans(plan.grid, route.poses, SURVEY_LASER, random_state=seed)
             keyframes = select_keyframes(scans)
             grid = grid_from_keyframes(keyframes, plan.grid.resolution)
             found, offline, online = _quality(name, keyframes, grid, seed_fraction, theta, seed)
-            truth = _truth_on(grid, plan)
+            truth = plan.rooms_on(grid)
             mcc_offline = _mcc(grid, keyframes, offline, truth)
             for record in found:
                 record["mcc_offline"] = mcc_offline

@@ -25,7 +25,8 @@ from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, poses_array
 from maps.sim.exploration import Route, wander
 from maps.sim.floorplan import FloorPlan, generate_floor_plan
-from maps.sim.laser import LaserModel, simulate_keyframes
+from maps.sim.laser import simulate_keyframes
+from maps.sim.survey import SURVEY_LASER
 from planners.benchmark import far_queries
 from planners.flat import FlatPlanner
 from planners.path import PlannedPath
@@ -89,8 +90,9 @@ def drive(run: DemoRun) -> None:
     at every pose) is simulated at the keyframes, the only scans used."""
     assert run.plan is not None
     run.route = wander(run.plan.grid, run.plan.labels, random_state=run.seed)
-    laser = LaserModel(noise=0.01, dropout=0.01)
-    run.keyframes = simulate_keyframes(run.plan.grid, run.route.poses, laser, random_state=run.seed)
+    run.keyframes = simulate_keyframes(
+        run.plan.grid, run.route.poses, SURVEY_LASER, random_state=run.seed
+    )
     run.summary["robot"] = {
         "route_m": round(run.route.length, 1),
         "rooms_visited": len(run.route.visited),
@@ -122,17 +124,6 @@ def build_map(run: DemoRun) -> None:
         keyframes=poses_array(run.keyframes),
         title=f"map from {len(run.keyframes)} keyframes of a generated {run.size} building",
     )
-
-
-def _truth_on(grid: OccupancyGrid, plan: FloorPlan) -> NDArray[np.int32]:
-    """The plan's room labels looked up at the centres of ``grid``'s cells (0 outside)."""
-    rows, cols = np.indices(grid.shape)
-    x, y = grid.cell_to_world(rows.ravel(), cols.ravel())
-    prow, pcol = plan.grid.world_to_cell(x, y)
-    inside = plan.grid.contains(prow, pcol)
-    truth = np.zeros(rows.size, np.int32)
-    truth[inside] = plan.labels[prow[inside], pcol[inside]]
-    return truth.reshape(grid.shape)
 
 
 def _segment(
@@ -170,7 +161,7 @@ def segment_log(run: DemoRun) -> None:
     assert run.plan is not None and run.grid is not None
     topo = TopoMap.from_keyframes(run.keyframes, run.grid, random_state=run.seed)
     doors = MapSegmenter(method="doors").segment(run.grid, run.keyframes, random_state=run.seed)
-    run.truth = _truth_on(run.grid, run.plan)
+    run.truth = run.plan.rooms_on(run.grid)
     _segment(run, topo, "segment_log", run.truth, doors.regions.labels)
     run.offline = topo.keyframe_regions()
 

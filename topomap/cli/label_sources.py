@@ -315,9 +315,7 @@ def generated(
     """Generated buildings with furniture (0.3 blocks per 10 m^2), typed by the generator:
     the true plans (source ``generated``) and, for the flats of the ``scanned`` seeds, the map
     a simulated robot builds (``generated-scanned``); each plan is a building."""
-    from maps.mapping import grid_from_keyframes
-    from maps.sim.exploration import wander
-    from maps.sim.laser import LaserModel, simulate_keyframes
+    from maps.sim.survey import survey
 
     jobs = [(size, seed, False) for size in sizes for seed in seeds]
     jobs += [("flat", seed, True) for seed in scanned]
@@ -329,10 +327,7 @@ def generated(
             truth[plan.labels == index] = PLACE_TYPES.index(generated_type(size, place))
         grid = plan.grid
         if scan:
-            route = wander(plan.grid, plan.labels, random_state=seed)
-            laser = LaserModel(noise=0.01, dropout=0.01)
-            keyframes = simulate_keyframes(plan.grid, route.poses, laser, random_state=seed)
-            grid = grid_from_keyframes(keyframes, plan.grid.resolution)
+            grid = survey(plan, seed).grid
             truth = _resampled(truth, plan.grid, grid)
         source = "generated-scanned" if scan else "generated"
         names = {"building": f"{size}-{seed}", "name": f"{source}-{size}-{seed}"}

@@ -180,7 +180,7 @@ DISTANCE = number_type(0.0, MAX_LENGTH)
 
 
 def worker_count(text: str) -> int:
-    """``--workers`` and ``--rounds``: a whole number of at least 1."""
+    """``--workers``, ``--rounds`` and ``--seeds``: a whole number of at least 1."""
     if not text.isdigit() or int(text) < 1:
         raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
     return int(text)

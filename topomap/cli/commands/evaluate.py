@@ -12,6 +12,7 @@ from topomap.cli.commands.common import (
     add_segmenter_options,
     refuse_existing,
     segmenter_options,
+    worker_count,
 )
 from topomap.cli.tables import markdown_table
 
@@ -89,6 +90,41 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     _add_hand_labels(eval_corridors, "carmen.json: the corridors")
     add_output_options(eval_corridors, "out/eval-corridors")
     eval_corridors.set_defaults(func=cmd_eval_corridors)
+
+    eval_runs = eval_sub.add_parser(
+        "runs",
+        help="a simulated robot's runs through generated buildings: the regions of its own "
+        "keyframes against the rooms (MCC, keyframe ARI)",
+    )
+    eval_runs.add_argument(
+        "--sizes",
+        type=building_sizes,
+        default="flat,office",
+        help="building sizes, comma-separated (flat, office, campus)",
+    )
+    eval_runs.add_argument("--seeds", type=worker_count, default=4, help="runs per size")
+    add_output_options(eval_runs, "out/eval-runs")
+    add_segmenter_options(eval_runs)
+    eval_runs.set_defaults(func=cmd_eval_runs)
+
+
+def building_sizes(text: str) -> list[str]:
+    """``--sizes``: generated buildings' sizes, comma-separated (an argparse type).
+
+    Examples
+    --------
+    >>> building_sizes("flat, office")
+    ['flat', 'office']
+    """
+    from maps.sim.floorplan import SIZES
+
+    sizes = [size.strip() for size in text.split(",") if size.strip()]
+    unknown = sorted(set(sizes) - set(SIZES))
+    if unknown or not sizes:
+        raise argparse.ArgumentTypeError(
+            f"unknown building size(s) {unknown or [text]}; known: {', '.join(sorted(SIZES))}"
+        )
+    return sizes
 
 
 #: The hand-drawn labels kept with the repository (not installed with the package).
@@ -181,5 +217,24 @@ def cmd_eval_corridors(args: argparse.Namespace) -> int:
     )
     print(markdown_table(records, ["log", "regions", "largest_share", "best_iou", "pieces"]))
     write_text(out / "results.json", json.dumps({"logs": records}, indent=2), overwrite=args.force)
+    print(f"wrote {out / 'results.json'}")
+    return 0
+
+
+def cmd_eval_runs(args: argparse.Namespace) -> int:
+    from topomap.cli.evaluate_runs import evaluate_runs, run_means
+
+    out = Path(args.out)
+    refuse_existing(out, ["results.json"], args.force)
+    records = evaluate_runs(
+        args.sizes, range(args.seeds), progress=args.progress, **segmenter_options(args)
+    )
+    columns = ["size", "seed", "method", "keyframes", "regions", "rooms", "mcc", "recall"]
+    print(markdown_table(records, [*columns, "precision", "keyframe_ari"]))
+    print()
+    summary = run_means(records)
+    print(markdown_table(summary, ["size", "method", "runs", "mcc", "min_mcc", "keyframe_ari"]))
+    text = json.dumps({"runs": records, "means": summary}, indent=2)
+    write_text(out / "results.json", text, overwrite=args.force)
     print(f"wrote {out / 'results.json'}")
     return 0
