@@ -291,3 +291,28 @@ def test_unpooled_cells_take_a_label_of_the_nearest_labelled_cells(fine_mask, fa
     for (r, c), found in reach.items():
         if not seeds[r, c]:
             assert int(fine[r, c]) in found
+
+
+def _room_with(obstacle_cells: np.ndarray, shadow_cells: np.ndarray) -> OccupancyGrid:
+    """A 10 x 8 m room (0.1 m cells) with an occupied outline and unknown cells in it."""
+    cells = np.zeros((82, 102), np.int8)
+    cells[[0, -1], :] = cells[:, [0, -1]] = OCCUPIED
+    cells[shadow_cells] = UNKNOWN
+    cells[obstacle_cells] = OCCUPIED
+    return OccupancyGrid(cells, 0.1)
+
+
+def test_furniture_is_measured_by_what_the_laser_hit_not_its_shadow():
+    desk = np.zeros((82, 102), bool)
+    desk[40:48, 40:56] = True  # 1.6 x 0.8 m
+    outline = desk & ~ndimage.binary_erosion(desk)
+    shadow = np.zeros_like(desk)
+    shadow[41:47, 41:55] = True  # its unseen inside
+    shadow[44:47, 55:62] = True  # and the shadow behind it: 2.1 m from end to end
+    clutter = find_clutter(_room_with(outline, shadow))
+    assert clutter[outline].all() and clutter[shadow].all()
+    # a stub of wall into 5 m of unexplored space is not furniture, though 1 m long
+    stub, unexplored = np.zeros_like(desk), np.zeros_like(desk)
+    stub[30, 20:30] = True
+    unexplored[31:70, 10:60] = True
+    assert not find_clutter(_room_with(stub, unexplored))[stub].any()
