@@ -11,9 +11,11 @@ furniture, never in cells, so it holds at any resolution:
 1. **Clutter.** Obstacles closer than ``robot_radius`` to each other form one obstacle (the
    robot cannot pass between them: a dotted SLAM wall is one wall). An obstacle that stands
    free of the map edge and fits in a box of ``clutter_size`` metres (a table with its chairs,
-   a pillar, a speck, a small unknown patch) is clutter: it is furniture inside a room, not a
-   wall, so the geometry of places and doors ignores it; unless it is a stretch of wall on
-   the line of the walls between two doors (as free-standing as a table, as long as one).
+   a pillar, a speck, a small unknown patch; measured by the cells the laser hit on it, not
+   its unseen inside and shadow, :func:`find_clutter`) is clutter: it is furniture inside a
+   room, not a wall, so the geometry of places and doors ignores it; unless it is a stretch
+   of wall on the line of the walls between two doors (as free-standing as a table, as long
+   as one).
    Clutter cells are never labelled.
 2. **Robot space.** A free cell belongs to the building when a disc of ``robot_radius`` that
    covers it fits in the free space (a morphological opening): free rays thinner than the robot
@@ -92,8 +94,9 @@ class ConditionedMap:
         }
 
 
-#: How far past its own size an obstacle's unknown cells may reach and it still be measured by
-#: what the laser hit on it, metres (the shadow a passing robot leaves behind a desk).
+#: How far past ``clutter_size`` an obstacle's unknown cells may reach (the box round all its
+#: cells) and it still be measured by what the laser hit on it, metres: the shadow a robot
+#: driving past leaves behind a desk.
 SHADOW = 0.5
 
 
@@ -107,8 +110,8 @@ def find_clutter(
     (:func:`~segmentation.walls.wall_stubs`). An obstacle's size is the diagonal of the box
     round the cells the laser hit on it (occupied): the unknown cells inside it and in its
     shadow are no part of its size (a 1.6 x 0.8 m desk and the shadow a robot's run leaves
-    behind it measure 2.1 m), unless the unknown cells reach over twice ``clutter_size`` (a
-    wall's stub with unexplored space behind it).
+    behind it measure 2.1 m), unless the box round all its cells is over ``clutter_size``
+    plus :data:`SHADOW` (a stub of wall with unexplored space behind it), when it is that box.
 
     Examples
     --------

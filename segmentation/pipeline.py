@@ -49,6 +49,7 @@ from segmentation.conditioning import ConditionedMap, condition, drop_outside
 from segmentation.corridors import join_corridor_cuts
 from segmentation.coverage import Coverage, cover
 from segmentation.errors import ParameterError, SegmentationError
+from segmentation.passages import boundary_openness
 from segmentation.pockets import join_pockets
 from segmentation.refine import PLACE_DEPTH, basins, count_basins, merge_open_boundaries
 from segmentation.regions import Regions, consecutive, dense_labels, pieces
@@ -223,8 +224,8 @@ class MapSegmenter(Estimator):
         ParameterError
             A setting out of its range.
         SegmentationError
-            A map with no free space the robot fits in, or fewer than two keyframes that saw
-            a wall.
+            A map with no free space the robot fits in, fewer than two keyframes that saw a
+            wall, or keyframes none of which stands in or beside that space (another frame).
         """
         self._validate_params()
         if not isinstance(grid, OccupancyGrid):
@@ -285,18 +286,17 @@ class MapSegmenter(Estimator):
                 f"y {y0:.6g}..{y1:.6g} m; the first at ({poses[0, 0]:.6g}, {poses[0, 1]:.6g})): "
                 "the keyframes and the map are in different frames"
             )
+        standing = standing_places(space, places, poses)
+        if not standing.any():
+            raise SegmentationError(
+                f"none of the {len(seeing)} keyframes stands within {BESIDE} m of the space "
+                "a robot fits in: the keyframes and the map are in different frames"
+            )
         fitted = self.partition(space, places, seeing, spectral)
         lap("spectral")
         stage("regions")
         if self.spectral.k is None:  # the places vote: regions are whole places
-            standing = standing_places(space, places, poses)
-            if not standing.any():
-                raise SegmentationError(
-                    f"none of the {len(seeing)} keyframes stands within {BESIDE} m of the "
-                    "space a robot fits in: the keyframes and the map are in different frames"
-                )
-            voted = by_place(places, standing, fitted.labels_)
-            # a place no keyframe stands in: its cells go to the regions around it
+            voted = to_open_neighbours(space, places, by_place(places, standing, fitted.labels_))
             dense = pieces(space, voted, self.min_area, claim_unlabelled=False)
         else:  # the user's k: the clusters decide, a place split between them if need be
             dense = dense_labels(space, rows, cols, fitted.labels_, min_area=self.min_area)
@@ -419,9 +419,8 @@ def by_place(
     """Each of ``places`` labelled with the cluster (``+ 1``) of most of the keyframes that
     stand in it (``keyframe_places``, 0: none, :func:`~segmentation.affinity.standing_places`);
     0 for a place no keyframe stands in, which the partition says nothing about (in a robot's
-    log: part of a room behind its furniture, a room seen through its door): its cells take
-    the region they reach first, as the map's cells between places do
-    (:func:`~segmentation.working.unpool`).
+    log: part of a room behind its furniture, a room seen through its door;
+    :func:`to_open_neighbours` gives it a region).
 
     Examples
     --------
@@ -439,6 +438,44 @@ def by_place(
         order = np.lexsort((votes, pair[0]))  # per place, the most votes last
         winner[pair[0, order]] = pair[1, order]
     return winner[places].astype(np.int32)
+
+
+def to_open_neighbours(
+    grid: OccupancyGrid, places: NDArray[np.integer], voted: NDArray[np.int32]
+) -> NDArray[np.int32]:
+    """``voted`` (the places' clusters, :func:`by_place`) with every place no keyframe stands
+    in (0) given whole to the voted place it opens onto most widely (the most open boundary,
+    :func:`~segmentation.passages.boundary_openness`), through other such places if need be:
+    part of a room behind its furniture joins the room, a room the robot only looked into the
+    space it was seen from. Places that reach no voted place stay 0.
+
+    Examples
+    --------
+    >>> free = np.ones((4, 12), bool)
+    >>> free[:, 4] = free[:, 8] = False
+    >>> free[1:3, 4] = True  # places 1 | 2 | 3, a narrow door between 1 and 2, a wide one ...
+    >>> free[:, 8] = True  # ... between 2 and 3
+    >>> places = np.array([[1] * 4 + [1] + [2] * 3 + [3] * 4] * 4) * free
+    >>> voted = np.where(places == 2, 0, places * 10)
+    >>> to_open_neighbours(OccupancyGrid.from_masks(free, 0.1), places, voted)[0].tolist()
+    [10, 10, 10, 10, 0, 30, 30, 30, 30, 30, 30, 30]
+    """
+    count = int(places.max(initial=0)) + 1
+    winner = np.zeros(count, np.int64)
+    winner[places[places > 0]] = voted[places > 0]
+    if winner[1:].all() or not winner.any():
+        return voted
+    a, b, openness = boundary_openness(grid, places)
+    order = np.argsort(-openness, kind="stable")
+    a, b = a[order], b[order]
+    while True:
+        reach = (winner[a] > 0) != (winner[b] > 0)
+        if not reach.any():
+            break
+        first = int(np.argmax(reach))  # the most open boundary between voted and not
+        target, source = (b[first], a[first]) if winner[a[first]] else (a[first], b[first])
+        winner[target] = winner[source]
+    return np.where(places > 0, winner[places], 0).astype(np.int32)
 
 
 def _count_unlabelled(conditioned: ConditionedMap, labels: NDArray[np.integer]) -> ConditionedMap:

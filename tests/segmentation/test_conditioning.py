@@ -311,8 +311,9 @@ def test_furniture_is_measured_by_what_the_laser_hit_not_its_shadow():
     shadow[44:47, 55:62] = True  # and the shadow behind it: 2.1 m from end to end
     clutter = find_clutter(_room_with(outline, shadow))
     assert clutter[outline].all() and clutter[shadow].all()
-    # a stub of wall into 5 m of unexplored space is not furniture, though 1 m long
+    # a 1 m stub of wall with 2.5 x 1.2 m of unexplored space behind it (2.8 m across, over
+    # the 2.5 m a desk and its shadow may reach) is measured whole: no furniture
     stub, unexplored = np.zeros_like(desk), np.zeros_like(desk)
     stub[30, 20:30] = True
-    unexplored[31:70, 10:60] = True
+    unexplored[31:43, 15:40] = True
     assert not find_clutter(_room_with(stub, unexplored))[stub].any()

@@ -299,3 +299,20 @@ def test_keyframes_that_stand_in_no_place_give_a_typed_error():
     keyframes = simulate_keyframes(elsewhere, poses, random_state=0)  # they saw walls there
     with pytest.raises(SegmentationError, match="none of the 3 keyframes stands within"):
         MapSegmenter().segment(grid, keyframes)
+
+
+def test_a_room_only_looked_into_goes_whole_to_one_neighbour():
+    from maps.sim.laser import simulate_keyframes
+
+    free = np.zeros((100, 270), bool)
+    for left in (10, 95, 180):  # three 4 x 4 m rooms in a row, 0.25 m walls, 1 m doors
+        free[10:90, left : left + 80] = True
+    free[40:60, 90:95] = free[40:60, 175:180] = True
+    grid = OccupancyGrid.from_masks(free, 0.05)
+    rows = np.array([30, 50, 70, 30, 50, 70] * 2)
+    cols = np.array([30, 50, 70, 70, 50, 30, 200, 220, 240, 240, 220, 200])  # the outer rooms
+    x, y = grid.cell_to_world(rows, cols)
+    poses = np.column_stack([x, y, np.linspace(0, 6, len(x))])
+    found = MapSegmenter().segment(grid, simulate_keyframes(grid, poses, random_state=0))
+    middle = found.regions.labels[10:90, 95:175]
+    assert len(np.unique(middle[middle > 0])) == 1  # not cut between the two doors

@@ -95,26 +95,30 @@ def add_picture_option(parser: argparse.ArgumentParser, picture: str) -> None:
 
 
 def segmenter_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The segmentation options of ``topomap segment``, ``eval segment`` and ``batch``."""
-    return {
+    """The segmentation options of ``topomap segment``, ``eval segment``, ``eval runs`` and
+    ``batch`` (``method`` where the command has ``--method``)."""
+    options = {
         "criterion": args.criterion,
         "k": args.k,
         "p": args.p,
         "spacing": args.spacing,
         "robot_radius": args.robot_radius,
         "clutter_size": args.clutter_size,
-        "method": args.method,
         "contrast": args.contrast,
     }
+    return {**options, "method": args.method} if hasattr(args, "method") else options
 
 
-def add_segmenter_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--method",
-        default="spectral",
-        choices=["spectral", "doors"],
-        help="regions from the spectral partition (default) or the door-rule baseline",
-    )
+def add_segmenter_options(parser: argparse.ArgumentParser, *, method: bool = True) -> None:
+    """The options of :func:`segmenter_options`; ``method=False`` for the evaluations, which
+    score both methods."""
+    if method:
+        parser.add_argument(
+            "--method",
+            default="spectral",
+            choices=["spectral", "doors"],
+            help="regions from the spectral partition (default) or the door-rule baseline",
+        )
     parser.add_argument(
         "--criterion",
         choices=["auto", "nn", "hausdorff", "features", "view"],

@@ -62,7 +62,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "wider where they fall across cells, and every ray two cells wide, harsher than a real "
         "mapper), its people's rooms alike; scored apart (half_cell_over)",
     )
-    add_segmenter_options(eval_seg)
+    add_segmenter_options(eval_seg, method=False)
     eval_seg.set_defaults(func=cmd_eval_segment)
 
     eval_labels = eval_sub.add_parser(
@@ -104,7 +104,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     eval_runs.add_argument("--seeds", type=worker_count, default=4, help="runs per size")
     add_output_options(eval_runs, "out/eval-runs")
-    add_segmenter_options(eval_runs)
+    add_segmenter_options(eval_runs, method=False)
     eval_runs.set_defaults(func=cmd_eval_runs)
 
 
@@ -113,16 +113,18 @@ def building_sizes(text: str) -> list[str]:
 
     Examples
     --------
-    >>> building_sizes("flat, office")
+    >>> building_sizes("flat, office,flat")
     ['flat', 'office']
     """
     from maps.sim.floorplan import SIZES
 
-    sizes = [size.strip() for size in text.split(",") if size.strip()]
+    sizes = list(dict.fromkeys(size.strip() for size in text.split(",") if size.strip()))
+    if not sizes:
+        raise argparse.ArgumentTypeError(f"no building size given; known: {', '.join(SIZES)}")
     unknown = sorted(set(sizes) - set(SIZES))
-    if unknown or not sizes:
+    if unknown:
         raise argparse.ArgumentTypeError(
-            f"unknown building size(s) {unknown or [text]}; known: {', '.join(sorted(SIZES))}"
+            f"unknown building size(s) {unknown}; known: {', '.join(SIZES)}"
         )
     return sizes
 
