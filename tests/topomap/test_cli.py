@@ -355,6 +355,12 @@ def test_eval_runs_scores_both_methods_on_each_run(tmp_path, capsys):
     assert "| flat | spectral | 3 |" in capsys.readouterr().out
     # both methods are always scored: no --method
     assert main(["eval", "runs", "--method", "doors", "--out", str(out)]) == 2
+    for fov in ("0", "361", "90.5"):
+        assert main(["eval", "runs", "--fov", fov, "--out", str(out)]) == 2
+    lidar = ["eval", "runs", "--sizes", "flat", "--seeds", "1", "--fov", "360", "--force"]
+    assert main([*lidar, "--out", str(out)]) == 0
+    runs = json.loads((out / "results.json").read_text())["runs"]
+    assert [r["fov"] for r in runs] == [360, 360] and runs[0]["keyframe_ari"] > 0.9
     # a usage error naming the size
     assert main(["eval", "runs", "--sizes", "castle", "--out", str(out)]) == 2
     assert "unknown building size(s) ['castle']" in capsys.readouterr().err

@@ -2,7 +2,7 @@
 building's rooms.
 
 For each building size and seed: a generated building, furnished as the demo's; a robot that
-wanders through every room it can reach with a 180 degree laser
+wanders through every room it can reach with a 180 degree laser, or another field of view
 (:func:`~maps.sim.exploration.wander`, keyframes every 0.5 m or 30 degrees); the map built from
 its keyframes; and the pipeline on that map with those keyframes, as ``topomap segment --scans``
 runs it. Each method (the spectral partition, the door-rule baseline) is scored against the
@@ -14,6 +14,7 @@ log pipeline across buildings, beside ``topomap eval corridors`` on the real log
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -21,7 +22,8 @@ import numpy as np
 
 from maps.scan import poses_array
 from maps.sim.floorplan import generate_floor_plan
-from maps.sim.survey import survey
+from maps.sim.laser import LaserModel
+from maps.sim.survey import SURVEY_LASER, survey
 from segmentation.metrics import score
 from topomap.cli.label_sources import Progress
 from topomap.cli.online import agreement
@@ -32,15 +34,17 @@ def evaluate_runs(
     sizes: Sequence[str],
     seeds: Iterable[int],
     progress: Progress = iter,
+    laser: LaserModel = SURVEY_LASER,
     **options: Any,
 ) -> list[dict[str, Any]]:
     """A record per run (size, seed) and method: regions, rooms, MCC, recall, precision and
-    the keyframes' ARI; ``options`` are the segmentation's (``topomap segment``'s)."""
+    the keyframes' ARI; the robot scans with ``laser``; ``options`` are the segmentation's
+    (``topomap segment``'s)."""
     runs = [(size, seed) for size in sizes for seed in seeds]
     records = []
     for size, seed in progress(runs):
         plan = generate_floor_plan(size, furniture=0.3, random_state=seed)
-        run = survey(plan, seed)
+        run = survey(plan, seed, laser)
         keyframes, grid = run.keyframes, run.grid
         people = plan.corridor_systems()  # a corridor system no door divides is one room
         rooms = plan.rooms_on(grid, people)
@@ -57,6 +61,7 @@ def evaluate_runs(
                     "size": size,
                     "seed": seed,
                     "method": method,
+                    "fov": round(math.degrees(laser.fov)),
                     "keyframes": len(keyframes),
                     "regions": int(found.regions.labels.max()),
                     "rooms": int(len(np.unique(rooms[rooms > 0]))),

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+from dataclasses import replace
 from pathlib import Path
 
 from maps.files import write_text
@@ -103,6 +105,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="building sizes, comma-separated (flat, office, campus)",
     )
     eval_runs.add_argument("--seeds", type=worker_count, default=4, help="runs per size")
+    eval_runs.add_argument(
+        "--fov",
+        type=field_of_view,
+        default=180,
+        help="the robot's laser's field of view, degrees (a beam a degree; 360: a lidar)",
+    )
     add_output_options(eval_runs, "out/eval-runs")
     add_segmenter_options(eval_runs, method=False)
     eval_runs.set_defaults(func=cmd_eval_runs)
@@ -127,6 +135,19 @@ def building_sizes(text: str) -> list[str]:
             f"unknown building size(s) {unknown}; known: {', '.join(SIZES)}"
         )
     return sizes
+
+
+def field_of_view(text: str) -> int:
+    """``--fov``: a laser's field of view, whole degrees in 2..360 (an argparse type).
+
+    Examples
+    --------
+    >>> field_of_view("270")
+    270
+    """
+    if not text.isdigit() or not 2 <= int(text) <= 360:
+        raise argparse.ArgumentTypeError(f"must be whole degrees in 2..360, got {text!r}")
+    return int(text)
 
 
 #: The hand-drawn labels kept with the repository (not installed with the package).
@@ -224,12 +245,17 @@ def cmd_eval_corridors(args: argparse.Namespace) -> int:
 
 
 def cmd_eval_runs(args: argparse.Namespace) -> int:
+    from maps.sim.survey import SURVEY_LASER
     from topomap.cli.evaluate_runs import evaluate_runs, run_means
 
     out = Path(args.out)
     refuse_existing(out, ["results.json"], args.force)
     records = evaluate_runs(
-        args.sizes, range(args.seeds), progress=args.progress, **segmenter_options(args)
+        args.sizes,
+        range(args.seeds),
+        progress=args.progress,
+        laser=replace(SURVEY_LASER, fov=math.radians(args.fov), beams=min(args.fov + 1, 360)),
+        **segmenter_options(args),
     )
     columns = ["size", "seed", "method", "keyframes", "regions", "rooms", "mcc", "recall"]
     print(markdown_table(records, [*columns, "precision", "keyframe_ari"]))
