@@ -15,9 +15,12 @@ jagged walls) between walls on both hands for :data:`~segmentation.walls.CHANNEL
 both sides; or where a corridor enters a wider space: on one side the space keeps the cut's
 width so for :data:`CORRIDOR_LENGTH` times that width (longer than a room is for its width;
 its walls broken only by doors, up to double doors wide), and on the other it never
-narrows. A door, a room opening onto a corridor, a narrow room entered through its full
-width: the space widens or narrows within those metres, and the places stay apart
-for the partition to decide.
+narrows; or where a corridor (so long for its width) turns into or branches off a corridor
+at least as wide that runs across it (an L or a T: the other keeps its own width along the
+cut for the channel's length, :func:`_corridor_into_corridor`). A door, a room opening onto
+a corridor, a narrow room entered through its full width, a corridor ending at a row of
+open bays: the space widens or narrows within those metres, and the places stay apart for
+the partition to decide.
 """
 
 from __future__ import annotations
@@ -155,7 +158,9 @@ def _across_corridor(
     both_sides = holds.sum() >= 2 * half - 1 and holds[:half].any() and holds[half:].any()
     if length >= CORRIDOR_WIDTH and both_sides:
         return True
-    return _corridor_into_wider(middle[most], normal, width, clearance, resolution)
+    return _corridor_into_wider(
+        middle[most], normal, width, clearance, resolution
+    ) or _corridor_into_corridor(middle[most], normal, width, clearance, resolution)
 
 
 def _across_walls(
@@ -232,6 +237,73 @@ def _corridor_into_wider(
             and (wider >= OPEN * width / 2 - resolution).all()
         ):
             return True
+    return False
+
+
+def _corridor_into_corridor(
+    start: NDArray[np.float64],
+    normal: NDArray[np.float64],
+    width: float,
+    clearance: NDArray[np.float32],
+    resolution: float,
+) -> bool:
+    """Whether a cut ``width`` metres wide at ``start`` (x, y cells) is where a corridor turns
+    into or branches off a corridor at least as wide that runs across it (an L or a T): on
+    one side along ``normal`` the space keeps the cut's width for :data:`CORRIDOR_LENGTH`
+    times that width (doors along it up to double doors, as in
+    :func:`_corridor_into_wider`); on the other, the channel from the cut to its far wall
+    (within three widths: farther is a hall) is at least as wide as the cut, and from its
+    centreline, past the cut's mouth, it keeps its own width between walls for
+    :data:`~segmentation.walls.CHANNEL` metres along the cut one way or the other. A corridor
+    ending at a narrower channel across it (a row of open bays, a room entered through its
+    full width) is no such junction: the places stay apart.
+
+    Examples
+    --------
+    >>> from scipy.ndimage import distance_transform_edt
+    >>> free = np.zeros((120, 120), bool)
+    >>> free[2:20, 2:118] = True  # a 1.8 m corridor (0.1 m cells) ...
+    >>> free[20:118, 2:16] = True  # ... and a 1.4 m one turning into it at a corner
+    >>> clearance = (distance_transform_edt(free) * 0.1).astype(np.float32)
+    >>> start, up = np.array([9.0, 19.5]), np.array([0.0, 1.0])
+    >>> bool(_corridor_into_corridor(start, up, 1.4, clearance, 0.1))
+    True
+    >>> free[2:20, 30:118] = False  # the wide one now ends 1.4 m past the narrow one's side
+    >>> clearance = (distance_transform_edt(free) * 0.1).astype(np.float32)
+    >>> bool(_corridor_into_corridor(start, up, 1.4, clearance, 0.1))
+    False
+    >>> free[2:20, :] = False; free[8:20, 2:118] = True  # the one across only 1.2 m wide
+    >>> clearance = (distance_transform_edt(free) * 0.1).astype(np.float32)
+    >>> bool(_corridor_into_corridor(start, up, 1.4, clearance, 0.1))
+    False
+    """
+    step = 0.25 / resolution  # a sample every 0.25 m
+    tangent = np.array([normal[1], -normal[0]])
+    door = round(DOOR_WIDTH / 0.25)
+    for sign in (1.0, -1.0):
+        offsets = np.arange(1, int(CORRIDOR_LENGTH * width / 0.25) + 1) * step * sign
+        arm = start + offsets[:, None] * normal
+        sides = tangent * width / 2 / resolution
+        holds = _keeps_width(clearance, arm, sides, width, resolution, door)
+        if holds.sum() < len(holds) - len(holds) // 8:
+            continue
+        depth = np.arange(0, int(3 * width / 0.25) + 1) * step
+        beyond = _clearance_at(clearance, start - sign * depth[:, None] * normal)
+        far = np.flatnonzero(beyond <= resolution)
+        if len(far) == 0:
+            continue  # no far wall within three widths: a hall (:func:`_corridor_into_wider`)
+        across = depth[far[0]]  # cells from the cut to the far wall
+        centre = start - sign * across / 2 * normal
+        half = float(_clearance_at(clearance, centre[None, :])[0])
+        if half < OPEN * across * resolution / 2 - resolution or 2 * half < width:
+            continue  # not a channel centred there, or narrower than the corridor entering it
+        reach = (width / 2 + 0.25 + np.arange(int(CHANNEL / 0.25)) * 0.25) / resolution
+        walls = normal * half / resolution
+        for way in (1.0, -1.0):
+            run = centre + (way * reach)[:, None] * tangent
+            keeps = _keeps_width(clearance, run, walls, 2 * half, resolution, door)
+            if keeps.sum() >= len(keeps) - len(keeps) // 8:
+                return True
     return False
 
 
