@@ -212,32 +212,37 @@ def _corridor_into_wider(
     resolution: float,
 ) -> bool:
     """Whether a cut ``width`` metres wide at ``start`` (x, y cells) is where a corridor
-    enters a wider space: on one side along ``normal`` the space keeps the cut's width for
-    :data:`CORRIDOR_LENGTH` times that width (a room is rarely over 2.5 times as long as wide,
-    so this is a corridor, not a narrow room entered through its full width; its walls may
-    break for doors along it, up to double doors), on the other it never narrows over
-    :data:`~segmentation.walls.CHANNEL` metres."""
-    step = 0.25 / resolution  # a sample every 0.25 m
-    across = np.array([normal[1], -normal[0]]) * width / 2 / resolution
-
-    def along(sign: float, metres: float) -> NDArray[np.float64]:
-        offsets = np.arange(1, int(metres / 0.25) + 1) * step * sign
-        return start + offsets[:, None] * normal
-
-    length = CORRIDOR_LENGTH * width
+    enters a wider space: on one side along ``normal`` a corridor (:func:`_corridor_on`), on
+    the other the space never narrows over :data:`~segmentation.walls.CHANNEL` metres."""
+    behind = np.arange(1, int(CHANNEL / 0.25) + 1) * 0.25 / resolution  # every 0.25 m
     for sign in (1.0, -1.0):
-        holds = _keeps_width(
-            clearance, along(sign, length), across, width, resolution, door=round(DOOR_WIDTH / 0.25)
-        )
-        wider = _clearance_at(clearance, along(-sign, CHANNEL))
-        # as across a cut (7 of 8 samples), one in eight may miss: a curved corridor leaves
-        # the straight line
+        wider = _clearance_at(clearance, start - sign * behind[:, None] * normal)
         if (
-            holds.sum() >= len(holds) - len(holds) // 8
+            _corridor_on(start, sign * normal, width, clearance, resolution)
             and (wider >= OPEN * width / 2 - resolution).all()
         ):
             return True
     return False
+
+
+def _corridor_on(
+    start: NDArray[np.float64],
+    way: NDArray[np.float64],
+    width: float,
+    clearance: NDArray[np.float32],
+    resolution: float,
+) -> bool:
+    """Whether the space from ``start`` (x, y cells) along the unit ``way`` keeps ``width``
+    metres between walls (:func:`_keeps_width`, doors along it up to double doors) for
+    :data:`CORRIDOR_LENGTH` times that width, a sample every 0.25 m: as across a cut (7 of 8
+    samples), one in eight may miss, as a curved corridor leaves the straight line. A room is
+    rarely over 2.5 times as long as wide: this is a corridor, not a narrow room entered
+    through its full width."""
+    offsets = np.arange(1, int(CORRIDOR_LENGTH * width / 0.25) + 1) * 0.25 / resolution
+    sides = np.array([way[1], -way[0]]) * width / 2 / resolution
+    door = round(DOOR_WIDTH / 0.25)
+    holds = _keeps_width(clearance, start + offsets[:, None] * way, sides, width, resolution, door)
+    return bool(holds.sum() >= len(holds) - len(holds) // 8)
 
 
 def _corridor_into_corridor(
@@ -249,11 +254,9 @@ def _corridor_into_corridor(
 ) -> bool:
     """Whether a cut ``width`` metres wide at ``start`` (x, y cells) is where a corridor turns
     into or branches off a corridor at least as wide that runs across it (an L or a T): on
-    one side along ``normal`` the space keeps the cut's width for :data:`CORRIDOR_LENGTH`
-    times that width (doors along it up to double doors, as in
-    :func:`_corridor_into_wider`); on the other, the channel from the cut to its far wall
-    (within three widths: farther is a hall) is at least as wide as the cut, and from its
-    centreline, past the cut's mouth, it keeps its own width between walls for
+    one side along ``normal`` a corridor (:func:`_corridor_on`); on the other, the channel
+    from the cut to its far wall (within three widths: farther is a hall) is at least as wide
+    as the cut, and from its centreline, past the cut's mouth, it keeps its own width for
     :data:`~segmentation.walls.CHANNEL` metres along the cut one way or the other. A corridor
     ending at a narrower channel across it (a row of open bays, a room entered through its
     full width) is no such junction: the places stay apart.
@@ -281,11 +284,7 @@ def _corridor_into_corridor(
     tangent = np.array([normal[1], -normal[0]])
     door = round(DOOR_WIDTH / 0.25)
     for sign in (1.0, -1.0):
-        offsets = np.arange(1, int(CORRIDOR_LENGTH * width / 0.25) + 1) * step * sign
-        arm = start + offsets[:, None] * normal
-        sides = tangent * width / 2 / resolution
-        holds = _keeps_width(clearance, arm, sides, width, resolution, door)
-        if holds.sum() < len(holds) - len(holds) // 8:
+        if not _corridor_on(start, sign * normal, width, clearance, resolution):
             continue
         depth = np.arange(0, int(3 * width / 0.25) + 1) * step
         beyond = _clearance_at(clearance, start - sign * depth[:, None] * normal)
