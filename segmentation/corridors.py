@@ -280,27 +280,26 @@ def _corridor_into_corridor(
     >>> bool(_corridor_into_corridor(start, up, 1.4, clearance, 0.1))
     False
     """
-    step = 0.25 / resolution  # a sample every 0.25 m
     tangent = np.array([normal[1], -normal[0]])
     door = round(DOOR_WIDTH / 0.25)
     for sign in (1.0, -1.0):
         if not _corridor_on(start, sign * normal, width, clearance, resolution):
             continue
-        depth = np.arange(0, int(3 * width / 0.25) + 1) * step
+        # cell by cell from the cut (between two cells) to the far wall
+        depth = np.arange(int(3 * width / resolution) + 1) + 0.5
         beyond = _clearance_at(clearance, start - sign * depth[:, None] * normal)
-        far = np.flatnonzero(beyond <= resolution)
-        if len(far) == 0:
+        walls = np.flatnonzero(beyond <= 0)
+        if len(walls) == 0:
             continue  # no far wall within three widths: a hall (:func:`_corridor_into_wider`)
-        across = depth[far[0]]  # cells from the cut to the far wall
-        centre = start - sign * across / 2 * normal
-        half = float(_clearance_at(clearance, centre[None, :])[0])
-        if half < OPEN * across * resolution / 2 - resolution or 2 * half < width:
-            continue  # not a channel centred there, or narrower than the corridor entering it
+        channel = walls[0] * resolution  # the width of the channel across
+        if channel < width - resolution:
+            continue  # narrower than the corridor entering it
+        centre = start - sign * walls[0] / 2 * normal
         reach = (width / 2 + 0.25 + np.arange(int(CHANNEL / 0.25)) * 0.25) / resolution
-        walls = normal * half / resolution
+        sides = normal * channel / 2 / resolution
         for way in (1.0, -1.0):
             run = centre + (way * reach)[:, None] * tangent
-            keeps = _keeps_width(clearance, run, walls, 2 * half, resolution, door)
+            keeps = _keeps_width(clearance, run, sides, channel, resolution, door)
             if keeps.sum() >= len(keeps) - len(keeps) // 8:
                 return True
     return False

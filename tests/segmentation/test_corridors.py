@@ -181,3 +181,26 @@ def test_rooms_behind_a_slanted_door_stay_apart(degrees):
     # door), and not the same one
     first, second = (np.bincount(joined[rooms == room]).argmax() for room in (1, 2))
     assert first > 0 and second > 0 and first != second
+
+
+def _corridor_turning_into(across_rows: slice, arm_columns: slice) -> tuple:
+    """A corridor across the top (its rows), another running down from it (its columns),
+    places split where the second meets the first; 0.1 m cells."""
+    free = np.zeros((120, 120), bool)
+    free[across_rows, 2:118] = True
+    free[across_rows.stop : 118, arm_columns] = True
+    places = np.where(free, 1 + (np.arange(120) >= across_rows.stop)[:, None], 0)
+    return places, OccupancyGrid.from_masks(free, 0.1)
+
+
+def test_a_corridor_turning_into_a_wider_one_is_one_place_with_it():
+    places, grid = _corridor_turning_into(slice(2, 20), slice(2, 16))  # 1.4 m into 1.8 m
+    assert [v.tolist() for v in corridor_cuts(places, grid)] == [[1], [2]]
+    places, grid = _corridor_turning_into(slice(2, 20), slice(40, 54))  # a T, not an L
+    assert [v.tolist() for v in corridor_cuts(places, grid)] == [[1], [2]]
+
+
+def test_a_corridor_ending_at_a_narrower_channel_across_it_stays_apart():
+    # 1.9 m of corridor meeting a 1.5 m row of open bays across its end (ipa lab_c)
+    places, grid = _corridor_turning_into(slice(2, 17), slice(40, 59))
+    assert [v.tolist() for v in corridor_cuts(places, grid)] == [[], []]
