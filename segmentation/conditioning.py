@@ -36,11 +36,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
 
 from maps.grid import OccupancyGrid, clearance_of
 from maps.limits import MAX_LENGTH, MAX_ROBOT_RADIUS, finite_in
 from segmentation.blur import sharpened
+from segmentation.distinct import nonzero_cells
 from segmentation.errors import ParameterError
 from segmentation.walls import wall_stubs
 
@@ -132,11 +132,18 @@ def find_clutter(
     inside = (x > 0) & (y > 0) & (x + w < width) & (y + h < height)
     grow = 2 * max(half, 0)
     size = np.hypot(w - grow, h - grow) * grid.resolution
-    hit = ndimage.find_objects(np.where(grid.occupied, pieces, 0), max_label=len(stats) - 1)
-    for piece, box in enumerate(hit, start=1):
-        if box is not None and size[piece] <= clutter_size + SHADOW:
-            rows, cols = (side.stop - side.start for side in box)
-            size[piece] = math.hypot(rows, cols) * grid.resolution
+    # the obstacles within the shadow's reach, measured again by their hit (occupied) cells
+    near = size <= clutter_size + SHADOW
+    near[0] = False
+    rows, cols = nonzero_cells(grid.occupied & near[pieces])
+    which = pieces[rows, cols].astype(np.intp)
+    first = np.full((2, len(size)), np.iinfo(np.int64).max)
+    last = np.full((2, len(size)), -1)
+    for axis, cells in enumerate((rows, cols)):
+        np.minimum.at(first[axis], which, cells)
+        np.maximum.at(last[axis], which, cells)
+    hit = last[0] >= 0
+    size[hit] = np.hypot(*(last[:, hit] - first[:, hit] + 1)) * grid.resolution
     small = inside & (size <= clutter_size)
     small[0] = False
     clutter = small[pieces] & blocked.astype(bool)

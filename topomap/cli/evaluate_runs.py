@@ -51,11 +51,11 @@ def evaluate_runs(
         poses = poses_array(keyframes)
         rows, cols = plan.grid.world_to_cell(poses[:, 0], poses[:, 1])
         standing = people[rows, cols]  # the keyframes' rooms (0: in a wall, a door frame)
+        inside = standing > 0
         for method in ("spectral", "doors"):
             pipeline = pipeline_from_options({**options, "method": method})
             found = pipeline.segment(grid, keyframes, random_state=seed)
             scores = score(found.regions.labels, rooms)
-            inside = standing > 0
             records.append(
                 {
                     "size": size,
