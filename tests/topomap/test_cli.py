@@ -337,6 +337,24 @@ def test_eval_corridors_finds_intels_ring_corridor_in_one_region(tmp_path, data_
     assert intel["log"] == "intel" and intel["largest_share"] > 0.8 and intel["pieces"] <= 2
 
 
+def test_eval_logs_scores_the_keyframes_against_the_drawn_rooms(tmp_path, data_dir, capsys):
+    drawn = json.loads((Path(__file__).parents[1] / "data/labels/carmen_rooms.json").read_text())
+    labels = tmp_path / "labels"
+    labels.mkdir()
+    (labels / "carmen_rooms.json").write_text(json.dumps({"intel": drawn["intel"]}))
+    out = tmp_path / "out"
+    command = ["eval", "logs", str(data_dir / "carmen"), "--hand-labels", str(labels)]
+    assert main([*command, "--out", str(out)]) == 0
+    spectral, doors = json.loads((out / "results.json").read_text())["logs"]
+    assert (spectral["method"], doors["method"]) == ("spectral", "doors")
+    for record in (spectral, doors):
+        assert record["log"] == "intel" and record["rooms"] == 24 and record["in_rooms"] >= 0.97
+        assert record["regions"] > 10 and 0.5 < record["mcc"] <= 1
+    # most keyframes stand in the ring corridor: the ARI is mostly whether it is one region
+    assert 0.55 <= spectral["keyframe_ari"] <= 1
+    assert "| intel | spectral |" in capsys.readouterr().out
+
+
 def test_eval_runs_scores_both_methods_on_each_run(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["eval", "runs", "--sizes", "flat", "--seeds", "3", "--out", str(out)]) == 0

@@ -583,3 +583,22 @@ def test_a_folder_that_may_not_be_listed_and_workers_that_cannot_start_are_typed
         dask_client(workers=2),
     ):
         pass
+
+
+def test_drawn_rooms_that_are_no_json_or_no_polygons_name_the_file_and_the_room(tmp_path, capsys):
+    from topomap.cli.evaluate_logs import drawn_rooms
+    from topomap.cli.label_sources import read_drawn
+
+    bad = tmp_path / "carmen_rooms.json"
+    bad.write_text("{intel: ")
+    with pytest.raises(MapFormatError, match=r"carmen_rooms\.json: not a drawn rooms JSON"):
+        read_drawn(bad, "drawn rooms JSON")
+    bad.write_text(json.dumps({"intel": {"rooms": []}}))  # no log named
+    with pytest.raises(MapFormatError, match="maps each log's name to its shapes and 'log'"):
+        read_drawn(bad, "drawn rooms JSON")
+    assert main(["eval", "logs", str(tmp_path), "--hand-labels", str(tmp_path)]) == 2
+    assert "carmen_rooms.json" in _error_line(capsys)
+    grid = OccupancyGrid(np.zeros((10, 10), np.int8), 0.5)
+    rooms = [{"name": "hall", "polygon": [[0, 0], [1, 1]]}]
+    with pytest.raises(MapFormatError, match="room 1 \\('hall'\\): a polygon needs"):
+        drawn_rooms(grid, rooms)

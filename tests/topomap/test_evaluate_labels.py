@@ -182,6 +182,30 @@ def test_hand_labels_match_the_data(data_dir):
         assert all(c["width"] >= 1.0 for c in shapes["corridors"])
 
 
+def test_drawn_rooms_hold_the_keyframes_once_each(data_dir):
+    # the rooms of carmen_rooms.json are the truth of two real logs: every keyframe stands
+    # in a room (or on the line two rooms share), none inside two rooms at once
+    from topomap.cli.label_sources import carmen_map
+
+    drawn = json.loads((LABELS / "carmen_rooms.json").read_text())
+    assert sorted(drawn) == ["freiburg-079", "intel"]
+    for name, shapes in drawn.items():
+        keyframes, _ = carmen_map(data_dir / "carmen" / shapes["log"])
+        polygons = [np.asarray(room["polygon"], np.float32) for room in shapes["rooms"]]
+        assert len({room["name"] for room in shapes["rooms"]}) == len(polygons) >= 15
+        inside = np.array(
+            [
+                [
+                    cv2.pointPolygonTest(polygon, (float(k.pose[0]), float(k.pose[1])), True)
+                    for polygon in polygons
+                ]
+                for k in keyframes
+            ]
+        )
+        assert ((inside >= 0).any(axis=1)).mean() >= 0.97, name
+        assert ((inside > 0.05).sum(axis=1) <= 1).all(), name  # 5 cm: the shared lines
+
+
 def _centre_offsets(grid: OccupancyGrid, line: list[list[float]]) -> list[float]:
     """Every metre along a drawn centreline, how far the middle of the free cross-section
     through it (wall to wall, 1-4 m wide, within 3 m either side) lies from it, m; inf where

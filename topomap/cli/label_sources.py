@@ -252,12 +252,23 @@ def carmen(
     return found
 
 
-def read_drawn(drawn_json: str | Path) -> dict[str, dict[str, Any]]:
-    """The shapes drawn by hand per log (``carmen.json``: see :func:`drawn_truth`)."""
+def read_drawn(
+    drawn_json: str | Path, what: str = "drawn corridors JSON"
+) -> dict[str, dict[str, Any]]:
+    """The shapes drawn by hand per log (``carmen.json``: see :func:`drawn_truth`;
+    ``carmen_rooms.json``: :func:`~topomap.cli.evaluate_logs.drawn_rooms`), ``what`` naming
+    the file in errors."""
     path = Path(drawn_json)
     if not path.exists():
-        raise MapFileNotFoundError(path, "drawn corridors JSON")
-    drawn: dict[str, dict[str, Any]] = json.loads(path.read_text())
+        raise MapFileNotFoundError(path, what)
+    try:
+        drawn = json.loads(path.read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise MapFormatError(f"{path}: not a {what}: {error}") from None
+    if not isinstance(drawn, dict) or not all(
+        isinstance(shapes, dict) and "log" in shapes for shapes in drawn.values()
+    ):
+        raise MapFormatError(f"{path}: a {what} maps each log's name to its shapes and 'log'")
     return drawn
 
 

@@ -93,6 +93,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_output_options(eval_corridors, "out/eval-corridors")
     eval_corridors.set_defaults(func=cmd_eval_corridors)
 
+    eval_logs = eval_sub.add_parser(
+        "logs",
+        help="rooms drawn on the real logs' maps against the regions of their keyframes "
+        "(keyframe ARI, MCC), both methods",
+    )
+    eval_logs.add_argument("data", help="folder of the CARMEN logs")
+    _add_hand_labels(eval_logs, "carmen_rooms.json: the rooms")
+    add_output_options(eval_logs, "out/eval-logs")
+    eval_logs.set_defaults(func=cmd_eval_logs)
+
     eval_runs = eval_sub.add_parser(
         "runs",
         help="a simulated robot's runs through generated buildings: the regions of its own "
@@ -239,6 +249,21 @@ def cmd_eval_corridors(args: argparse.Namespace) -> int:
         args.data, Path(args.hand_labels) / "carmen.json", progress=args.progress
     )
     print(markdown_table(records, ["log", "regions", "largest_share", "best_iou", "pieces"]))
+    write_text(out / "results.json", json.dumps({"logs": records}, indent=2), overwrite=args.force)
+    print(f"wrote {out / 'results.json'}")
+    return 0
+
+
+def cmd_eval_logs(args: argparse.Namespace) -> int:
+    from topomap.cli.evaluate_logs import evaluate_logs
+
+    out = Path(args.out)
+    refuse_existing(out, ["results.json"], args.force)
+    records = evaluate_logs(
+        args.data, Path(args.hand_labels) / "carmen_rooms.json", progress=args.progress
+    )
+    columns = ["log", "method", "keyframes", "in_rooms", "regions", "rooms", "keyframe_ari"]
+    print(markdown_table(records, [*columns, "mcc"]))
     write_text(out / "results.json", json.dumps({"logs": records}, indent=2), overwrite=args.force)
     print(f"wrote {out / 'results.json'}")
     return 0

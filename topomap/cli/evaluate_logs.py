@@ -1,0 +1,90 @@
+"""The real logs against rooms drawn on their maps: the regions of a robot's own keyframes.
+
+The rooms drawn on the maps of the CARMEN logs (``carmen_rooms.json``: a polygon per room in
+metres, see :func:`drawn_rooms`) against the regions of the robot's own keyframes, as
+``topomap segment LOG`` makes them, for both methods: the keyframes' ARI (each keyframe's
+region against the room it stands in, the measure the issue sets for real logs) and MCC on the
+map's cells. The rooms were drawn from the maps alone, not from any segmentation.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from maps.errors import MapFormatError
+from maps.grid import OccupancyGrid
+from maps.scan import poses_array
+from segmentation.metrics import score
+from topomap.cli.label_sources import Progress, carmen_map, read_drawn
+from topomap.cli.online import agreement
+from topomap.topomap import pipeline_from_options
+
+
+def drawn_rooms(grid: OccupancyGrid, rooms: list[dict[str, Any]]) -> NDArray[np.int32]:
+    """Room (1..N, in the order given) of each free cell of ``grid`` inside one of the drawn
+    ``rooms`` (``{"name": ..., "polygon": [[x, y], ...]}`` in metres), 0 elsewhere.
+
+    Raises
+    ------
+    MapFormatError
+        A room without a polygon of at least three points.
+
+    Examples
+    --------
+    >>> grid = OccupancyGrid(np.zeros((10, 20), np.int8), 0.5)  # 10 x 5 m, all free
+    >>> rooms = [{"name": "a", "polygon": [[0, 0], [5, 0], [5, 5], [0, 5]]},
+    ...          {"name": "b", "polygon": [[5, 0], [10, 0], [10, 5], [5, 5]]}]
+    >>> labels = drawn_rooms(grid, rooms)
+    >>> labels[5, 2], labels[5, 17], sorted(np.unique(labels).tolist())
+    (np.int32(1), np.int32(2), [1, 2])
+    """
+    labels = np.zeros(grid.shape, np.int32)
+    for number, room in enumerate(rooms, 1):
+        xy = np.asarray(room.get("polygon", []), float)
+        if xy.ndim != 2 or xy.shape[1] != 2 or len(xy) < 3 or not np.isfinite(xy).all():
+            raise MapFormatError(
+                f"room {number} ({room.get('name', '?')!r}): a polygon needs at least three "
+                f"[x, y] points in metres, got {room.get('polygon')!r}"
+            )
+        rows, cols = grid.world_to_cell(xy[:, 0], xy[:, 1])
+        cv2.fillPoly(labels, [np.column_stack([cols, rows]).astype(np.int32)], number)
+    return np.where(grid.free, labels, 0)
+
+
+def evaluate_logs(
+    log_dir: str | Path, rooms_json: str | Path, progress: Progress = iter
+) -> list[dict[str, Any]]:
+    """A record per log drawn in ``rooms_json`` (logs in ``log_dir``) and method: regions,
+    rooms, the keyframes' ARI against the rooms they stand in, and the cells' MCC."""
+    records = []
+    for name, drawn in progress(sorted(read_drawn(rooms_json, "drawn rooms JSON").items())):
+        keyframes, grid = carmen_map(Path(log_dir) / drawn["log"])
+        rooms = drawn_rooms(grid, drawn["rooms"])
+        poses = poses_array(keyframes)
+        rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])
+        standing = np.zeros(len(poses), np.int32)
+        on_map = grid.contains(rows, cols)
+        standing[on_map] = rooms[rows[on_map], cols[on_map]]
+        inside = standing > 0  # not in a wall or a door frame
+        for method in ("spectral", "doors"):
+            found = pipeline_from_options({"method": method}).segment(
+                grid, keyframes, random_state=0
+            )
+            records.append(
+                {
+                    "log": name,
+                    "method": method,
+                    "keyframes": len(keyframes),
+                    "in_rooms": round(float(inside.mean()), 3),
+                    "regions": int(found.regions.labels.max()),
+                    "rooms": len(drawn["rooms"]),
+                    "keyframe_ari": agreement(found.keyframe_regions()[inside], standing[inside]),
+                    "mcc": round(score(found.regions.labels, rooms).mcc, 4),
+                }
+            )
+    return records
