@@ -52,6 +52,31 @@ def _positive(name: str, value: float) -> float:
     return float(value)
 
 
+def nearest_first(keys: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The distinct values (>= 0) of the ``(steps, n)`` array ``keys``, sorted, and for each
+    the first row it occurs in (rows in order of distance: the nearest).
+
+    One sort of the keys with their row in the lowest bits: a third of the time of
+    ``np.unique``'s stable sort with ``return_index`` on the 10^7 keys of 10,000 keyframes;
+    ``np.unique`` where the keys are too large for that.
+
+    Examples
+    --------
+    >>> nearest_first(np.array([[5, 3, 3], [5, 7, 3]]))
+    (array([3, 5, 7]), array([0, 0, 1]))
+    """
+    steps = keys.shape[0]
+    bits = max(1, (steps - 1).bit_length())
+    if keys.size == 0 or int(keys.max()) >= 1 << (62 - bits):
+        distinct, first = np.unique(keys, return_index=True)
+        return distinct, first // keys.shape[1]
+    combined = ((keys << bits) | np.arange(steps)[:, None]).ravel()
+    combined.sort()
+    distinct = combined >> bits
+    fresh = np.r_[True, distinct[1:] != distinct[:-1]]
+    return distinct[fresh], combined[fresh] & ((1 << bits) - 1)
+
+
 def symmetric(values: NDArray[np.float64], i: NDArray[np.int64], j: NDArray[np.int64], n: int):
     """The symmetric CSR matrix with ``values`` at ``(i, j)`` and ``(j, i)``, zeros dropped."""
     keep = values > 0
@@ -116,11 +141,11 @@ class NearestNeighbour:
         rows = int(cloud.cells[:, 1].max()) + reach - int(low[1]) + 1
         base = (cloud.cells[:, 0] - low[0]) * rows + (cloud.cells[:, 1] - low[1])
         shift = di[near] * rows + dj[near]
-        key = (base[None, :] + shift[:, None]).ravel() * n + np.tile(cloud.owner, len(near))
-        key, first = np.unique(key, return_index=True)
-        value = self.tolerance - distance[near][first // len(base)]
+        key, step = nearest_first((base[None, :] + shift[:, None]) * n + cloud.owner)
+        value = self.tolerance - distance[near][step]
         cell, owner = np.divmod(key, n)
-        columns, cell = np.unique(cell, return_inverse=True)
+        fresh = np.r_[True, cell[1:] != cell[:-1]]  # the keys are sorted, so are their cells
+        columns, cell = cell[fresh], np.cumsum(fresh) - 1
         width = len(columns)
         points = sparse.csr_matrix(
             (np.ones(len(base)), (cloud.owner, np.searchsorted(columns, base))), shape=(n, width)
