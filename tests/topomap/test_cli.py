@@ -345,13 +345,17 @@ def test_eval_logs_scores_the_keyframes_against_the_drawn_rooms(tmp_path, data_d
     out = tmp_path / "out"
     command = ["eval", "logs", str(data_dir / "carmen"), "--hand-labels", str(labels)]
     assert main([*command, "--out", str(out)]) == 0
-    spectral, doors = json.loads((out / "results.json").read_text())["logs"]
-    assert (spectral["method"], doors["method"]) == ("spectral", "doors")
-    for record in (spectral, doors):
+    records = json.loads((out / "results.json").read_text())["logs"]
+    assert [(r["method"], r["input"]) for r in records] == [
+        (method, source) for method in ("spectral", "doors") for source in ("keyframes", "map")
+    ]
+    for record in records:
         assert record["log"] == "intel" and record["rooms"] == 24 and record["in_rooms"] >= 0.97
         assert record["regions"] > 10 and 0.5 < record["mcc"] <= 1
+        assert 50 < record["rose2_iou"] <= 100
     # most keyframes stand in the ring corridor: the ARI is mostly whether it is one region
-    assert 0.55 <= spectral["keyframe_ari"] <= 1
+    assert 0.55 <= records[0]["keyframe_ari"] <= 1
+    assert records[0]["mcc"] != records[1]["mcc"]  # the robot's keyframes, then the map's
     assert "| intel | spectral |" in capsys.readouterr().out
 
 

@@ -1,14 +1,18 @@
 """The real logs against rooms drawn on their maps: the regions of a robot's own keyframes.
 
 The rooms drawn on the maps of the CARMEN logs (``carmen_rooms.json``: a polygon per room in
-metres, see :func:`drawn_rooms`) against the regions of the robot's own keyframes, as
-``topomap segment LOG`` makes them, for both methods: the keyframes' ARI (each keyframe's
-region against the room it stands in, the measure the issue sets for real logs) and MCC on the
-map's cells. The rooms were drawn from the maps alone, not from any segmentation.
+metres, see :func:`drawn_rooms`) against the regions, for both methods, of the robot's own
+keyframes (``input="keyframes"``, as ``topomap segment LOG`` makes them) and of the map alone
+(``input="map"``, as ``topomap segment map.yaml`` makes them from the map ``topomap map``
+writes: a real SLAM map of another building than ROSE²'s): the keyframes' ARI (each
+keyframe's region against the room it stands in, the measure the issue sets for real logs),
+MCC and ROSE²'s IoU on the map's cells. The rooms were drawn from the maps alone, not from any
+segmentation.
 """
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +23,7 @@ from numpy.typing import NDArray
 from maps.errors import MapFormatError
 from maps.grid import OccupancyGrid
 from maps.scan import poses_array
-from segmentation.metrics import score
+from segmentation.metrics import rose2_score, score
 from topomap.cli.label_sources import Progress, carmen_map, read_drawn
 from topomap.cli.online import agreement
 from topomap.topomap import pipeline_from_options
@@ -59,8 +63,9 @@ def drawn_rooms(grid: OccupancyGrid, rooms: list[dict[str, Any]]) -> NDArray[np.
 def evaluate_logs(
     log_dir: str | Path, rooms_json: str | Path, progress: Progress = iter
 ) -> list[dict[str, Any]]:
-    """A record per log drawn in ``rooms_json`` (logs in ``log_dir``) and method: regions,
-    rooms, the keyframes' ARI against the rooms they stand in, and the cells' MCC."""
+    """A record per log drawn in ``rooms_json`` (logs in ``log_dir``), method and input (the
+    robot's keyframes, the map alone): regions, rooms, the keyframes' ARI against the rooms
+    they stand in, the cells' MCC and ROSE²'s IoU."""
     records = []
     for name, drawn in progress(sorted(read_drawn(rooms_json, "drawn rooms JSON").items())):
         keyframes, grid = carmen_map(Path(log_dir) / drawn["log"])
@@ -71,20 +76,25 @@ def evaluate_logs(
         on_map = grid.contains(rows, cols)
         standing[on_map] = rooms[rows[on_map], cols[on_map]]
         inside = standing > 0  # not in a wall or a door frame
-        for method in ("spectral", "doors"):
+        for method, source in itertools.product(("spectral", "doors"), ("keyframes", "map")):
             found = pipeline_from_options({"method": method}).segment(
-                grid, keyframes, random_state=0
+                grid, keyframes if source == "keyframes" else None, random_state=0
             )
+            regions = found.regions.labels
+            at = np.zeros(len(poses), np.int64)
+            at[on_map] = regions[rows[on_map], cols[on_map]]
             records.append(
                 {
                     "log": name,
                     "method": method,
+                    "input": source,
                     "keyframes": len(keyframes),
                     "in_rooms": round(float(inside.mean()), 3),
-                    "regions": int(found.regions.labels.max()),
+                    "regions": int(regions.max()),
                     "rooms": len(drawn["rooms"]),
-                    "keyframe_ari": agreement(found.keyframe_regions()[inside], standing[inside]),
-                    "mcc": round(score(found.regions.labels, rooms).mcc, 4),
+                    "keyframe_ari": agreement(at[inside], standing[inside]),
+                    "mcc": round(score(regions, rooms).mcc, 4),
+                    "rose2_iou": round(rose2_score(regions, rooms).iou, 1),
                 }
             )
     return records

@@ -262,8 +262,8 @@ def cmd_eval_logs(args: argparse.Namespace) -> int:
     records = evaluate_logs(
         args.data, Path(args.hand_labels) / "carmen_rooms.json", progress=args.progress
     )
-    columns = ["log", "method", "keyframes", "in_rooms", "regions", "rooms", "keyframe_ari"]
-    print(markdown_table(records, [*columns, "mcc"]))
+    columns = ["log", "method", "input", "keyframes", "regions", "rooms", "keyframe_ari"]
+    print(markdown_table(records, [*columns, "mcc", "rose2_iou"]))
     write_text(out / "results.json", json.dumps({"logs": records}, indent=2), overwrite=args.force)
     print(f"wrote {out / 'results.json'}")
     return 0
