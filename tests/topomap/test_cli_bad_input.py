@@ -598,6 +598,10 @@ def test_drawn_rooms_that_are_no_json_or_no_polygons_name_the_file_and_the_room(
         read_drawn(bad, "drawn rooms JSON")
     assert main(["eval", "logs", str(tmp_path), "--hand-labels", str(tmp_path)]) == 2
     assert "carmen_rooms.json" in _error_line(capsys)
+    bad.write_text(json.dumps({"intel": {"log": "intel.log.gz"}}))  # no rooms
+    command = ["-q", "eval", "logs", str(tmp_path), "--hand-labels", str(tmp_path)]
+    assert main([*command, "--out", str(tmp_path / "out")]) == 2
+    assert "'intel' has no list of 'rooms' drawn" in _error_line(capsys)
     grid = OccupancyGrid(np.zeros((10, 10), np.int8), 0.5)
     rooms = [{"name": "hall", "polygon": [[0, 0], [1, 1]]}]
     with pytest.raises(MapFormatError, match="room 1 \\('hall'\\): a polygon needs"):

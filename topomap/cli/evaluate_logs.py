@@ -68,6 +68,8 @@ def evaluate_logs(
     they stand in, the cells' MCC and ROSE²'s IoU."""
     records = []
     for name, drawn in progress(sorted(read_drawn(rooms_json, "drawn rooms JSON").items())):
+        if not (isinstance(drawn.get("rooms"), list) and drawn["rooms"]):
+            raise MapFormatError(f"{rooms_json}: {name!r} has no list of 'rooms' drawn")
         keyframes, grid = carmen_map(Path(log_dir) / drawn["log"])
         rooms = drawn_rooms(grid, drawn["rooms"])
         poses = poses_array(keyframes)
