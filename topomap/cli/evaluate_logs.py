@@ -65,7 +65,7 @@ def evaluate_logs(
 ) -> list[dict[str, Any]]:
     """A record per log drawn in ``rooms_json`` (logs in ``log_dir``), method and input (the
     robot's keyframes, the map alone): regions, rooms, the keyframes' ARI against the rooms
-    they stand in, the cells' MCC and ROSE²'s IoU."""
+    they stand in (None when they all stand in one), the cells' MCC and ROSE²'s IoU."""
     records = []
     for name, drawn in progress(sorted(read_drawn(rooms_json, "drawn rooms JSON").items())):
         if not (isinstance(drawn.get("rooms"), list) and drawn["rooms"]):
@@ -78,6 +78,7 @@ def evaluate_logs(
         on_map = grid.contains(rows, cols)
         standing[on_map] = rooms[rows[on_map], cols[on_map]]
         inside = standing > 0  # not in a wall or a door frame
+        rooms_stood = len(np.unique(standing[inside]))
         for method, source in itertools.product(("spectral", "doors"), ("keyframes", "map")):
             found = pipeline_from_options({"method": method}).segment(
                 grid, keyframes if source == "keyframes" else None, random_state=0
@@ -94,7 +95,10 @@ def evaluate_logs(
                     "in_rooms": round(float(inside.mean()), 3),
                     "regions": int(regions.max()),
                     "rooms": len(drawn["rooms"]),
-                    "keyframe_ari": agreement(at[inside], standing[inside]),
+                    # keyframes all in one room (a robot that kept to the corridors): no ARI
+                    "keyframe_ari": agreement(at[inside], standing[inside])
+                    if rooms_stood > 1
+                    else None,
                     "mcc": round(score(regions, rooms).mcc, 4),
                     "rose2_iou": round(rose2_score(regions, rooms).iou, 1),
                 }
