@@ -5,8 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 from maps.files import write_text
 from topomap.cli.commands.common import (
@@ -83,25 +85,27 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     eval_labels.set_defaults(func=cmd_eval_labels)
 
-    eval_corridors = eval_sub.add_parser(
-        "corridors",
-        help="corridor systems drawn on the real logs' maps against the regions of their "
-        "keyframes: one region each",
-    )
-    eval_corridors.add_argument("data", help="folder of the four CARMEN logs")
-    _add_hand_labels(eval_corridors, "carmen.json: the corridors")
-    add_output_options(eval_corridors, "out/eval-corridors")
-    eval_corridors.set_defaults(func=cmd_eval_corridors)
-
-    eval_logs = eval_sub.add_parser(
-        "logs",
-        help="rooms drawn on the real logs' maps against the regions of their keyframes "
-        "(keyframe ARI, MCC), both methods",
-    )
-    eval_logs.add_argument("data", help="folder of the CARMEN logs")
-    _add_hand_labels(eval_logs, "carmen_rooms.json: the rooms")
-    add_output_options(eval_logs, "out/eval-logs")
-    eval_logs.set_defaults(func=cmd_eval_logs)
+    for name, helping, drawn, func in (
+        (
+            "corridors",
+            "corridor systems drawn on the real logs' maps against the regions of their "
+            "keyframes: one region each",
+            "carmen.json: the corridors",
+            cmd_eval_corridors,
+        ),
+        (
+            "logs",
+            "rooms drawn on the real logs' maps against the regions of their keyframes and of "
+            "their maps alone (keyframe ARI, MCC, IoU), both methods",
+            "carmen_rooms.json: the rooms",
+            cmd_eval_logs,
+        ),
+    ):
+        on_logs = eval_sub.add_parser(name, help=helping)
+        on_logs.add_argument("data", help="folder of the CARMEN logs")
+        _add_hand_labels(on_logs, drawn)
+        add_output_options(on_logs, f"out/eval-{name}")
+        on_logs.set_defaults(func=func)
 
     eval_runs = eval_sub.add_parser(
         "runs",
@@ -243,27 +247,29 @@ def cmd_eval_labels(args: argparse.Namespace) -> int:
 def cmd_eval_corridors(args: argparse.Namespace) -> int:
     from topomap.cli.evaluate_corridors import evaluate_corridors
 
-    out = Path(args.out)
-    refuse_existing(out, ["results.json"], args.force)
-    records = evaluate_corridors(
-        args.data, Path(args.hand_labels) / "carmen.json", progress=args.progress
-    )
-    print(markdown_table(records, ["log", "regions", "largest_share", "best_iou", "pieces"]))
-    write_text(out / "results.json", json.dumps({"logs": records}, indent=2), overwrite=args.force)
-    print(f"wrote {out / 'results.json'}")
-    return 0
+    columns = ["log", "regions", "largest_share", "best_iou", "pieces"]
+    return _report_logs(args, evaluate_corridors, "carmen.json", columns)
 
 
 def cmd_eval_logs(args: argparse.Namespace) -> int:
     from topomap.cli.evaluate_logs import evaluate_logs
 
+    columns = ["log", "method", "input", "keyframes", "regions", "rooms", "keyframe_ari"]
+    return _report_logs(args, evaluate_logs, "carmen_rooms.json", [*columns, "mcc", "rose2_iou"])
+
+
+def _report_logs(
+    args: argparse.Namespace,
+    evaluate: Callable[..., list[dict[str, Any]]],
+    drawn: str,
+    columns: list[str],
+) -> int:
+    """``evaluate`` the logs of ``args.data`` against the hand labels' ``drawn`` file: the
+    records as a table of ``columns`` and in ``results.json``."""
     out = Path(args.out)
     refuse_existing(out, ["results.json"], args.force)
-    records = evaluate_logs(
-        args.data, Path(args.hand_labels) / "carmen_rooms.json", progress=args.progress
-    )
-    columns = ["log", "method", "input", "keyframes", "regions", "rooms", "keyframe_ari"]
-    print(markdown_table(records, [*columns, "mcc", "rose2_iou"]))
+    records = evaluate(args.data, Path(args.hand_labels) / drawn, progress=args.progress)
+    print(markdown_table(records, columns))
     write_text(out / "results.json", json.dumps({"logs": records}, indent=2), overwrite=args.force)
     print(f"wrote {out / 'results.json'}")
     return 0
