@@ -64,6 +64,8 @@ def nearest_first(keys: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[n
     --------
     >>> nearest_first(np.array([[5, 3, 3], [5, 7, 3]]))
     (array([3, 5, 7]), array([0, 0, 1]))
+    >>> nearest_first(np.array([[2**61, 3], [3, 5]]))  # too large for the low bits
+    (array([                  3,                   5, 2305843009213693952]), array([0, 1, 0]))
     """
     steps = keys.shape[0]
     bits = max(1, (steps - 1).bit_length())
