@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from maps.errors import InvalidScanError, LogFormatError
-from maps.limits import MAX_COORDINATE, finite_in, no_valid_beam, pose_jump
+from maps.limits import MAX_COORDINATE, MAX_HEADING, finite_in, no_valid_beam, pose_jump
 from maps.map_server import check_input_file
 from maps.scan import Keyframe, LaserScan
 
@@ -116,6 +116,8 @@ class _Line:
         for value, name in ((x, names[0]), (y, names[1])):
             if abs(value) > MAX_COORDINATE:
                 raise self.error(f"{value:g} m is farther than {MAX_COORDINATE:g} m", name)
+        if abs(t) > MAX_HEADING:
+            raise self.error(f"{t:g} rad is no heading (at most {MAX_HEADING:g})", names[2])
         return x, y, t
 
     def check_numbers(self, expected: int, field: str) -> None:

@@ -23,6 +23,10 @@ FREE = 0
 OCCUPIED = 100
 #: Cells at or above this occupancy (0..100) count as occupied, below it as free.
 OCCUPIED_FROM = 50
+#: The farthest cell index :meth:`OccupancyGrid.world_to_cell` returns, in cells from the
+#: origin: far outside any grid (a grid's sides are bounded far below it), and safe from
+#: overflow in the index arithmetic.
+FAR = 2**40
 
 Pose = tuple[float, float, float]
 
@@ -287,13 +291,26 @@ class OccupancyGrid:
     def world_to_cell(
         self, x: ArrayLike, y: ArrayLike
     ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-        """Map-frame metres to ``(row, col)`` cell indices (may lie outside the grid)."""
+        """Map-frame metres to ``(row, col)`` cell indices (may lie outside the grid; points
+        farther than :data:`FAR` cells away are put that far, so any finite point is a cell
+        index, outside the grid, with no overflow).
+
+        Examples
+        --------
+        >>> grid = OccupancyGrid(np.zeros((2, 3), np.int8), 0.5)
+        >>> grid.world_to_cell([0.2, 1.2], [0.2, 0.7])
+        (array([1, 0]), array([0, 2]))
+        >>> row, col = grid.world_to_cell(1e308, -1e308)
+        >>> bool(grid.contains(row, col)), int(col) == FAR, int(row) == FAR + 1
+        (False, True, True)
+        """
         ox, oy, yaw = self.origin
         dx = np.asarray(x, float) - ox
         dy = np.asarray(y, float) - oy
         c, s = np.cos(yaw), np.sin(yaw)
-        u = (c * dx + s * dy) / self.resolution
-        v = (-s * dx + c * dy) / self.resolution
+        with np.errstate(over="ignore", invalid="ignore"):  # inf - inf: NaN, clipped below
+            u = np.clip((c * dx + s * dy) / self.resolution, -FAR, FAR)
+            v = np.clip((-s * dx + c * dy) / self.resolution, -FAR, FAR)
         col = np.floor(u).astype(np.intp)
         row = self.shape[0] - 1 - np.floor(v).astype(np.intp)
         return row, col

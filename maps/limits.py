@@ -22,6 +22,10 @@ if TYPE_CHECKING:
 RESOLUTION_RANGE = (1e-3, 100.0)
 #: Metres from the frame's origin a pose, a transform or a map origin may lie (10,000 km).
 MAX_COORDINATE = 1e7
+#: Radians a logged heading may have: loggers that do not wrap the heading add a turn to it
+#: at each turn of the robot (a thousand and more turns fit), while a larger value is no
+#: angle (its sine and cosine lose every digit) but a corrupt field.
+MAX_HEADING = 1e4
 #: Metres a laser may move between two consecutive scans of a log. Lasers log 1 to 75 scans a
 #: second and robots move a few metres a second (a car on a motorway: 40 m/s), so a longer
 #: jump is a corrupt pose, not motion, even across a gap of half a minute in a log; one such

@@ -177,6 +177,13 @@ def _pnm_header(data: bytes, path: Path) -> tuple[str, int, int, int, int]:
         while at < len(data) and data[at : at + 1].isdigit():
             at += 1
         name = ("width", "height", "maxval")[len(values)]
+        if start == at and at >= len(data) >= MAX_PNM_HEADER_BYTES:
+            raise MapFormatError(
+                f"{magic} header runs past {MAX_PNM_HEADER_BYTES} bytes before its {name} "
+                "(comments that long are not read)",
+                path=path,
+                field="image",
+            )
         if start == at:
             raise MapFormatError(f"{magic} header has no {name}", path=path, field="image")
         if at - start > MAX_PNM_DIGITS:
@@ -363,9 +370,33 @@ def _short(text: str, limit: int = 200) -> str:
     return line if len(line) <= limit else line[: limit - 3] + "..."
 
 
+class _PlainLoader(yaml.SafeLoader):
+    """PyYAML's safe loader without aliases (``*name``): a map YAML never repeats a node,
+    and a few lines of nested aliases expand to billions of items once a message prints the
+    value (a YAML bomb)."""
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            raise yaml.composer.ComposerError(
+                None, None, "aliases (*name) are not allowed", self.peek_event().start_mark
+            )
+        return super().compose_node(parent, index)
+
+
 def parse_yaml(path: str | Path, *, limit: int = MAX_YAML_BYTES) -> Any:
-    """The data of a small YAML file (data only: ``safe_load``), every failure a one-line
-    :class:`MapFormatError` naming the file and line."""
+    """The data of a small YAML file (data only, as ``safe_load`` reads it, without
+    aliases), every failure a one-line :class:`MapFormatError` naming the file and line.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> bomb = Path(tempfile.mkdtemp()) / "map.yaml"
+    >>> _ = bomb.write_text("a: &a [x, x]" + chr(10) + "b: [*a, *a]" + chr(10))
+    >>> parse_yaml(bomb)
+    Traceback (most recent call last):
+    ...
+    maps.errors.MapFormatError: ...map.yaml, line 2: not valid YAML: aliases (*name) are not allowed
+    """
     path = check_input_file(path, "YAML")
     size = path.stat().st_size
     if size > limit:
@@ -373,7 +404,7 @@ def parse_yaml(path: str | Path, *, limit: int = MAX_YAML_BYTES) -> Any:
             f"{size} bytes is too large for a map YAML (at most {limit})", path=path
         )
     try:
-        return yaml.safe_load(path.read_text(encoding="utf-8"))
+        return yaml.load(path.read_text(encoding="utf-8"), Loader=_PlainLoader)
     except OSError as err:
         raise _unreadable(path, None, err) from None
     except yaml.YAMLError as err:
@@ -390,6 +421,9 @@ def parse_yaml(path: str | Path, *, limit: int = MAX_YAML_BYTES) -> Any:
         raise MapFormatError("not valid YAML: nested too deeply", path=path) from None
     except UnicodeDecodeError:
         raise MapFormatError("not a text file", path=path) from None
+    except (ValueError, OverflowError) as err:  # an integer of thousands of digits
+        what = str(err).split(";")[0]  # not Python's advice on sys.set_int_max_str_digits
+        raise MapFormatError(f"not valid YAML: {_short(what)}", path=path) from None
 
 
 def _parse_yaml(path: Path) -> dict[str, Any]:

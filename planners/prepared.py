@@ -5,8 +5,11 @@ submap) takes seconds on a building, a query milliseconds: the prepared state is
 with the regions and read back by every later run. :func:`write_prepared` writes a NumPy
 ``.npz`` file (arrays only: :func:`read_prepared` loads it without pickles, nothing in it is
 executed) holding the format name and its :data:`VERSION`, the :func:`door_graph_key` of the
-map, labels and robot it was made for, the layout (filled labels, parts, doors) and every
-part's visibility graph, all parts' arrays concatenated.
+map, labels and robot it was made for, the layout (filled labels, parts, doors), every
+part's visibility graph, all parts' arrays concatenated, and the SHA-256 of all of them
+(:func:`checksum`): a file changed after it was written (a copy cut short, an edit, a bit
+flipped on disk) is refused as damaged, so the planner is prepared again rather than
+routing over arrays nobody made.
 
 A planner given a prepared state checks its key against its own map, labels and radius
 (:meth:`Prepared.check`): a door graph of another map is refused, never used.
@@ -14,6 +17,7 @@ A planner given a prepared state checks its key against its own map, labels and 
 
 from __future__ import annotations
 
+import hashlib
 import zipfile
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
@@ -33,8 +37,9 @@ from segmentation.transitions import Transition
 
 #: The ``format`` field of a saved door graph.
 FORMAT = "topomap-door-graph"
-#: The version :func:`write_prepared` writes; :func:`read_prepared` reads it and no other.
-VERSION = 1
+#: The version :func:`write_prepared` writes; :func:`read_prepared` reads it and no other
+#: (2: with the arrays' :func:`checksum`).
+VERSION = 2
 #: The arrays of one part's visibility graph (:meth:`VisibilityGraph.arrays`).
 _GRAPH_ARRAYS = ("corners", "blocked", "sites", "data", "indices", "indptr", "dist", "pred")
 
@@ -117,6 +122,7 @@ def write_prepared(prepared: Prepared, path: str | Path, *, overwrite: bool = Fa
     for name in _GRAPH_ARRAYS:
         arrays[name] = np.concatenate([g[name].ravel() for g in graphs] or [np.zeros(0)])
         arrays[f"{name}_sizes"] = np.array([g[name].size for g in graphs], np.int64)
+    arrays["checksum"] = np.array(checksum(arrays))
     with written(path, overwrite=overwrite) as partial, partial.open("wb") as stream:
         np.savez_compressed(stream, allow_pickle=False, **arrays)
     return path
@@ -131,7 +137,8 @@ def read_prepared(path: str | Path, space: Workspace) -> Prepared:
     FileNotFoundError
         ``path`` does not exist.
     DoorGraphFileError
-        Not a door graph file, damaged, or of another version.
+        Not a door graph file, of another version, or damaged (its arrays do not match
+        their checksum).
     StaleDoorGraphError
         Prepared for another robot radius or a map of another size.
     """
@@ -150,6 +157,10 @@ def read_prepared(path: str | Path, space: Workspace) -> Prepared:
             f"{path}: format {about['format']!r} version {about['version']!r}; this topomap "
             f"reads {FORMAT!r} version {VERSION}"
         )
+    if _scalar(arrays, "checksum") != checksum(arrays):
+        raise DoorGraphFileError(
+            f"{path}: a damaged door graph file: its arrays do not match their checksum"
+        )
     radius = _scalar(arrays, "robot_radius")
     if radius != space.robot_radius:
         raise _other_robot(radius, space, f"{path}: ")
@@ -163,6 +174,28 @@ def read_prepared(path: str | Path, space: Workspace) -> Prepared:
         return _prepared(arrays, space)
     except (KeyError, ValueError, IndexError, TypeError) as err:
         raise DoorGraphFileError(f"{path}: a damaged door graph file: {err!r}") from None
+
+
+def checksum(arrays: Mapping[str, NDArray]) -> str:
+    """The SHA-256 (hex) of ``arrays`` but one named ``checksum``: each array's name, type,
+    shape and bytes, in the order of the names.
+
+    Examples
+    --------
+    >>> one = {"a": np.arange(3), "b": np.array("x")}
+    >>> checksum(one) == checksum({**one, "checksum": np.array("anything")})
+    True
+    >>> checksum(one) == checksum({"a": np.arange(3).reshape(3, 1), "b": np.array("x")})
+    False
+    """
+    digest = hashlib.sha256()
+    for name in sorted(arrays):
+        if name == "checksum":
+            continue
+        value = np.ascontiguousarray(arrays[name])
+        digest.update(f"{name} {value.dtype.str} {value.shape};".encode())
+        digest.update(value.tobytes())
+    return digest.hexdigest()
 
 
 def _other_robot(radius: object, space: Workspace, where: str = "") -> StaleDoorGraphError:

@@ -336,9 +336,13 @@ class MapSegmenter(Estimator):
         self._validate_params()
         conditioned = condition(grid, self.robot_radius, self.clutter_size, self.min_area)
         if not conditioned.free.any():
+            counts = ", ".join(
+                f"{name.removesuffix('_cells').replace('_', ' ')} {count}"
+                for name, count in conditioned.summary().items()
+            )
             raise SegmentationError(
                 "the map has no free space a robot of radius "
-                f"{self.robot_radius} m fits in ({conditioned.summary()})"
+                f"{self.robot_radius} m fits in (cells: {counts})"
             )
         return conditioned
 

@@ -6,6 +6,8 @@ The roots of every branch live in the lowest package, :mod:`maps.errors`
 
 from __future__ import annotations
 
+import copy
+
 from maps.errors import TopomapError
 
 
@@ -26,3 +28,22 @@ class SchedulerError(TopomapError, ConnectionError):
 class ExportError(TopomapError, ValueError):
     """An export that cannot be written as asked: an unknown storage or format, more data
     than the format's bound, or a writer that refuses the data (the cause is chained)."""
+
+
+def led_by(err: TopomapError, message: str) -> TopomapError:
+    """A copy of ``err`` (its type and fields) whose text is ``message``: an error from deep
+    in the pipeline led by the input it came from.
+
+    Examples
+    --------
+    >>> from segmentation.errors import SegmentationError
+    >>> found = led_by(SegmentationError("no free space"), "lab.yaml: no free space")
+    >>> type(found).__name__, str(found)
+    ('SegmentationError', 'lab.yaml: no free space')
+    """
+    led = copy.copy(err)
+    if isinstance(led, OSError):  # the file errors' text is their strerror
+        led.strerror = message
+    else:
+        led.args = (message,)
+    return led

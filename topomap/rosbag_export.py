@@ -40,6 +40,7 @@ import networkx as nx
 import numpy as np
 import shapely
 
+from maps.errors import OutputWriteError
 from maps.files import OutputFolder
 from maps.grid import OccupancyGrid
 from maps.tf import quaternion_from_yaw
@@ -328,6 +329,8 @@ def write_rosbag(
         A file of the bag exists and ``overwrite`` is false; nothing is written then.
     ExportError
         An unknown ``storage``, too many marker points, or a write that rosbags refuses.
+    OutputWriteError
+        The system refused the write (the disk full); nothing half-written is left.
     """
     from rosbags.interfaces import (
         Qos,
@@ -367,9 +370,11 @@ def write_rosbag(
                     )
                     data = store.serialize_cdr(message, message.__msgtype__)
                     writer.write(connection, round(when * 1e9), data)
+            for name in names:  # the bag's files, up from its folder into the staging folder
+                shutil.move(bag / name, work / name)
+            bag.rmdir()
         except WriterError as err:
             raise ExportError(f"{path}: rosbags could not write the bag: {err}") from err
-        for name in names:  # the bag's files, up from its folder into the staging folder
-            shutil.move(bag / name, work / name)
-        bag.rmdir()
+        except OSError as err:  # the disk full, a quota, an I/O error
+            raise OutputWriteError(path, err) from err
     return path

@@ -360,6 +360,17 @@ def test_a_pose_far_away_in_a_log_names_line_and_field(tmp_path):
     assert info.value.line == 2 and info.value.field == "x"
 
 
+def test_a_heading_that_is_no_angle_names_line_and_field(tmp_path):
+    path = tmp_path / "turned.log"
+    turns = _flaser(3, [1.0, 2.0, 3.0], (1.0, 2.0, 6000.0))  # unwrapped: a thousand turns
+    path.write_text(turns + _flaser(3, [1.0, 2.0, 3.0], (1.0, 2.0, 1e300)))
+    with pytest.raises(LogFormatError, match=r"1e\+300 rad is no heading") as info:
+        read_carmen(path)
+    assert info.value.line == 2 and info.value.field == "theta"
+    path.write_text(turns)
+    assert read_carmen(path)[0].pose[2] == pytest.approx(6000.0)
+
+
 @pytest.mark.parametrize("offset", [(150.0, 0.0), (0.0, -11000.0)])
 def test_a_laser_jumping_far_between_lines_names_both_lines_and_poses(tmp_path, offset):
     path = tmp_path / "jump.log"

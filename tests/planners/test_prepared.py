@@ -90,6 +90,28 @@ def test_damaged_foreign_and_newer_files_are_typed_errors(office, tmp_path):
         read_prepared(tmp_path / "missing.npz", space)
 
 
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [
+        ("labels", 10**6),
+        ("labels", 0),
+        ("sites", np.nan),
+        ("door_geometry", np.nan),
+        ("indptr", 1000),
+    ],
+)
+def test_an_edited_file_is_refused_as_damaged(office, tmp_path, name, value):
+    topo, _, prepared = office
+    space = Workspace(topo.grid, 0.2)
+    with np.load(write_prepared(prepared, tmp_path / "good.npz")) as found:
+        arrays = {key: found[key] for key in found.files}
+    edited = arrays[name].astype(np.float64 if np.isnan(value) else arrays[name].dtype)
+    edited[...] = value
+    np.savez_compressed(tmp_path / "edited.npz", **{**arrays, name: edited})
+    with pytest.raises(DoorGraphFileError, match="do not match their checksum"):
+        read_prepared(tmp_path / "edited.npz", space)
+
+
 def test_writing_never_overwrites_without_asking(office, tmp_path):
     from maps.errors import OutputExistsError
 

@@ -465,7 +465,9 @@ def test_bench_maps_command_times_the_segment_command_in_parts(tmp_path, capsys)
 def test_segment_bad_input(tmp_path, capsys):
     walls = maps_grid_without_free_space(tmp_path)
     assert main(["segment", str(walls), "--out", str(tmp_path / "o")]) == 2
-    assert "no free space a robot of radius 0.2 m fits in" in capsys.readouterr().err
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith(f"topomap: error: {walls}: the map has no free space a robot")
+    assert "radius 0.2 m fits in (cells: free " in line  # the counts, not a Python dict
     assert main(["segment", "--out", str(tmp_path / "o")]) == 2
     assert "one of the arguments map --scans is required" in capsys.readouterr().err
     assert main(["segment", str(walls), "--scans", "x.log", "--out", str(tmp_path / "o")]) == 2
@@ -574,6 +576,16 @@ def test_plan_rejects_a_start_in_a_wall(tmp_path, capsys):
     assert "argument --start: expected X,Y in metres, got '1,2,3,4'" in capsys.readouterr().err
     assert main(["plan", str(yaml), "--start", "1;2", "--goal", "3,3"]) == 2  # a name
     assert "no region named '1;2'; known names: " in capsys.readouterr().err
+
+
+def test_plan_refuses_a_bad_start_before_preparing_the_planner(tmp_path, capsys):
+    yaml = _flat_map(tmp_path / "flat")
+    assert main(["-q", "segment", str(yaml), "--out", str(tmp_path / "seg")]) == 0
+    prepared = list(tmp_path.joinpath("seg").glob("door_graph_*"))
+    argv = ["-q", "plan", str(yaml), "--regions", str(tmp_path / "seg"), "--goal", "2"]
+    assert main([*argv, "--start=1e308,1e308"]) == 2
+    assert "start (1e+308, 1e+308) lies outside the map" in capsys.readouterr().err
+    assert list(tmp_path.joinpath("seg").glob("door_graph_*")) == prepared  # none prepared
 
 
 def test_plan_on_a_real_floor_plan(data_dir, capsys):

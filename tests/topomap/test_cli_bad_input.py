@@ -6,6 +6,7 @@ saved folder is refused."""
 from __future__ import annotations
 
 import importlib
+import itertools
 import json
 from pathlib import Path
 
@@ -88,6 +89,11 @@ def test_an_image_header_too_large_is_one_line(tmp_path, capsys):
     assert main(["segment", str(tmp_path / "map.yaml"), "--out", str(tmp_path / "o")]) == 2
     line = _error_line(capsys)
     assert "img.pgm" in line and "2000000000 x 2000000000 cells" in line
+    comment = b"#" + b"x" * (2 << 20) + b"\n"  # a header comment over the bytes read of it
+    (tmp_path / "img.pgm").write_bytes(b"P5\n" + comment + b"80 50\n255\n" + bytes(4000))
+    assert main(["segment", str(tmp_path / "map.yaml"), "--out", str(tmp_path / "o")]) == 2
+    line = _error_line(capsys)
+    assert "img.pgm" in line and "header runs past 1048576 bytes before its width" in line
 
 
 def test_a_generated_building_too_large_for_memory_is_refused_before_it_is_drawn(tmp_path, capsys):
@@ -386,6 +392,34 @@ def test_yaml_and_empty_log_messages_are_one_located_line(tmp_path, capsys):
     (tmp_path / "empty.log").write_text("")
     assert main(["-q", "map", str(tmp_path / "empty.log"), "--out", str(tmp_path / "o")]) == 2
     assert "empty.log" in _error_line(capsys)
+
+
+def _bomb(levels: int) -> str:
+    """A map YAML whose image is ``9 ** levels`` nested aliases (a few hundred bytes)."""
+    names = "abcdefghijklmnopqrstuvwxyz"[: levels + 1]
+    lines = [f"{names[0]}: &{names[0]} [x, x, x, x, x, x, x, x, x]"]
+    for low, high in itertools.pairwise(names):
+        lines.append(f"{high}: &{high} [" + ", ".join([f"*{low}"] * 9) + "]")
+    return "\n".join([*lines, f"image: *{names[-1]}", "resolution: 0.1", "origin: [0, 0, 0]"])
+
+
+@pytest.mark.parametrize(
+    ("text", "shown"),
+    [
+        (_bomb(12), "line 2: not valid YAML: aliases (*name) are not allowed"),
+        ("negate: " + "1" * 5000 + "\nimage: a.pgm\n", "not valid YAML: Exceeds the limit"),
+    ],
+)
+def test_a_yaml_bomb_or_a_huge_integer_is_one_line_at_once(tmp_path, capsys, text, shown):
+    (tmp_path / "map.yaml").write_text(text)
+    for argv in (
+        ["segment", "--out", str(tmp_path / "o")],
+        ["plan", "--start", "1,1", "--goal", "2,2"],
+    ):
+        assert main(["-q", argv[0], str(tmp_path / "map.yaml"), *argv[1:]]) == 2
+        line = _error_line(capsys)
+        assert "map.yaml" in line and shown in line
+    assert not (tmp_path / "o").exists()
 
 
 def test_json_in_topomap_json_is_data_only(tmp_path, saved):

@@ -1,5 +1,6 @@
 """The ROS 2 bag export, read back with rosbags and checked against the TopoMap."""
 
+import errno
 import itertools
 from pathlib import Path
 
@@ -8,7 +9,7 @@ import pytest
 import shapely
 from rosbags.highlevel import AnyReader
 
-from maps.errors import OutputExistsError
+from maps.errors import OutputExistsError, OutputWriteError
 from maps.grid import OccupancyGrid
 from maps.sim.floorplan import generate_floor_plan
 from planners.route_graph import building_route_graph
@@ -143,3 +144,16 @@ def test_bag_is_never_overwritten_unasked_and_errors_leave_nothing(topo, tmp_pat
     with pytest.raises(ExportError, match="more than 10 points"):
         topo.to_rosbag(tmp_path / "huge")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]  # no half-written folder
+
+
+def test_a_full_disk_is_a_typed_error_and_leaves_nothing(topo, tmp_path, monkeypatch):
+    from rosbags.rosbag2 import Writer
+
+    def full(self, connection, timestamp, data):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(Writer, "write", full)
+    with pytest.raises(OutputWriteError, match="bag: No space left on device") as caught:
+        topo.to_rosbag(tmp_path / "bag")
+    assert caught.value.errno == errno.ENOSPC
+    assert list(tmp_path.iterdir()) == []

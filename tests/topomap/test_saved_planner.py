@@ -107,3 +107,16 @@ def test_plan_reads_the_folders_own_map_once_and_refuses_another_map(tmp_path, c
     other = generate_floor_plan("office", random_state=5).grid.save(tmp_path / "other.yaml")
     assert main(["-q", plan[0], str(other), *plan[1:]]) == 2
     assert "holds the regions of another map" in capsys.readouterr().err
+
+
+def test_an_edited_door_graph_is_rebuilt_not_trusted(tmp_path, caplog):
+    topo = _saved(tmp_path / "saved")
+    path = tmp_path / "saved" / door_graph_name(0.2)
+    with np.load(path) as found:
+        arrays = {name: found[name] for name in found.files}
+    np.savez_compressed(path, **{**arrays, "labels": np.zeros_like(arrays["labels"])})
+    with caplog.at_level(logging.WARNING, logger="topomap.saving"):
+        planner = TopoMap.load(tmp_path / "saved").planner(0.2)
+    assert not planner.restored and "checksum" in caplog.text
+    goal = max(topo.graph.nodes)
+    assert planner.plan(1, goal).regions == topo.planner(0.2).plan(1, goal).regions

@@ -3,7 +3,6 @@ per plan) and ROSE²'s real SLAM maps (a colour image per map, ROSE²'s own resu
 
 from __future__ import annotations
 
-import copy
 import csv
 import time
 from collections.abc import Callable, Iterator
@@ -20,6 +19,7 @@ from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from maps.map_server import grid_from_image
 from segmentation.export import read_image_unchanged
 from segmentation.metrics import colour_labels, rose2_score, score
+from topomap.errors import led_by
 from topomap.topomap import pipeline_from_options
 
 METRICS = ["recall", "precision", "mcc", "ari", "rose2_precision", "rose2_recall", "rose2_iou"]
@@ -376,26 +376,8 @@ def evaluate_all(
         except TopomapError as err:
             if str(plan.yaml) in str(err):
                 raise
-            raise _led_by(err, f"{plan.yaml}: {err}") from err
+            raise led_by(err, f"{plan.yaml}: {err}") from err
     return records
-
-
-def _led_by(err: TopomapError, message: str) -> TopomapError:
-    """A copy of ``err`` (its type and fields) whose text is ``message``.
-
-    Examples
-    --------
-    >>> from segmentation.errors import SegmentationError
-    >>> found = _led_by(SegmentationError("no free space"), "lab.yaml: no free space")
-    >>> type(found).__name__, str(found)
-    ('SegmentationError', 'lab.yaml: no free space')
-    """
-    led = copy.copy(err)
-    if isinstance(led, OSError):  # the file errors' text is their strerror
-        led.strerror = message
-    else:
-        led.args = (message,)
-    return led
 
 
 def read_anchors(data_dir: str | Path) -> list[dict[str, Any]]:

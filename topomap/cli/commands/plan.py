@@ -63,6 +63,9 @@ def cmd_plan(args: argparse.Namespace) -> int:
     start, goal = (e if isinstance(e, tuple) else find_region(topo.graph, e) for e in (start, goal))
     if isinstance(robot, Disc):
         planner: Any = topo.planner(robot.radius)
+        for end, what in ((start, "start"), (goal, "goal")):
+            if isinstance(end, tuple):  # refused before a large map's minute of preparing
+                planner.space.check(end, what)
         if not planner.restored:
             _prepare(args, topo, planner)
     else:

@@ -73,8 +73,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def cmd_segment(args: argparse.Namespace) -> int:
     from maps.grid import OccupancyGrid
     from maps.scan import select_keyframes
+    from segmentation.errors import ParameterError, SegmentationError
     from topomap.cli.drawing import draw_regions
     from topomap.cli.inputs import input_kind
+    from topomap.errors import led_by
     from topomap.saving import SAVED
     from topomap.topomap import TopoMap
 
@@ -92,32 +94,36 @@ def cmd_segment(args: argparse.Namespace) -> int:
         written_names.append("changes.json")
     refuse_existing(out, written_names, args.force)
     previous = None if args.previous is None else TopoMap.load(args.previous)
-    if args.scans is not None:
-        frames = read_keyframes(Path(args.scans), args)
-        keyframes = select_keyframes(frames, distance=args.distance)
-        options = {"on_stage": args.progress.stage, **segmenter_options(args)}
-        if previous is not None:
-            from maps.mapping import grid_from_keyframes
+    source = args.scans if args.scans is not None else args.map
+    try:
+        if args.scans is not None:
+            frames = read_keyframes(Path(args.scans), args)
+            keyframes = select_keyframes(frames, distance=args.distance)
+            options = {"on_stage": args.progress.stage, **segmenter_options(args)}
+            if previous is not None:
+                from maps.mapping import grid_from_keyframes
 
-            grid = grid_from_keyframes(keyframes, 0.05)
-            topo = _update(previous, args.previous, grid, keyframes, **options)
+                grid = grid_from_keyframes(keyframes, 0.05)
+                topo = _update(previous, args.previous, grid, keyframes, **options)
+            else:
+                topo = TopoMap.from_keyframes(keyframes, **options)
         else:
-            topo = TopoMap.from_keyframes(keyframes, **options)
-        source = args.scans
-    else:
-        if args.map_topic is not None or read_as_bag(Path(args.map)):
-            from maps.rosbag import read_rosbag_map
+            if args.map_topic is not None or read_as_bag(Path(args.map)):
+                from maps.rosbag import read_rosbag_map
 
-            grid = read_rosbag_map(args.map, topic=args.map_topic, stamp=args.stamp)
-        else:
-            grid = OccupancyGrid.load(args.map)
-        options = {"on_stage": args.progress.stage, **segmenter_options(args)}
-        topo = (
-            TopoMap.from_grid(grid, **options)
-            if previous is None
-            else _update(previous, args.previous, grid, None, **options)
-        )
-        source = args.map
+                grid = read_rosbag_map(args.map, topic=args.map_topic, stamp=args.stamp)
+            else:
+                grid = OccupancyGrid.load(args.map)
+            options = {"on_stage": args.progress.stage, **segmenter_options(args)}
+            topo = (
+                TopoMap.from_grid(grid, **options)
+                if previous is None
+                else _update(previous, args.previous, grid, None, **options)
+            )
+    except SegmentationError as err:  # the input cannot be segmented: name it
+        if isinstance(err, ParameterError) or str(source) in str(err):
+            raise
+        raise led_by(err, f"{source}: {err}") from err
     folder = OutputFolder(out, written_names, overwrite=args.force, how="--force", last=SAVED[-1])
     count = topo.graph.number_of_nodes()
     # every file appears at once (an interrupted run leaves none); the picture is drawn in a
