@@ -38,6 +38,8 @@ NUMBERS = [
     "nan",
     ".inf",
     "1" + "0" * 400,
+    "1" * 5000,  # over Python's 4300 digits for reading an integer
+    "*bomb",  # nine to the twelfth items if the alias below were expanded
     "0.05",
     "[1, 2]",
     "abc",
@@ -65,7 +67,14 @@ def _yaml_case(rng: random.Random, folder: Path) -> None:
     if rng.random() < 0.05:
         fields["origin"] = "[" * 5000 + "]" * 5000
     path = folder / "map.yaml"
-    path.write_text("".join(f"{k}: {v}\n" for k, v in fields.items()))
+    levels = [
+        f"l{i}: &{'bomb' if i == 12 else f'l{i}'} ["
+        + ", ".join(["x" if i == 0 else f"*l{i - 1}"] * 9)
+        + "]\n"
+        for i in range(13)
+    ]
+    bomb = "".join(levels) if "*bomb" in fields.values() else ""
+    path.write_text(bomb + "".join(f"{k}: {v}\n" for k, v in fields.items()))
     grid = load_map(path)
     if fields["negate"] == "0" and fields["free_thresh"] == "0.196" and grid.cells[0, 0] != FREE:
         raise SilentError(f"a white pixel of maxval {maxval} is not free")
