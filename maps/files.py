@@ -105,6 +105,8 @@ def check_output_file(path: str | Path, *, overwrite: bool, how: str = "overwrit
 
 def _check_file(path: Path, *, overwrite: bool, how: str) -> Path:
     """:func:`check_output_file` once its folder is checked."""
+    if not isinstance(overwrite, bool):  # "no" is truthy: a user's file lost
+        raise OutputPathError(path, f"overwrite must be True or False, got {overwrite!r}")
     try:
         is_dir, exists = path.is_dir(), path.exists()
     except OSError as err:  # a name too long

@@ -68,6 +68,7 @@ class OccupancyGrid:
             ) from None
         if cells.ndim != 2 or cells.size == 0:
             raise InvalidMapError(f"cells must be a non-empty 2-D array, got shape {cells.shape}")
+        check_map_size(*cells.shape, what="grid")  # before a pass over a view of a huge array
         if not np.issubdtype(cells.dtype, np.integer):
             raise InvalidMapError(f"cells must be integers (-1..100), got dtype {cells.dtype}")
         if cells.min() < UNKNOWN or cells.max() > OCCUPIED:
@@ -104,11 +105,29 @@ class OccupancyGrid:
         origin: Pose = (0.0, 0.0, 0.0),
         unknown: ArrayLike | None = None,
     ) -> Self:
-        """A grid whose ``free`` cells are free and every other cell occupied (or ``unknown``)."""
-        free_mask = np.asarray(free, bool)
-        cells = np.where(free_mask, FREE, OCCUPIED).astype(np.int8)
+        """A grid whose ``free`` cells are free and every other cell occupied (or ``unknown``);
+        the masks are boolean (or 0 / 1) arrays of one 2-D shape.
+
+        Examples
+        --------
+        >>> OccupancyGrid.from_masks([[True, False]], 0.1, unknown=[[False, True]]).cells.tolist()
+        [[0, -1]]
+        >>> OccupancyGrid.from_masks([[np.nan, 1.0]], 0.1)
+        Traceback (most recent call last):
+        ...
+        maps.errors.InvalidMapError: free must be a boolean (or 0 / 1) 2-D mask, got dtype float64
+        """
+        masks = {"free": _mask(free, "free")}
         if unknown is not None:
-            cells[np.asarray(unknown, bool) & ~free_mask] = UNKNOWN
+            masks["unknown"] = _mask(unknown, "unknown")
+            if masks["unknown"].shape != masks["free"].shape:
+                raise InvalidMapError(
+                    f"unknown of shape {masks['unknown'].shape} for free of shape "
+                    f"{masks['free'].shape}"
+                )
+        cells = np.where(masks["free"], FREE, OCCUPIED).astype(np.int8)
+        if unknown is not None:
+            cells[masks["unknown"] & ~masks["free"]] = UNKNOWN
         return cls(cells, resolution, origin)
 
     @classmethod
@@ -433,6 +452,7 @@ class OccupancyGrid:
         """
         if not (isinstance(left, int) and isinstance(top, int) and left >= 0 and top >= 0):
             raise InvalidMapError(f"padding must be whole cells >= 0, got {left!r}, {top!r}")
+        check_map_size(self.shape[0] + top, self.shape[1] + left, what="padded grid")
         cells = np.full((self.shape[0] + top, self.shape[1] + left), UNKNOWN, np.int8)
         cells[top:, left:] = self.cells
         ox, oy, yaw = self.origin
@@ -510,3 +530,19 @@ def clearance_of(space: NDArray[np.bool_], resolution: float) -> NDArray[np.floa
     np.sqrt(np.rint(distance, out=distance), out=distance)
     np.multiply(distance[1:-1, 1:-1], np.float32(resolution), out=found[box])
     return found
+
+
+def _mask(values: ArrayLike, name: str) -> NDArray[np.bool_]:
+    """``values`` as a boolean 2-D mask, its size bounded before it is copied: booleans or
+    integers 0 / 1 (a NaN or a string is no answer to "is this cell free")."""
+    found = np.asarray(values)
+    if found.ndim != 2 or found.size == 0:
+        raise InvalidMapError(f"{name} must be a non-empty 2-D mask, got shape {found.shape}")
+    check_map_size(*found.shape, what=f"{name} mask")
+    if found.dtype != bool and not (
+        np.issubdtype(found.dtype, np.integer) and found.min() >= 0 and found.max() <= 1
+    ):
+        raise InvalidMapError(
+            f"{name} must be a boolean (or 0 / 1) 2-D mask, got dtype {found.dtype}"
+        )
+    return found.astype(bool)

@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from maps.errors import InvalidScanError
 from maps.grid import Pose
-from maps.limits import MAX_COORDINATE, finite_in
+from maps.limits import MAX_COORDINATE, MAX_HEADING, finite_in
 
 
 @dataclass(frozen=True, eq=False)
@@ -123,14 +123,35 @@ class LaserScan:
 
 
 def check_pose(pose: ArrayLike) -> Pose:
-    """``(x, y, yaw)`` as floats; raises InvalidScanError unless three finite numbers."""
-    values = np.asarray(pose, dtype=float).ravel()
+    """``(x, y, yaw)`` as floats; raises InvalidScanError unless three finite numbers, the
+    point within :data:`~maps.limits.MAX_COORDINATE` metres and the yaw within
+    :data:`~maps.limits.MAX_HEADING` radians.
+
+    Examples
+    --------
+    >>> check_pose([1, 2, 0.5])
+    (1.0, 2.0, 0.5)
+    >>> check_pose((0.0, 0.0, 1e300))
+    Traceback (most recent call last):
+    ...
+    maps.errors.InvalidScanError: a pose's yaw must lie within 10000 rad, got 1e+300
+    """
+    try:
+        values = np.asarray(pose, dtype=float).ravel()
+    except (TypeError, ValueError, OverflowError):  # "abc", None in it, 10**400
+        values = np.zeros(0)
     if values.shape != (3,) or not np.all(np.isfinite(values)):
-        raise InvalidScanError(f"a pose must be three finite numbers (x, y, yaw), got {pose!r}")
+        raise InvalidScanError(
+            f"a pose must be three finite numbers (x, y, yaw), got {pose!r:.200}"
+        )
     if np.abs(values[:2]).max() > MAX_COORDINATE:
         raise InvalidScanError(
             f"a pose must lie within {MAX_COORDINATE:g} m of the origin, got "
             f"({values[0]:g}, {values[1]:g}, {values[2]:g})"
+        )
+    if abs(values[2]) > MAX_HEADING:
+        raise InvalidScanError(
+            f"a pose's yaw must lie within {MAX_HEADING:g} rad, got {values[2]:g}"
         )
     return float(values[0]), float(values[1]), float(values[2])
 
@@ -172,6 +193,8 @@ class Keyframe:
         index = self.scan_index
         if finite_in(index, "scan_index", 0, math.inf) is not None or int(index) != index:
             raise InvalidScanError(f"scan_index must be an integer >= 0, got {index!r}")
+        if self.stamp is not None and finite_in(self.stamp, "stamp", -math.inf, math.inf):
+            raise InvalidScanError(f"stamp must be a finite number of seconds, got {self.stamp!r}")
 
     def __repr__(self) -> str:
         pose = ", ".join(f"{v:.3f}" for v in self.pose)
@@ -200,7 +223,7 @@ def select_keyframes(
     >>> [k.scan_index for k in select_keyframes(frames, distance=0.25)]
     [0, 3, 6, 9]
     """
-    frames = list(frames)
+    frames = keyframe_list(frames)
     kept = keyframe_indices(poses_array(frames), distance=distance, angle=angle)
     return [frames[i] for i in kept]
 
@@ -231,6 +254,37 @@ def keyframe_indices(
     return kept
 
 
+def keyframe_list(frames: Iterable[Keyframe]) -> list[Keyframe]:
+    """``frames`` as a list; :class:`InvalidScanError` naming the first item that is no
+    :class:`Keyframe` (a string, None), before anything reads their scans.
+
+    Examples
+    --------
+    >>> scan = LaserScan(np.ones(3), -0.1, 0.1)
+    >>> len(keyframe_list(iter([Keyframe((1.0, 2.0, 0.5), scan)])))
+    1
+    >>> keyframe_list([Keyframe((1.0, 2.0, 0.5), scan), "x"])
+    Traceback (most recent call last):
+    ...
+    maps.errors.InvalidScanError: keyframes must be Keyframes; item 1 is 'x'
+    """
+    try:
+        frames = list(frames)
+    except TypeError:
+        raise InvalidScanError(
+            f"keyframes must be a list of Keyframes, got {frames!r:.80}"
+        ) from None
+    for index, item in enumerate(frames):
+        if not isinstance(item, Keyframe):
+            raise InvalidScanError(f"keyframes must be Keyframes; item {index} is {item!r:.80}")
+    return frames
+
+
 def poses_array(frames: Sequence[Keyframe]) -> NDArray[np.float64]:
-    """``(n, 3)`` array of the frames' poses."""
-    return np.array([f.pose for f in frames], dtype=float).reshape(-1, 3)
+    """``(n, 3)`` array of the frames' poses (:func:`keyframe_list`'s error for an item that
+    is no keyframe)."""
+    try:
+        return np.array([f.pose for f in frames], dtype=float).reshape(-1, 3)
+    except AttributeError:
+        keyframe_list(frames)
+        raise

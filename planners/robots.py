@@ -40,6 +40,12 @@ class RobotSpecError(PlannerParameterError):
     """A robot spec or model parameter that makes no sense (names the value at fault)."""
 
 
+#: The tightest turning radius, metres: the collision checks along a car's arcs are spaced by
+#: the turning radius over the footprint's reach, so a turn of a nanometre would check
+#: billions of states; a car turning tighter than a centimetre turns in place.
+MIN_TURNING_RADIUS = 0.01
+
+
 def _positive(value: Any, what: str) -> float:
     try:
         number = float(value)
@@ -162,7 +168,12 @@ class Dubins(Footprint):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        _positive(self.turning_radius, "turning radius")
+        if _positive(self.turning_radius, "turning radius") < MIN_TURNING_RADIUS:
+            raise RobotSpecError(
+                f"turning radius must be at least {MIN_TURNING_RADIUS:g} m (a car turning "
+                "tighter turns in place: plan it as a rectangle, `rect:LxW`), got "
+                f"{self.turning_radius!r}"
+            )
 
     @property
     def reach(self) -> float:

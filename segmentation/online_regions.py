@@ -23,9 +23,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.errors import MapTooLargeError
-from maps.limits import check_map_size
+from maps.limits import RESOLUTION_RANGE, check_map_size
 from maps.scan import Keyframe
 from segmentation.base import check_lengths
+from segmentation.errors import ParameterError
 
 #: Sub-pixel bits of the scan polygons given to OpenCV.
 _SHIFT = 4
@@ -60,6 +61,16 @@ class OnlineRegions:
         check_lengths(self, "resolution", "reach")
         self.resolution = float(resolution)
         self.reach = float(reach)
+        low, high = RESOLUTION_RANGE
+        if not low <= self.resolution <= high:
+            raise ParameterError(
+                f"resolution must lie in [{low:g}, {high:g}] metres per cell, got {resolution!r}"
+            )
+        side = 2 * self.reach / self.resolution + 3  # the window one keyframe's cells fill
+        try:
+            check_map_size(side, side, what="a keyframe's window of cells")
+        except MapTooLargeError as err:
+            raise ParameterError(f"reach {reach!r} m at {resolution!r} m per cell: {err}") from None
         self._low = np.zeros(2, np.int64)  # cell (i, j) of array index [0, 0]
         self._owner = np.full((0, 0), -1, np.int32)
         self._distance = np.full((0, 0), np.inf, np.float32)

@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 
 from maps.grid import OccupancyGrid
 from maps.limits import MAX_LENGTH, finite_in
-from maps.scan import Keyframe, poses_array
+from maps.scan import Keyframe, keyframe_list, poses_array
 from maps.seeding import RandomState
 from maps.sim.laser import LaserModel
 from segmentation.affinity import BESIDE, PassageAffinity, standing_places
@@ -267,7 +267,7 @@ class MapSegmenter(Estimator):
                 random_state=spectral.random_state,
             )
             lap("keyframes")
-        keyframes = list(keyframes)
+        keyframes = keyframe_list(keyframes)
         stage("spectral")
         seeing = [k for k in keyframes if k.scan.valid.any()]  # a scan that hit nothing: no place
         if len(seeing) < 2:

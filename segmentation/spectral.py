@@ -43,6 +43,10 @@ MAX_N_INIT = 1000
 SILHOUETTE_SAMPLE = 1500
 #: Up to this many keyframes a dense eigensolver is faster than the sparse one.
 DENSE_UP_TO = 600
+#: The most keyframes one partition takes (ten times the 10,000 of ``topomap bench segment``,
+#: 4 s there): the eigensolver's time grows faster than the keyframes, and a large map is
+#: partitioned block by block (:mod:`segmentation.blocks`).
+MAX_NODES = 100_000
 
 
 def sparsify(affinity: sparse.spmatrix, p: float, *, connected: bool = False) -> sparse.csr_matrix:
@@ -326,6 +330,11 @@ class SpectralSegmenter(Estimator):
             raise ParameterError(f"fit takes a list of Keyframes, got {keyframes!r:.200}")
         if not keyframes:  # whatever the criterion
             raise SegmentationError("no keyframes to segment")
+        if len(keyframes) > MAX_NODES:
+            raise ParameterError(
+                f"{len(keyframes)} keyframes, more than the {MAX_NODES} one partition takes "
+                "(select fewer with a larger keyframe distance, or partition block by block)"
+            )
         self._check(len(keyframes))
         criterion = as_criterion(self.criterion)
         keys = [(tuple(k.pose), k.scan.ranges.tobytes()) for k in keyframes]
@@ -344,21 +353,60 @@ class SpectralSegmenter(Estimator):
         )
         return self
 
+    def fit_predict(self, keyframes: Sequence[Keyframe]) -> NDArray[np.int64]:
+        """:meth:`fit` ``keyframes`` and return their clusters, ``labels_`` (scikit-learn's
+        clusterer contract).
+
+        Examples
+        --------
+        >>> import maps
+        >>> from segmentation.virtual import virtual_keyframes
+        >>> plan = maps.generate_floor_plan("flat", random_state=0)
+        >>> frames = virtual_keyframes(plan.grid, 2.0, random_state=0)
+        >>> model = SpectralSegmenter(random_state=0)
+        >>> labels = model.fit_predict(frames)
+        >>> labels.shape == (len(frames),), labels is model.labels_
+        (True, True)
+        """
+        return self.fit(keyframes).labels_
+
     def fit_affinity(self, affinity: sparse.spmatrix) -> SpectralSegmenter:
-        """Cluster from a precomputed symmetric affinity matrix (finite values >= 0)."""
-        if getattr(affinity, "shape", None) == (0, 0):  # nothing to cluster: no clusters
+        """Cluster from a precomputed symmetric affinity matrix (real, finite values >= 0,
+        at most :data:`MAX_NODES` rows).
+
+        Examples
+        --------
+        >>> SpectralSegmenter().fit_affinity(sparse.csr_matrix([[0.0, 1.0], [0.0, 0.0]]))
+        Traceback (most recent call last):
+        ...
+        segmentation.errors.ParameterError: the affinity must be symmetric (W_ij = W_ji), ...
+        """
+        shape = getattr(affinity, "shape", None)
+        if shape == (0, 0):  # nothing to cluster: no clusters
             self._check(0)
             self._set_fitted(sparse.csr_matrix((0, 0)), np.zeros(0), {}, np.zeros(0, np.int64))
             return self
+        if not (isinstance(shape, tuple) and len(shape) == 2 and shape[0] == shape[1]):
+            raise ParameterError(f"the affinity must be a square matrix, got {affinity!r:.80}")
+        if shape[0] > MAX_NODES:
+            raise ParameterError(
+                f"the affinity has {shape[0]} rows, more than the {MAX_NODES} this partition "
+                "takes at once (partition a large map block by block)"
+            )
+        if np.iscomplexobj(getattr(affinity, "data", affinity)):
+            raise ParameterError("the affinity's values must be real numbers")
         try:
             affinity = sparse.csr_matrix(affinity, dtype=float)
         except (TypeError, ValueError) as err:
             raise ParameterError(f"the affinity must be a matrix of numbers ({err})") from None
         n = affinity.shape[0]
-        if affinity.shape != (n, n):
-            raise ParameterError(f"the affinity must be square, got shape {affinity.shape}")
         if not np.all(np.isfinite(affinity.data)) or (affinity.data < 0).any():
             raise ParameterError("the affinity's values must be finite and >= 0")
+        asymmetry = abs(affinity - affinity.T).max() if affinity.nnz else 0.0
+        if asymmetry > 1e-9 * max(float(affinity.data.max(initial=0.0)), 1.0):
+            raise ParameterError(
+                f"the affinity must be symmetric (W_ij = W_ji), got a difference of {asymmetry:g}"
+            )
         self._check(n)
         rng = as_generator(self.random_state)
         sparse_affinity = sparsify(affinity, self.p, connected=self.connected)

@@ -258,6 +258,12 @@ def load(folder: str | Path) -> Saved:
         raise ExportFormatError(
             f"{info}: field 'version' is {version!r}; this topomap reads versions 1 to {VERSION}"
         )
+    unlisted = sorted({"map.yaml", "map.pgm", *SAVED} - {"topomap.json"} - set(files))
+    if version >= 2 and unlisted:  # without its digests a changed folder would be read
+        raise ExportFormatError(
+            f"{info}: field 'files' does not list the digests of {', '.join(unlisted)}, as "
+            "TopoMap.save writes them: segment the map again"
+        )
     grid = OccupancyGrid.load(folder / "map.yaml")
     labels = read_label_image(folder / "regions.png")
     if labels.shape != grid.shape:

@@ -14,7 +14,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
-from maps.scan import Keyframe
+from maps.scan import Keyframe, keyframe_list
 from maps.seeding import RandomState
 from segmentation.blocks import BlockSpectralSegmenter
 from segmentation.conditioning import ConditionedMap
@@ -159,6 +159,7 @@ class TopoMap:
         """Segment a robot's keyframes; the map is built from them unless ``grid`` is given.
         Options as for :meth:`from_grid`."""
         pipeline = _pipeline(pipeline, options)
+        keyframes = keyframe_list(keyframes)
         start = time.perf_counter()
         built = grid is None
         grid = grid_from_keyframes(keyframes, resolution) if grid is None else grid

@@ -55,6 +55,7 @@ def test_specs_give_their_models(spec, kind):
         ("disc:1000", "robot radius must be at most 10 m"),
         ("dubins:radius=1,footprint=1e5x1e5", "footprint length must be at most 10 m"),
         ("reeds-shepp:radius=50,footprint=1x1", "turning radius must be at most 10 m"),
+        ("dubins:radius=1e-9,footprint=0.5x0.3", "turning radius must be at least 0.01 m"),
     ],
 )
 def test_bad_specs_are_typed_errors_naming_the_value(spec, named):

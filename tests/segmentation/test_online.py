@@ -232,6 +232,12 @@ def test_bad_parameters_and_order_are_typed_errors(flat_run):
         OnlineSegmenter().fit([])
     with pytest.raises(SegmentationError, match=r"keyframe 1 .*no valid beam"):
         OnlineSegmenter().fit([flat_run[1][0], _empty_scan_keyframe()])
+    for reach, resolution, shown in (
+        (1e5, 0.2, "larger than memory allows"),  # a window of 10^12 cells, before allocating
+        (4.0, 1e-9, "resolution must lie in"),
+    ):
+        with pytest.raises(ParameterError, match=shown):
+            OnlineSegmenter(reach=reach, region_resolution=resolution).fit(flat_run[1][:40])
 
 
 def _recount(labels: np.ndarray) -> dict[tuple[int, int], int]:

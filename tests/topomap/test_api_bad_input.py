@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from scipy import sparse
 
 from maps.errors import InvalidMapError, InvalidScanError, RandomStateError
 from maps.grid import OccupancyGrid
@@ -190,13 +191,28 @@ def test_a_path_that_is_no_path_is_a_typed_error(topo, tmp_path, path):
         topo.save(tmp_path / ("x" * 300))
 
 
+def test_overwrite_that_is_no_yes_or_no_keeps_the_folder(topo, tmp_path):
+    from maps.errors import OutputPathError
+
+    topo.save(tmp_path / "saved")
+    before = (tmp_path / "saved" / "graph.json").read_bytes()
+    with pytest.raises(OutputPathError, match="overwrite must be True or False, got 'no'"):
+        topo.save(tmp_path / "saved", overwrite="no")
+    assert (tmp_path / "saved" / "graph.json").read_bytes() == before
+
+
 @pytest.mark.parametrize(
     ("affinity", "shown"),
     [
-        (np.ones((2, 3)), "must be square"),
+        (np.ones((2, 3)), "must be a square matrix"),
         (np.array([[0.0, np.nan], [np.nan, 0.0]]), "finite and >= 0"),
         (np.array([[0.0, -1.0], [-1.0, 0.0]]), "finite and >= 0"),
-        ("x", "a matrix of numbers"),
+        ("x", "must be a square matrix"),
+        (None, "must be a square matrix"),
+        (np.array([[0.0, 1j], [1j, 0.0]]), "real numbers"),
+        (np.array([[0.0, 1.0], [0.5, 0.0]]), "symmetric"),
+        (np.array([["a", "b"], ["b", "a"]]), "a matrix of numbers"),
+        (sparse.csr_matrix((10**9, 10**9)), "more than the 100000 this partition takes"),
     ],
 )
 def test_an_affinity_that_is_no_affinity_is_refused(affinity, shown):
@@ -299,3 +315,51 @@ def test_a_saved_partition_that_no_fit_makes_is_refused(topo, tmp_path, partitio
     about_path.write_text(json.dumps(about))
     with pytest.raises(ExportFormatError, match=r"partition: labels 0\.\.clusters-1"):
         TopoMap.load(tmp_path / "t")
+
+
+@pytest.mark.parametrize("bad", ["x", None, 3])
+def test_keyframes_that_are_no_keyframes_are_named_before_any_work(topo, bad):
+    from maps.scan import select_keyframes
+    from segmentation.pipeline import MapSegmenter
+    from segmentation.virtual import virtual_keyframes
+
+    first = virtual_keyframes(topo.grid, 2.0, random_state=0)[0]
+    for call in (
+        lambda: TopoMap.from_keyframes([first, bad]),
+        lambda: TopoMap.from_keyframes([first, bad], grid=topo.grid),
+        lambda: MapSegmenter().segment(topo.grid, [first, bad]),
+        lambda: select_keyframes([first, bad]),
+    ):
+        with pytest.raises(
+            InvalidScanError, match=f"keyframes must be Keyframes; item 1 is {bad!r}"
+        ):
+            call()
+
+
+def test_a_pose_whose_yaw_is_no_angle_and_a_stamp_that_is_no_time_are_refused():
+    from maps.scan import LaserScan
+
+    scan = LaserScan(np.ones(3), -0.1, 0.1)
+    with pytest.raises(InvalidScanError, match="yaw must lie within 10000 rad"):
+        Keyframe((0.0, 0.0, 1e300), scan)
+    with pytest.raises(InvalidScanError, match="three finite numbers"):
+        Keyframe("abc", scan)
+    for stamp in (math.nan, "x"):
+        with pytest.raises(InvalidScanError, match="stamp must be a finite number"):
+            Keyframe((0.0, 0.0, 0.0), scan, stamp=stamp)
+
+
+def test_grids_larger_than_memory_are_refused_before_any_pass_over_them():
+    from maps.errors import MapTooLargeError
+
+    huge = np.broadcast_to(np.int8(0), (1 << 20, 1 << 20))  # a view: nothing allocated
+    start = time.perf_counter()
+    with pytest.raises(MapTooLargeError, match="larger than memory allows"):
+        OccupancyGrid(huge, 0.05)
+    with pytest.raises(MapTooLargeError):
+        OccupancyGrid.from_masks(np.broadcast_to(True, (1 << 20, 1 << 20)), 0.05)
+    with pytest.raises(MapTooLargeError):
+        OccupancyGrid(np.zeros((4, 4), np.int8), 0.05).padded(1 << 16, 1 << 16)
+    assert time.perf_counter() - start < 5
+    with pytest.raises(InvalidMapError, match="boolean"):
+        OccupancyGrid.from_masks(np.array([[np.nan, 1.0]]), 0.05)

@@ -298,6 +298,21 @@ def test_a_changed_saved_folder_is_refused(tmp_path, saved):
             TopoMap.load(folder)
 
 
+@pytest.mark.parametrize("files", [None, {}, "drop graph.json"])
+def test_a_folder_whose_digests_are_gone_is_refused(tmp_path, saved, files):
+    folder = _copy(saved, tmp_path / "digests")
+    about = json.loads((folder / "topomap.json").read_text())
+    if files is None:
+        del about["files"]
+    elif files == {}:
+        about["files"] = {}
+    else:
+        del about["files"]["graph.json"]
+    (folder / "topomap.json").write_text(json.dumps(about))
+    with pytest.raises(ExportFormatError, match="field 'files' does not list the digests of"):
+        TopoMap.load(folder)
+
+
 def test_a_changed_map_yaml_or_label_image_is_refused(tmp_path, saved):
     folder = _copy(saved, tmp_path / "yaml")
     doc = yaml.safe_load((folder / "map.yaml").read_text())
