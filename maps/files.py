@@ -186,7 +186,7 @@ def write_text(
     path: str | Path, text: str, *, overwrite: bool = False, how: str = "overwrite=True"
 ) -> Path:
     """Write ``text`` to ``path`` atomically (see :func:`written`)."""
-    path = Path(path)
+    path = _as_path(path)
     with written(path, overwrite=overwrite, how=how) as partial:
         partial.write_text(text)
     return path

@@ -324,8 +324,8 @@ class OccupancyGrid:
         (False, True, True)
         """
         ox, oy, yaw = self.origin
-        dx = np.asarray(x, float) - ox
-        dy = np.asarray(y, float) - oy
+        x, y = _numbers(x, y, "x", "y")
+        dx, dy = x - ox, y - oy
         c, s = np.cos(yaw), np.sin(yaw)
         with np.errstate(over="ignore", invalid="ignore"):  # inf - inf: NaN, clipped below
             u = np.clip((c * dx + s * dy) / self.resolution, -FAR, FAR)
@@ -339,14 +339,17 @@ class OccupancyGrid:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Centres of cells ``(row, col)`` in map-frame metres."""
         ox, oy, yaw = self.origin
-        u = (np.asarray(col, float) + 0.5) * self.resolution
-        v = (self.shape[0] - 1 - np.asarray(row, float) + 0.5) * self.resolution
+        row, col = _numbers(row, col, "row", "col")
+        u = (col + 0.5) * self.resolution
+        v = (self.shape[0] - 1 - row + 0.5) * self.resolution
         c, s = np.cos(yaw), np.sin(yaw)
         return ox + c * u - s * v, oy + s * u + c * v
 
     def contains(self, row: ArrayLike, col: ArrayLike) -> NDArray[np.bool_]:
         """Whether cell indices lie inside the grid."""
         r, c = np.asarray(row), np.asarray(col)
+        if not (_real(r) and _real(c)):  # the common case, index arrays, not copied
+            r, c = _numbers(row, col, "row", "col")
         return (r >= 0) & (r < self.shape[0]) & (c >= 0) & (c < self.shape[1])
 
     def is_free(self, x: ArrayLike, y: ArrayLike) -> NDArray[np.bool_]:
@@ -411,7 +414,10 @@ class OccupancyGrid:
         >>> grid.with_free_clearance([[0.07, 0.0]]).free_clearance().tolist()
         [[0.07000000029802322, 0.0]]
         """
-        values = np.array(clearance, np.float32)
+        try:
+            values = np.array(clearance, np.float32)
+        except (TypeError, ValueError, OverflowError):  # text, ragged rows
+            raise InvalidMapError(f"clearance must be a {self.shape} array of metres") from None
         if values.shape != self.shape or not np.isfinite(values).all():
             raise InvalidMapError(
                 f"clearance must be finite and of the grid's shape {self.shape}, got {values.shape}"
@@ -546,3 +552,32 @@ def _mask(values: ArrayLike, name: str) -> NDArray[np.bool_]:
             f"{name} must be a boolean (or 0 / 1) 2-D mask, got dtype {found.dtype}"
         )
     return found.astype(bool)
+
+
+def _real(values: NDArray) -> bool:
+    """Whether ``values`` hold real numbers (integers, floats or booleans)."""
+    return values.dtype.kind in "biuf"
+
+
+def _numbers(a: ArrayLike, b: ArrayLike, first: str, second: str) -> tuple[NDArray, NDArray]:
+    """``a`` and ``b`` as float arrays of one shape, or :class:`InvalidMapError` naming them
+    (text, a dict, complex numbers, a 400-digit integer, shapes that do not broadcast).
+
+    Examples
+    --------
+    >>> [v.tolist() for v in _numbers([1, 2], 3, "x", "y")]
+    [[1.0, 2.0], [3.0, 3.0]]
+    >>> _numbers("a", 1, "x", "y")
+    Traceback (most recent call last):
+    ...
+    maps.errors.InvalidMapError: x and y must be real numbers of one shape, got 'a' and 1
+    """
+    try:
+        if np.iscomplexobj(a) or np.iscomplexobj(b):
+            raise TypeError("complex")
+        found = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+    except (TypeError, ValueError, OverflowError):
+        raise InvalidMapError(
+            f"{first} and {second} must be real numbers of one shape, got {a!r:.40} and {b!r:.40}"
+        ) from None
+    return found[0], found[1]

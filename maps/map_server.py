@@ -500,10 +500,9 @@ def save_map(grid: OccupancyGrid, path: str | Path, *, overwrite: bool = False) 
     OutputExistsError
         If the YAML or image exists and ``overwrite`` is False (a ``FileExistsError``).
     """
-    path = Path(path)
+    path = check_output_file(path, overwrite=overwrite)
     image_path = path.with_suffix(".pgm")
-    for target in (path, image_path):
-        check_output_file(target, overwrite=overwrite)
+    check_output_file(image_path, overwrite=overwrite)
     cells = grid.cells
     pixels = cv2.LUT(cells.view(np.uint8), _TRINARY_PIXELS)  # a table lookup per cell
     if not (pixels == _NOT_TRINARY).any():

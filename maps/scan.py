@@ -15,6 +15,9 @@ from maps.errors import InvalidScanError
 from maps.grid import Pose
 from maps.limits import MAX_COORDINATE, MAX_HEADING, finite_in
 
+#: The fields of sensor_msgs/LaserScan a :class:`LaserScan` is made of, in its order.
+_SCAN_FIELDS = ("ranges", "angle_min", "angle_increment", "range_min", "range_max")
+
 
 @dataclass(frozen=True, eq=False)
 class LaserScan:
@@ -35,7 +38,7 @@ class LaserScan:
     def __post_init__(self) -> None:
         try:
             ranges = np.array(self.ranges, dtype=np.float64, copy=True)
-        except (TypeError, ValueError):  # strings, a ragged list
+        except (TypeError, ValueError, OverflowError):  # strings, a ragged list, 10**400
             raise InvalidScanError(f"ranges must be numbers, got {self.ranges!r:.200}") from None
         if ranges.ndim != 1 or ranges.size == 0:
             raise InvalidScanError(
@@ -70,13 +73,11 @@ class LaserScan:
         >>> LaserScan.from_msg_fields(message).points().round(3).tolist()
         [[1.0, 0.0], [1.755, 0.959]]
         """
-        return cls(
-            np.asarray(message.ranges, dtype=float),
-            float(message.angle_min),
-            float(message.angle_increment),
-            float(message.range_min),
-            float(message.range_max),
-        )
+        try:
+            fields = [getattr(message, name) for name in _SCAN_FIELDS]
+        except AttributeError as err:
+            raise InvalidScanError(f"not a LaserScan message ({err})") from None
+        return cls(*fields)
 
     def __len__(self) -> int:
         return int(self.ranges.size)

@@ -177,8 +177,7 @@ class HierarchicalPlanner:
 
     def centre(self, region: int) -> Point:
         """The free point of ``region`` farthest from its walls (where a region goal leads)."""
-        if region not in self._centres and region not in self.graph:
-            raise RegionNotFoundError(f"no region {region!r} in this planner's map")
+        self._region(region)
         if region not in self._centres:
             sub = self.region_space(region)
             depth = ndimage.distance_transform_edt(sub.free)
@@ -198,7 +197,16 @@ class HierarchicalPlanner:
     def region_space(self, region: int) -> Workspace:
         """The free space of ``region`` and :data:`~planners.door_graph.SUBMAP_MARGIN` around
         it (so paths can pass the doorways at its edge)."""
-        return part_space(self.space, self.labels, self._region_boxes, region)
+        return part_space(self.space, self.labels, self._region_boxes, self._region(region))
+
+    def _region(self, region: object) -> int:
+        """``region`` if it is a region id of this planner's map, else
+        :class:`RegionNotFoundError` (an id not in the graph, 0, a list, a name)."""
+        if not isinstance(region, int | np.integer) or isinstance(region, bool):
+            raise RegionNotFoundError(f"a region is an integer id, got {region!r:.80}")
+        if region not in self.graph:
+            raise RegionNotFoundError(f"no region {region!r} in this planner's map")
+        return int(region)
 
     # ------------------------------------------------------------------ doors
     def close_door(self, a: int, b: int) -> None:
@@ -210,6 +218,7 @@ class HierarchicalPlanner:
         self._closed.discard(self._edge(a, b))
 
     def _edge(self, a: int, b: int) -> tuple[int, int]:
+        a, b = self._region(a), self._region(b)
         if not self.graph.has_edge(a, b):
             raise InvalidQueryError(f"regions {a} and {b} share no door")
         return (min(a, b), max(a, b))
@@ -318,6 +327,7 @@ class HierarchicalPlanner:
         """The open doors of ``point``'s part and the shortest distances to them inside the
         part (from the part's visibility graph: the nodes the point sees, then the
         precomputed distances from those nodes to every door)."""
+        point = self.space.check(point)
         self.prepare()
         part = self._part_at(point)
         graph = self._part_graphs[part]

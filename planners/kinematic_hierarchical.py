@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
+from maps.limits import MAX_LENGTH, finite_in
 from maps.seeding import RandomState
 from planners.cspace import HeadingCSpace
 from planners.errors import (
@@ -142,17 +143,17 @@ class KinematicHierarchicalPlanner:
     ) -> None:
         clock = time.perf_counter()
         time_limit = checked_time_limit(time_limit)
-        if routes < 1:
-            raise PlannerParameterError(f"routes must be >= 1, got {routes}")
+        if not (isinstance(routes, int) and not isinstance(routes, bool) and routes >= 1):
+            raise PlannerParameterError(f"routes must be an integer >= 1, got {routes!r}")
         if mode not in MODES:
             raise PlannerParameterError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
+        for name, value in (("submap_margin", submap_margin), ("door_margin", door_margin)):
+            problem = None if value is None else finite_in(value, name, 0.0, MAX_LENGTH, unit="m")
+            if problem is not None:
+                raise PlannerParameterError(problem)
         margin = cspace.robot.reach if submap_margin is None else float(submap_margin)
-        if not margin >= 0:
-            raise PlannerParameterError(f"submap_margin must be >= 0 metres, got {submap_margin}")
         _seed_once(random_state)
         fit = 2 * cspace.growth if door_margin is None else float(door_margin)
-        if not fit >= 0:
-            raise PlannerParameterError(f"door_margin must be >= 0 metres, got {door_margin}")
         self.min_width = cspace.robot.width + fit
         # the door graph of a disc as wide as the narrowest door this robot may take
         self.doors = HierarchicalPlanner(Workspace(cspace.grid, self.min_width / 2), labels, graph)

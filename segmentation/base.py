@@ -18,7 +18,9 @@ import inspect
 import math
 from typing import Any, TypeVar
 
-from segmentation.errors import ParameterError
+import numpy as np
+
+from segmentation.errors import NotFittedError, ParameterError
 
 E = TypeVar("E", bound="Estimator")
 
@@ -33,6 +35,25 @@ class Estimator:
     >>> model.get_params()["p"], clone(model).k
     (0.5, 3)
     """
+
+    def __getattr__(self, name: str) -> Any:
+        """Only names not set: a fitted attribute before ``fit`` is a typed error.
+
+        Examples
+        --------
+        >>> from segmentation.spectral import SpectralSegmenter
+        >>> SpectralSegmenter().labels_
+        Traceback (most recent call last):
+        ...
+        segmentation.errors.NotFittedError: SpectralSegmenter is not fitted: call fit before ...
+        >>> hasattr(SpectralSegmenter(), "labels_")
+        False
+        """
+        if name.endswith("_") and not name.startswith("_"):
+            raise NotFittedError(
+                f"{type(self).__name__} is not fitted: call fit before reading {name}"
+            )
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     @classmethod
     def _get_param_names(cls) -> list[str]:
@@ -124,3 +145,33 @@ def check_lengths(estimator: object, *names: str) -> None:
         value = getattr(estimator, name)
         if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
             raise ParameterError(f"{name} must be a finite number > 0 metres, got {value!r}")
+
+
+def is_count(value: object) -> bool:
+    """Whether ``value`` is an integer (Python's or numpy's), not a bool: ``k=True`` is no
+    count of regions.
+
+    Examples
+    --------
+    >>> is_count(3), is_count(np.int64(3)), is_count(True), is_count(2.0)
+    (True, True, False, False)
+    """
+    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+
+
+def check_flags(estimator: object, *names: str) -> None:
+    """Raise :class:`~segmentation.errors.ParameterError` unless each parameter ``names`` of
+    ``estimator`` is True or False (the string "no" is truthy).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> check_flags(SimpleNamespace(dense="no"), "dense")
+    Traceback (most recent call last):
+    ...
+    segmentation.errors.ParameterError: dense must be True or False, got 'no'
+    """
+    for name in names:
+        value = getattr(estimator, name)
+        if not isinstance(value, bool | np.bool_):
+            raise ParameterError(f"{name} must be True or False, got {value!r}")

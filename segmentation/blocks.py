@@ -152,6 +152,10 @@ class BlockSpectralSegmenter(Estimator):
         return self
 
 
+#: The most worker processes a partition asks for (joblib's own bound is a million).
+MAX_JOBS = 1024
+
+
 def check_n_jobs(n_jobs: object) -> None:
     """Raise :class:`~segmentation.errors.ParameterError` unless ``n_jobs`` is None or a
     nonzero integer (joblib's values).
@@ -161,12 +165,17 @@ def check_n_jobs(n_jobs: object) -> None:
     >>> check_n_jobs(0)
     Traceback (most recent call last):
     ...
-    segmentation.errors.ParameterError: n_jobs must be None or a nonzero integer, got 0
+    segmentation.errors.ParameterError: n_jobs must be None or a nonzero integer within ±1024, got 0
     """
     if n_jobs is not None and not (
-        isinstance(n_jobs, int | np.integer) and not isinstance(n_jobs, bool) and n_jobs != 0
+        isinstance(n_jobs, int | np.integer)
+        and not isinstance(n_jobs, bool)
+        and n_jobs != 0
+        and -MAX_JOBS <= int(n_jobs) <= MAX_JOBS
     ):
-        raise ParameterError(f"n_jobs must be None or a nonzero integer, got {n_jobs!r}")
+        raise ParameterError(
+            f"n_jobs must be None or a nonzero integer within ±{MAX_JOBS}, got {n_jobs!r}"
+        )
 
 
 def fit_blocks(

@@ -14,6 +14,12 @@ class ParameterError(SegmentationError):
     """A parameter out of its range, e.g. ``k`` larger than the number of keyframes."""
 
 
+class NotFittedError(SegmentationError, AttributeError):
+    """A fitted attribute (a name ending in ``_``) read before ``fit``; an ``AttributeError``
+    too, as scikit-learn's is, so ``hasattr(model, "labels_")`` still says whether it is
+    fitted."""
+
+
 class ExportFormatError(SegmentationError):
     """A region or graph file that cannot be read back: names the file and the field."""
 

@@ -60,12 +60,12 @@ from numpy.typing import NDArray
 from maps.grid import OccupancyGrid
 from maps.limits import RESOLUTION_RANGE, finite_in
 from maps.mapping import MapBuilder
-from maps.scan import Keyframe
+from maps.scan import Keyframe, keyframe_list
 from segmentation.affinity import standing_places
 from segmentation.arrivals import KeptSimilarities, one_to_many
-from segmentation.base import check_lengths, clone
+from segmentation.base import check_flags, check_lengths, clone, is_count
 from segmentation.errors import ParameterError, SegmentationError
-from segmentation.events import Event, OnlineEstimator
+from segmentation.events import Event, OnlineEstimator, OnlineStateError
 from segmentation.growing import carry_ids
 from segmentation.online_regions import OnlineRegions
 from segmentation.pipeline import MapSegmenter, by_place
@@ -170,8 +170,9 @@ class IncrementalSegmenter(OnlineEstimator):
     def _validate_params(self) -> None:
         for name, low in (("neighbours", 1), ("window", 2), ("churn_age", 0)):
             value = getattr(self, name)
-            if not isinstance(value, int | np.integer) or value < low:
+            if not is_count(value) or value < low:
                 raise ParameterError(f"{name} must be an integer >= {low}, got {value!r}")
+        check_flags(self, "background")
         for name in ("inner", "renew"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and 0 < value <= 1):
@@ -200,7 +201,7 @@ class IncrementalSegmenter(OnlineEstimator):
             Fewer than two keyframes, or one with no valid beam or a pose that is not finite.
         """
         self._validate_params()
-        keyframes = list(keyframes)
+        keyframes = keyframe_list(keyframes)
         if len(keyframes) < 2:
             raise SegmentationError(f"{len(keyframes)} keyframe(s) cannot seed: give two or more")
         self._fitted = False
@@ -411,6 +412,8 @@ class IncrementalSegmenter(OnlineEstimator):
         the one that started later last (the whole map's last of two started together: it
         saw as much and more); :attr:`labels_` then holds every re-partition started so
         far."""
+        if not hasattr(self, "_owed"):
+            raise OnlineStateError("flush before fit: fit the seed keyframes first")
         whole, self._whole = getattr(self, "_whole", None), None
         pending, self._pending = getattr(self, "_pending", None), None
         if whole is not None and pending is not None and whole.arrived < pending.arrived:

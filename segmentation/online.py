@@ -31,8 +31,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.scan import Keyframe
-from segmentation.base import check_lengths, clone
+from maps.limits import finite_in
+from maps.scan import Keyframe, keyframe_list
+from segmentation.base import check_flags, check_lengths, clone, is_count
 from segmentation.centres import (
     CellIndex,
     Centre,
@@ -135,16 +136,21 @@ class OnlineSegmenter(OnlineEstimator):
     regions_: OnlineRegions | None = field(init=False, repr=False)
 
     def _validate_params(self) -> None:
-        if not (isinstance(self.theta, int | float) and 0 <= self.theta <= 1):
+        if finite_in(self.theta, "theta", 0, 1) is not None:  # a bool is no number here
             raise ParameterError(f"theta must lie in [0, 1], got {self.theta!r}")
-        if not isinstance(self.patience, int | np.integer) or self.patience < 0:
+        check_flags(self, "dense")
+        if not is_count(self.patience) or self.patience < 0:
             raise ParameterError(f"patience must be an integer >= 0, got {self.patience!r}")
         if self.max_clusters is not None and not (
-            isinstance(self.max_clusters, int | np.integer) and self.max_clusters >= 1
+            is_count(self.max_clusters) and self.max_clusters >= 1
         ):
             raise ParameterError(f"max_clusters must be an integer >= 1, got {self.max_clusters!r}")
         check_lengths(self, "tile", "max_gap", "region_resolution", "reach")
         if self.segmenter is not None:
+            if not isinstance(self.segmenter, SpectralSegmenter):
+                raise ParameterError(
+                    f"segmenter must be a SpectralSegmenter or None, got {self.segmenter!r:.80}"
+                )
             self.segmenter._validate_params()
 
     def _prepare(self, segmenter: SpectralSegmenter) -> None:
@@ -168,6 +174,7 @@ class OnlineSegmenter(OnlineEstimator):
             seed of a single cluster (``T`` needs two).
         """
         self._validate_params()
+        keyframes = keyframe_list(keyframes)
         self._fitted = False
         self.segmenter_ = segmenter = clone(self.segmenter or SpectralSegmenter())
         self._prepare(segmenter)

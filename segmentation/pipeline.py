@@ -37,6 +37,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from maps.errors import TopomapError
 from maps.grid import OccupancyGrid
 from maps.limits import MAX_LENGTH, finite_in
 from maps.scan import Keyframe, keyframe_list, poses_array
@@ -239,7 +240,14 @@ class MapSegmenter(Estimator):
         def stage(name: str) -> None:
             log.info("stage %s", name)
             if self.on_stage is not None:
-                self.on_stage(name)
+                try:
+                    self.on_stage(name)
+                except TopomapError:
+                    raise
+                except Exception as err:  # the user's callback: named, as a criterion is
+                    raise ParameterError(
+                        f"on_stage raised {type(err).__name__} at stage {name!r}: {err}"
+                    ) from err
 
         def lap(name: str) -> None:
             now = time.perf_counter()

@@ -31,7 +31,7 @@ from threadpoolctl import threadpool_limits
 from maps.limits import finite_in
 from maps.scan import Keyframe
 from maps.seeding import RandomState, as_generator
-from segmentation.base import Estimator, clone
+from segmentation.base import Estimator, check_flags, clone, is_count
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.similarity import Criterion, PointsSimilarity, as_criterion
 
@@ -301,13 +301,14 @@ class SpectralSegmenter(Estimator):
     random_state: RandomState = None
 
     def _validate_params(self) -> None:
-        if self.k is not None and not (isinstance(self.k, int | np.integer) and self.k >= 1):
+        if self.k is not None and not (is_count(self.k) and self.k >= 1):
             raise ParameterError(f"k must be an integer >= 1, got {self.k!r}")
+        check_flags(self, "connected")
         if finite_in(self.p, "p", 0, 1) is not None or self.p == 1:
             raise ParameterError(f"p must lie in [0, 1), got {self.p!r}")
         for name in ("spread", "n_init", "max_regions"):
             value = getattr(self, name)
-            if not isinstance(value, int | np.integer) or value < (0 if name == "spread" else 1):
+            if not is_count(value) or value < (0 if name == "spread" else 1):
                 raise ParameterError(f"{name} must be a positive integer, got {value!r}")
         if self.n_init > MAX_N_INIT:
             raise ParameterError(f"n_init must be at most {MAX_N_INIT}, got {self.n_init!r}")

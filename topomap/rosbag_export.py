@@ -41,8 +41,9 @@ import numpy as np
 import shapely
 
 from maps.errors import OutputWriteError
-from maps.files import OutputFolder
+from maps.files import OutputFolder, check_output_folder
 from maps.grid import OccupancyGrid
+from maps.limits import finite_in
 from maps.tf import quaternion_from_yaw
 from topomap.errors import ExportError
 from topomap.graph_layout import edge_segments, label_colour
@@ -53,6 +54,8 @@ if TYPE_CHECKING:
 
 #: Points all markers together may have (bounds the bag of a huge map; 16 bytes per point).
 MAX_MARKER_POINTS = 20_000_000
+#: The latest stamp, seconds: a ROS time's seconds are a signed 32-bit integer.
+MAX_STAMP = 2**31 - 1
 #: The storage plugins and their files' suffix.
 STORAGES = {"mcap": "mcap", "sqlite3": "db3"}
 FRAME = "map"
@@ -291,8 +294,14 @@ def topomap_messages(
     ExportError
         The markers would exceed :data:`MAX_MARKER_POINTS` points.
     """
+    from planners.path import PlannedPath
     from planners.route_graph import building_route_graph
 
+    if finite_in(stamp, "stamp", 0.0, MAX_STAMP) is not None:
+        raise ExportError(f"stamp must be seconds in [0, {MAX_STAMP:g}], got {stamp!r}")
+    for path in paths:
+        if not isinstance(path, PlannedPath):
+            raise ExportError(f"paths must be planned paths (TopoMap.plan), got {path!r:.80}")
     build = _Messages(stamp)
     messages = {
         "/topomap/map": build.occupancy_grid(topo.grid),
@@ -342,7 +351,7 @@ def write_rosbag(
     )
     from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
 
-    path = Path(path)
+    path = check_output_folder(path)
     names = bag_files(path, storage)
     when = time.time() if stamp is None else stamp
     with OutputFolder(path, names, overwrite=overwrite) as work:

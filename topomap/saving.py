@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from maps.errors import MapFileNotFoundError
 from maps.files import OutputFolder, check_output_folder, write_text
 from maps.grid import OccupancyGrid
+from maps.limits import MAX_ROBOT_RADIUS, finite_in
 from maps.map_server import check_input_file
 from maps.scan import Keyframe
 from segmentation.errors import ExportFormatError
@@ -113,7 +114,9 @@ def save(
     OutputExistsError
         A file exists and ``overwrite`` is false; nothing is written then.
     """
-    out, door_graphs = check_output_folder(out), list(door_graphs)
+    out, door_graphs = check_output_folder(out), _radii(door_graphs)
+    if not callable(progress):
+        raise ExportFormatError(f"progress must be a function of the parts, got {progress!r:.80}")
     names = [*SAVED, "map.yaml", "map.pgm"]
     caches = [door_graph_name(radius) for radius in door_graphs]
     folder = OutputFolder(out, [*names, *caches], overwrite=overwrite, last="topomap.json")
@@ -287,6 +290,28 @@ def load(folder: str | Path) -> Saved:
             )
     next_id = max(next_id, max(regions.ids, default=0) + 1)
     return Saved(grid, regions, graph, seconds, method, partition, next_id)
+
+
+def _radii(door_graphs: object) -> list[float]:
+    """The robot radii of the door graphs to save: metres each, in ``(0, MAX_ROBOT_RADIUS]``.
+
+    Examples
+    --------
+    >>> _radii((0.2, 0.3))
+    [0.2, 0.3]
+    >>> _radii("0.2")
+    Traceback (most recent call last):
+    ...
+    segmentation.errors.ExportFormatError: door_graphs must be robot radii in metres, got '0.2'
+    """
+    if isinstance(door_graphs, str) or not isinstance(door_graphs, Iterable):
+        raise ExportFormatError(f"door_graphs must be robot radii in metres, got {door_graphs!r}")
+    radii = list(door_graphs)
+    for radius in radii:
+        problem = finite_in(radius, "door_graphs radius", 0.0, MAX_ROBOT_RADIUS, low_open=True)
+        if problem is not None:
+            raise ExportFormatError(problem)
+    return radii
 
 
 def save_keyframes(

@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from maps.grid import OccupancyGrid
+from maps.limits import MAX_ROBOT_RADIUS, finite_in
 from maps.mapping import grid_from_keyframes
 from maps.scan import Keyframe, keyframe_list
 from maps.seeding import RandomState
@@ -70,6 +71,8 @@ def _pipeline(pipeline: MapSegmenter | None, options: dict[str, Any]) -> MapSegm
         raise ParameterError(
             f"give a pipeline or segmentation options, not both (got {sorted(options)})"
         )
+    if pipeline is not None and not isinstance(pipeline, MapSegmenter):
+        raise ParameterError(f"pipeline must be a MapSegmenter, got {pipeline!r:.80}")
     return pipeline or pipeline_from_options(options)
 
 
@@ -189,6 +192,10 @@ class TopoMap:
             ``grid`` has another resolution or frame, or is not a map of this building (less
             than half of this map's free cells are free in it).
         """
+        if not isinstance(grid, OccupancyGrid):
+            raise ParameterError(
+                f"update takes the new map as an OccupancyGrid, got a {type(grid).__name__}"
+            )
         previous = align(self.grid, self.regions.labels, grid)
         free = align(self.grid, self.grid.free, grid).astype(bool)
         kept = int(np.count_nonzero(free & grid.free)) / max(
@@ -324,6 +331,9 @@ class TopoMap:
         this map for a disc robot of ``robot_radius`` metres, made once per radius and kept;
         for a map read back with :meth:`load`, with the door graph saved with it when there
         is one for this map, these regions and this radius (:func:`topomap.saving.planner`)."""
+        problem = finite_in(robot_radius, "robot_radius", 0.0, MAX_ROBOT_RADIUS, low_open=True)
+        if problem is not None:  # before it is a key: a list is no radius
+            raise ParameterError(problem)
         if robot_radius not in self._planners:
             self._planners[robot_radius] = saving.planner(self, robot_radius)
         return self._planners[robot_radius]

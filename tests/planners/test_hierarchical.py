@@ -46,6 +46,8 @@ def test_closing_the_door_blocks_and_opening_restores(two_rooms):
     planner.open_door(1, 2)
     assert planner.plan((1.0, 1.0), (7.0, 1.0)).regions == (1, 2)
     with pytest.raises(InvalidQueryError, match="share no door"):
+        planner.close_door(1, 1)
+    with pytest.raises(RegionNotFoundError, match="no region 7"):
         planner.close_door(1, 7)
 
 

@@ -40,5 +40,7 @@ def test_blocks_in_two_processes_equal_one_after_the_other():
     assert np.array_equal(two.labels_, one.labels_)
     assert [s.n_regions_ for s in two.segmenters_] == [s.n_regions_ for s in one.segmenters_]
     assert model.n_jobs is None and not hasattr(model, "labels_")  # clones were fitted
-    with pytest.raises(ValueError, match="n_jobs must be None or a nonzero integer, got 0"):
+    with pytest.raises(
+        ValueError, match="n_jobs must be None or a nonzero integer within ±1024, got 0"
+    ):
         clone(model, n_jobs=0).fit(keyframes)

@@ -181,8 +181,9 @@ def test_a_path_that_is_no_path_is_a_typed_error(topo, tmp_path, path):
     from maps.carmen import read_carmen
     from maps.errors import LogFormatError, MapFormatError, OutputPathError
 
-    with pytest.raises(OutputPathError, match="no path to write an output to"):
-        topo.save(path)
+    for write in (topo.save, topo.grid.save, topo.to_rosbag):
+        with pytest.raises(OutputPathError, match="no path to write an output to"):
+            write(path)
     with pytest.raises((ExportFormatError, MapFormatError)):
         TopoMap.load(path)
     with pytest.raises(LogFormatError):
@@ -363,3 +364,106 @@ def test_grids_larger_than_memory_are_refused_before_any_pass_over_them():
     assert time.perf_counter() - start < 5
     with pytest.raises(InvalidMapError, match="boolean"):
         OccupancyGrid.from_masks(np.array([[np.nan, 1.0]]), 0.05)
+
+
+def test_facade_arguments_of_the_wrong_kind_are_parameter_errors(topo):
+    with pytest.raises(ParameterError, match="pipeline must be a MapSegmenter, got 'x'"):
+        TopoMap.from_grid(topo.grid, pipeline="x")
+    for grid, kind in ((None, "NoneType"), (topo.grid.cells, "ndarray")):
+        with pytest.raises(ParameterError, match=f"as an OccupancyGrid, got a {kind}"):
+            topo.update(grid)
+    for radius in ([0.2], True, math.nan):
+        with pytest.raises(ParameterError, match="robot_radius must be"):
+            topo.planner(radius)
+
+
+def test_settings_that_are_no_counts_or_flags_and_fitted_names_before_fit():
+    from segmentation.errors import NotFittedError
+    from segmentation.incremental import IncrementalSegmenter
+    from segmentation.online import OnlineSegmenter
+    from segmentation.pipeline import MapSegmenter
+
+    grid = generate_floor_plan("flat", random_state=0).grid
+    for model, shown in (
+        (SpectralSegmenter(k=True), "k must be an integer"),
+        (SpectralSegmenter(connected="yes"), "connected must be True or False"),
+        (OnlineSegmenter(theta=True), "theta must lie in"),
+        (OnlineSegmenter(dense="x"), "dense must be True or False"),
+        (IncrementalSegmenter(neighbours=True), "neighbours must be an integer"),
+        (IncrementalSegmenter(background="x"), "background must be True or False"),
+    ):
+        with pytest.raises(ParameterError, match=shown):
+            model._validate_params()
+    for model, name in (
+        (SpectralSegmenter(), "labels_"),
+        (OnlineSegmenter(), "events_"),
+        (IncrementalSegmenter(), "regions_"),
+    ):
+        with pytest.raises(NotFittedError, match=f"not fitted: call fit before reading {name}"):
+            getattr(model, name)
+        assert not hasattr(model, name)
+    with pytest.raises(ParameterError, match="on_stage raised ZeroDivisionError at stage"):
+        MapSegmenter(on_stage=lambda name: 1 / 0).segment(grid)
+    with pytest.raises(ParameterError, match="within ±1024"):
+        MapSegmenter(n_jobs=10**9).segment(grid)
+
+
+def test_footprint_planner_options_and_scans_of_the_wrong_kind_are_typed(topo):
+    from maps.scan import LaserScan
+    from planners.errors import PlannerParameterError
+
+    for options, shown in (
+        ({"routes": "x"}, "routes must be an integer >= 1, got 'x'"),
+        ({"routes": 1.5}, "routes must be an integer >= 1, got 1.5"),
+        ({"door_margin": "x"}, "door_margin must be a number"),
+        ({"submap_margin": math.inf}, "submap_margin must be a finite number"),
+    ):
+        with pytest.raises(PlannerParameterError, match=shown):
+            topo.kinematic_planner("rect:0.5x0.3", **options)
+    with pytest.raises(InvalidScanError, match="ranges must be numbers"):
+        LaserScan([10**400], 0.0, 0.1)
+    with pytest.raises(InvalidScanError, match="not a LaserScan message"):
+        LaserScan.from_msg_fields(None)
+
+
+def test_the_planners_own_methods_name_a_region_or_point_that_is_none(topo):
+    from planners.errors import InvalidQueryError
+    from segmentation.errors import RegionNotFoundError
+
+    planner = topo.planner()
+    for region in (999, -1, 0, [1], True):
+        with pytest.raises(RegionNotFoundError):
+            planner.region_space(region)
+        with pytest.raises(RegionNotFoundError):
+            planner.centre(region)
+    with pytest.raises(RegionNotFoundError, match="a region is an integer id"):
+        planner.close_door([], [])
+    wall = topo.grid.cell_to_world(0, 0)
+    for point, shown in (((math.nan, 0.0), "two finite numbers"), (wall, "lies in")):
+        with pytest.raises(InvalidQueryError, match=shown):
+            planner.reach(point)
+
+
+def test_online_engines_and_outputs_given_the_wrong_kind_of_thing(topo, tmp_path):
+    from segmentation.events import OnlineStateError
+    from segmentation.incremental import IncrementalSegmenter
+    from segmentation.online import OnlineSegmenter
+    from topomap.errors import ExportError
+
+    with pytest.raises(OnlineStateError, match="flush before fit"):
+        IncrementalSegmenter().flush()
+    for model in (OnlineSegmenter(), IncrementalSegmenter()):
+        with pytest.raises(InvalidScanError, match="a list of Keyframes, got None"):
+            model.fit(None)
+    with pytest.raises(ParameterError, match="segmenter must be a SpectralSegmenter"):
+        OnlineSegmenter(segmenter="x").fit([])
+    for door_graphs in ("0.2", [None], [math.nan]):
+        with pytest.raises(ExportFormatError, match="door_graphs"):
+            topo.save(tmp_path / "saved", door_graphs=door_graphs)
+    with pytest.raises(ExportFormatError, match="progress must be a function"):
+        topo.save(tmp_path / "saved", progress=5)
+    with pytest.raises(ExportError, match="stamp must be seconds"):
+        topo.to_rosbag(tmp_path / "bag", stamp=math.nan)
+    with pytest.raises(ExportError, match="paths must be planned paths"):
+        topo.to_rosbag(tmp_path / "bag", paths=["x"])
+    assert list(tmp_path.iterdir()) == []
