@@ -52,7 +52,23 @@ def cells_from_image(
     """
     if mode not in MODES:
         raise MapFormatError(f"unknown mode {mode!r}, expected one of {MODES}", field="mode")
+    if negate not in (0, 1):  # True and False compare equal to 1 and 0
+        raise MapFormatError(f"expected 0 or 1, got {negate!r}", field="negate")
+    for name, value in (("occupied_thresh", occupied_thresh), ("free_thresh", free_thresh)):
+        problem = finite_in(value, name, 0.0, 1.0)
+        if problem is not None:
+            raise MapFormatError(problem, field=name)
+    if free_thresh > occupied_thresh:
+        raise MapFormatError(
+            f"free_thresh {free_thresh} is above occupied_thresh {occupied_thresh}",
+            field="free_thresh",
+        )
     pixels = np.asarray(image)
+    if pixels.ndim not in (2, 3) or (pixels.ndim == 3 and not 1 <= pixels.shape[2] <= 4):
+        raise MapFormatError(
+            f"an image is rows x columns (x 1-4 channels), got shape {pixels.shape}",
+            field="image",
+        )
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
     channels = pixels.shape[2]

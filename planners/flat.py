@@ -188,7 +188,7 @@ class FlatPlanner:
         """Grow a roadmap planner's graph for ``seconds`` before any query (preprocessing)."""
         if not self._keeps_roadmap:
             raise PlannerParameterError(f"{self.name} keeps no roadmap")
-        self._planner.growRoadmap(seconds)
+        self._planner.growRoadmap(checked_time_limit(seconds))
 
     def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:
         """Plan from ``start`` to ``goal``.

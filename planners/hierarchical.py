@@ -402,7 +402,13 @@ class HierarchicalPlanner:
         return np.vstack(pieces)
 
     def _site(self, part: int, door: int) -> int:
-        return self._doors_of[part].index(door)
+        """The place of ``door`` among ``part``'s doors; :class:`InvalidQueryError` for a
+        part or a door that is not there (the part graphs are made once prepared)."""
+        self.prepare()
+        try:
+            return self._doors_of[part].index(door)
+        except (KeyError, IndexError, TypeError, ValueError):
+            raise InvalidQueryError(f"door {door!r} is not a door of part {part!r}") from None
 
     def door_edges(self) -> dict[tuple[int, int], int]:
         """Edges ``(door a, door b)`` (``a < b``) of the door graph with every door open, and
@@ -412,13 +418,19 @@ class HierarchicalPlanner:
 
     def leg(self, part: int, a: int, b: int) -> NDArray[np.float64]:
         """Shortest polyline inside ``part`` from door ``a`` to door ``b`` (both its doors)."""
-        corners = len(self._part_graphs[part].corners)
-        return self.path_in_part(part, a, corners + self._site(part, b))
+        site = self._site(part, b)
+        return self.path_in_part(part, a, len(self._part_graphs[part].corners) + site)
 
     def path_in_part(self, part: int, door: int, node: int) -> NDArray[np.float64]:
         """Shortest polyline inside ``part`` from ``door`` to ``node`` of the part's visibility
         graph (e.g. a :class:`Reach`'s ``via``)."""
-        leg = self._part_graphs[part].site_path(self._site(part, door), int(node))
+        site = self._site(part, door)
+        graph = self._part_graphs[part]
+        if not (
+            isinstance(node, int | np.integer) and 0 <= node < len(graph.corners) + len(graph.sites)
+        ):
+            raise InvalidQueryError(f"node {node!r} is not a node of part {part}'s graph")
+        leg = graph.site_path(site, int(node))
         leg[0] = self.doors[door].point
         return leg
 

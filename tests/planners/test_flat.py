@@ -1,10 +1,12 @@
 """The flat OMPL planners on the two-room map."""
 
+import math
+
 import numpy as np
 import pytest
 
 from maps.grid import OCCUPIED, OccupancyGrid
-from planners.errors import InvalidQueryError, NoPathError
+from planners.errors import InvalidQueryError, NoPathError, PlannerParameterError
 from planners.flat import FlatPlanner
 from planners.workspace import Workspace
 
@@ -35,6 +37,10 @@ def test_flat_planner_rejects_bad_names_and_queries(two_rooms):
     space = Workspace(two_rooms(), robot_radius=0.2)
     with pytest.raises(ValueError, match=r"unknown OMPL planner 'RRTX'.*RRTConnect"):
         FlatPlanner(space, "RRTX")
+    roadmap = FlatPlanner(space, "PRM", time_limit=1.0)
+    for seconds in (math.nan, -1.0, "x"):
+        with pytest.raises(PlannerParameterError, match="time_limit must"):
+            roadmap.grow_roadmap(seconds)
     planner = FlatPlanner(space, time_limit=1.0)
     with pytest.raises(InvalidQueryError, match=r"goal .* in a wall"):
         planner.plan((1.0, 1.0), (4.15, 0.5))

@@ -467,3 +467,23 @@ def test_online_engines_and_outputs_given_the_wrong_kind_of_thing(topo, tmp_path
     with pytest.raises(ExportError, match="paths must be planned paths"):
         topo.to_rosbag(tmp_path / "bag", paths=["x"])
     assert list(tmp_path.iterdir()) == []
+
+
+def test_image_options_and_the_planners_lower_methods_are_checked(topo):
+    from maps.errors import MapFormatError
+    from planners.errors import InvalidQueryError
+
+    image = np.full((10, 10), 254, np.uint8)
+    for options, field in (
+        ({"free_thresh": math.nan}, "free_thresh"),
+        ({"free_thresh": 0.9, "occupied_thresh": 0.5}, "free_thresh"),
+        ({"negate": "yes"}, "negate"),
+    ):
+        with pytest.raises(MapFormatError, match=f"field '{field}'"):
+            OccupancyGrid.from_image(image, 0.1, **options)
+    with pytest.raises(MapFormatError, match="1-4 channels"):
+        OccupancyGrid.from_image(np.zeros((4, 4, 5), np.uint8), 0.1)
+    planner = topo.planner()
+    for call in (lambda: planner.leg(999, 0, 1), lambda: planner.path_in_part(-1, 10**6, 0)):
+        with pytest.raises(InvalidQueryError, match="is not a door of part"):
+            call()
