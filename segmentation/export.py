@@ -84,8 +84,8 @@ def _decoded(graph: nx.Graph, source: Path) -> nx.Graph:
             attrs = dict(data)
             attrs["doors"] = _doors(data["doors"], lo, hi)
             out.add_edge(lo, hi, **attrs)
-    except (KeyError, ValueError, TypeError, shapely.errors.GEOSException) as err:
-        raise ExportFormatError(f"{source}: not a topomap region graph: {err!r}") from err
+    except (KeyError, ValueError, TypeError, RecursionError, shapely.errors.GEOSException) as err:
+        raise ExportFormatError(f"{source}: not a topomap region graph: {err!r:.200}") from None
     return out
 
 
@@ -122,7 +122,7 @@ def read_node_link(path: str | Path) -> nx.Graph:
         raw = nx.node_link_graph(json.loads(path.read_text()), edges="edges")
     except FileNotFoundError:
         raise MapFileNotFoundError(path, "region graph") from None
-    except (ValueError, KeyError, TypeError) as err:
+    except (ValueError, KeyError, TypeError, RecursionError) as err:
         raise ExportFormatError(f"{path}: not node-link JSON: {err!r}") from err
     return _decoded(raw, path)
 
@@ -168,7 +168,7 @@ def read_geojson(path: str | Path) -> nx.Graph:
             graph.add_node(node, polygon=shape(feature["geometry"]), **properties)
     except FileNotFoundError:
         raise MapFileNotFoundError(path, "regions GeoJSON") from None
-    except (ValueError, KeyError, TypeError, AttributeError) as err:
+    except (ValueError, KeyError, TypeError, AttributeError, RecursionError) as err:
         where = f" feature {index}" if index >= 0 else ""
         raise ExportFormatError(f"{path}{where}: not topomap regions GeoJSON: {err!r}") from err
     return graph

@@ -277,6 +277,17 @@ def _graph_edit(folder: Path, old: str, new: str) -> None:
     path.write_text(text.replace(old, new, 1))
 
 
+def test_doors_nested_past_the_recursion_limit_are_a_format_error(tmp_path, saved):
+    import networkx as nx
+
+    graph = nx.read_graphml(saved / "graph.graphml")
+    doors = next(iter(graph.edges(data=True)))[2]["doors"]
+    folder = _copy(saved, tmp_path / "nested")
+    _graph_edit(folder, doors, "[" * 5000 + "]" * 5000)
+    with pytest.raises(ExportFormatError, match="not a topomap region graph: RecursionError"):
+        TopoMap.load(folder)
+
+
 def test_a_changed_saved_folder_is_refused(tmp_path, saved):
     import networkx as nx
 
@@ -296,6 +307,23 @@ def test_a_changed_saved_folder_is_refused(tmp_path, saved):
             continue  # the key numbering differs: the digest still refuses below
         with pytest.raises(ExportFormatError, match=shown):
             TopoMap.load(folder)
+
+
+def test_export_and_view_never_write_over_their_inputs_even_with_force(tmp_path, capsys, saved):
+    folder = _copy(saved, tmp_path / "inputs")
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    map_yaml = str(folder / "map.yaml")
+    for argv in (
+        ["export", map_yaml, "--regions", str(folder), "--nav2-route", str(folder / "graph.json")],
+        ["export", map_yaml, "--regions", str(folder), "--rosbag", str(folder)],
+        ["export", map_yaml, "--regions", str(folder), "--nav2-route", map_yaml],
+        ["view", str(folder), "--out", str(folder / "graph.json")],
+    ):
+        assert main(["-q", *argv, "--force"]) == 2
+        assert "would be written over the input" in _error_line(capsys)
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+    assert main(["-q", "export", map_yaml, "--rosbag", ""]) == 2
+    assert "an output path cannot be empty" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("files", [None, {}, "drop graph.json"])
@@ -547,7 +575,9 @@ def _eval_data(folder: Path, plan_map: Path, rooms: np.ndarray, anchors: str | N
     "case, shown",
     [
         ("no map column", "line 2, field 'map': missing"),
-        ("not a number", "field 'mcc': expected a number, got 'high'"),
+        ("not a number", "field 'mcc': expected a number in [-100, 100], got 'high'"),
+        ("not finite", "field 'mcc': expected a number in [-100, 100], got 'nan'"),
+        ("a field too long for csv", "not a CSV table (field larger than field limit"),
         ("rooms the wrong size", "people's rooms are 10 x 10 cells"),
         ("no room", "no room drawn"),
     ],
@@ -561,6 +591,10 @@ def test_eval_segment_refuses_bad_truth_before_scoring(tmp_path, capsys, plan_ma
         anchors = "furnished,method\n0,other\n"
     elif case == "not a number":
         anchors = header + "m,0,other,0.9,0.9,high,1\n"
+    elif case == "not finite":
+        anchors = header + "m,0,other,0.9,0.9,nan,1\n"
+    elif case == "a field too long for csv":
+        anchors = header + "m,0," + "x" * 200_000 + ",0.9,0.9,0.8,1\n"
     elif case == "rooms the wrong size":
         rooms = np.ones((10, 10))
     elif case == "no room":

@@ -62,7 +62,7 @@ def test_segment_online_refuses_to_overwrite_and_bad_options(intel_online, data_
     fresh = str(out / "again")
     argv = ["-q", "segment", "--scans", log, "--online"]
     assert main([*argv, "--out", fresh, "--online-method", "centres", "--theta", "1.5"]) == 2
-    assert "theta must lie in [0, 1], got 1.5" in capsys.readouterr().err
+    assert "argument --theta: must lie in [0, 1], got 1.5" in capsys.readouterr().err
     assert main(["-q", "segment", "--scans", log, "--online", "--out", fresh, "--frames", "0"]) == 2
     assert "--frames must be" in capsys.readouterr().err
 

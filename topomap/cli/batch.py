@@ -223,7 +223,7 @@ def dask_client(workers: int = 2, scheduler: str | None = None) -> Iterator[Any]
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout=CONNECT_SECONDS)
-        except (OSError, TimeoutError) as err:
+        except Exception as err:
             reason = " ".join(str(err).split())[:200]
             raise SchedulerError(
                 f"cannot reach the Dask scheduler at {scheduler}: {reason}"

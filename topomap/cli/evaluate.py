@@ -4,6 +4,7 @@ per plan) and ROSE²'s real SLAM maps (a colour image per map, ROSE²'s own resu
 from __future__ import annotations
 
 import csv
+import math
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -399,6 +400,8 @@ def read_anchors(data_dir: str | Path) -> list[dict[str, Any]]:
                 rows.append(_anchor(row, path, line))
     except UnicodeDecodeError as err:
         raise MapFormatError(f"not UTF-8 text ({err.reason})", path=path) from None
+    except csv.Error as err:  # a field over the csv module's limit, a NUL byte
+        raise MapFormatError(f"not a CSV table ({err})", path=path) from None
     return rows
 
 
@@ -412,14 +415,20 @@ def _anchor(row: dict[str, str], path: Path, line: int) -> dict[str, Any]:
             raise MapFormatError("missing", path=path, line=line, field=column)
         return found
 
-    def number(column: str) -> float:
+    def number(column: str, lo: float = -100.0, hi: float = 100.0) -> float:
         text = value(column)
         try:
-            return float(text)
+            found = float(text) if "_" not in text else math.nan  # float() reads 0_9 as 9
         except ValueError:
+            found = math.nan
+        if not math.isfinite(found) or not lo <= found <= hi:  # a score: %, or MCC in [-1, 1]
             raise MapFormatError(
-                f"expected a number, got {text[:40]!r}", path=path, line=line, field=column
-            ) from None
+                f"expected a number in [{lo:g}, {hi:g}], got {text[:40]!r}",
+                path=path,
+                line=line,
+                field=column,
+            )
+        return found
 
     if "iou_mean_seg" in row:
         return {
@@ -438,7 +447,7 @@ def _anchor(row: dict[str, str], path: Path, line: int) -> dict[str, Any]:
         "recall": number("recall_micro"),
         "precision": number("precision_micro"),
         "mcc": number("mcc"),
-        "seconds": number("runtime_s") if value("runtime_s") else None,
+        "seconds": number("runtime_s", 0.0, 1e6) if value("runtime_s") else None,
     }
 
 

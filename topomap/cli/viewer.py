@@ -29,6 +29,7 @@ import shapely
 
 from maps.files import OutputFolder, check_output_file, write_text
 from planners.errors import PlanningError
+from topomap.errors import ExportError
 from topomap.graph_layout import edge_segments, label_colour
 
 #: Longest side of the embedded map picture, pixels (a 300 x 200 m campus at 0.05 m: 1/2).
@@ -149,12 +150,38 @@ def _hex(rgb: tuple[float, float, float]) -> str:
     return "#" + "".join(f"{round(255 * c):02x}" for c in rgb)
 
 
+#: Characters written as JSON ``\\uXXXX`` escapes in the page's data: with them a name can
+#: neither end the data's script (``</script>``), open a comment that swallows the viewer's
+#: own script (``<!--``), nor end a JavaScript line (U+2028, U+2029).
+_UNSAFE = {ord(c): f"\\u{ord(c):04x}" for c in "<>&\u2028\u2029"}
+
+
 def page(data: dict[str, Any], title: str) -> str:
     """The HTML page of :func:`viewer_data`: the template with its style, script and data
-    inlined (``</`` in the JSON escaped, so no name can end the script)."""
+    inlined (:data:`_UNSAFE` characters in the JSON escaped, so no name can break the page).
+
+    Raises
+    ------
+    ExportError
+        A number in the data that is not finite (a damaged graph's NaN coordinates): JSON
+        has no NaN, and the page would be blank.
+
+    Examples
+    --------
+    >>> text = page({"names": ["<!-- <script>"]}, "t")
+    >>> "<!-- <script>" in text, "!-- " + chr(92) + "u003cscript" in text
+    (False, True)
+    >>> page({"x": float("nan")}, "t")
+    Traceback (most recent call last):
+    ...
+    topomap.errors.ExportError: the viewer's data holds a number that is not finite (...)
+    """
     assets = resources.files("topomap.cli") / "viewer"
     html = (assets / "viewer.html").read_text()
-    payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
+    try:
+        payload = json.dumps(data, separators=(",", ":"), allow_nan=False).translate(_UNSAFE)
+    except ValueError as err:
+        raise ExportError(f"the viewer's data holds a number that is not finite ({err})") from None
     return (
         html.replace("{{TITLE}}", _escape(title))
         .replace("{{STYLE}}", (assets / "viewer.css").read_text())
@@ -189,9 +216,11 @@ def run_view(args: argparse.Namespace) -> int:
     the regions are read: a folder that cannot be made, or that the system refuses to write
     in, stops the command before any work.
     """
+    from topomap.cli.commands.common import refuse_inputs_as_outputs
     from topomap.topomap import TopoMap
 
     out = Path(args.out)
+    refuse_inputs_as_outputs([args.out], [args.regions])
     with OutputFolder(out.parent, [out.name], overwrite=args.force, how="--force") as work:
         topo = TopoMap.load(args.regions)
         args.progress.stage(f"planning the paths between the regions of {args.regions}")

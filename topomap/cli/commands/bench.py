@@ -8,6 +8,7 @@ from pathlib import Path
 
 from topomap.cli.commands.common import (
     ONLINE_METHODS,
+    SHARE,
     add_output_options,
     add_robot_options,
     refuse_existing,
@@ -70,7 +71,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         type=float,
         help="quality runs: share of keyframes seeded (default 10 %%, at least 40)",
     )
-    online_bench.add_argument("--theta", type=float, default=0.5, help="in [0, 1]")
+    online_bench.add_argument("--theta", type=SHARE, default=0.5, help="in [0, 1]")
     online_bench.set_defaults(func=cmd_bench_online)
     plan_bench = bench_sub.add_parser("plan", help="hierarchical against flat planning")
     add_output_options(plan_bench, "out/bench-plan")

@@ -128,7 +128,7 @@ def add_segmenter_options(parser: argparse.ArgumentParser, *, method: bool = Tru
     )
     parser.add_argument(
         "--contrast",
-        type=float,
+        type=CONTRAST,
         default=2.0,
         help="how much a narrow passage weakens the affinity across it (0: similarity alone)",
     )
@@ -183,10 +183,33 @@ LENGTH = number_type(0.0, MAX_LENGTH, low_open=True)
 DISTANCE = number_type(0.0, MAX_LENGTH)
 
 
+#: ``--theta``: a share in [0, 1].
+SHARE = number_type(0.0, 1.0, unit="")
+
+
+#: ``--contrast``: the openness exponent of the affinity, as ``PassageAffinity`` takes it.
+CONTRAST = number_type(0.0, 63.0, unit="")
+
+
+#: The most workers, rounds or seeds a command takes: a thousand processes or runs is more
+#: than a machine gives a batch, and a count of 10^8 would run until it is killed.
+MAX_COUNT = 1000
+
+
 def worker_count(text: str) -> int:
-    """``--workers``, ``--rounds`` and ``--seeds``: a whole number of at least 1."""
-    if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got {text!r}")
+    """``--workers``, ``--rounds`` and ``--seeds``: a whole number in 1..:data:`MAX_COUNT`.
+
+    Examples
+    --------
+    >>> worker_count("4")
+    4
+    >>> worker_count("100000")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: must be a whole number in 1..1000, got '100000'
+    """
+    if not (text.isdigit() and len(text) <= 6 and 1 <= int(text) <= MAX_COUNT):
+        raise argparse.ArgumentTypeError(f"must be a whole number in 1..{MAX_COUNT}, got {text!r}")
     return int(text)
 
 
@@ -287,3 +310,32 @@ def load_map(args: argparse.Namespace) -> Any:
         return topo
     args.progress.stage(f"segmenting {args.map}")
     return TopoMap.from_grid(OccupancyGrid.load(args.map))
+
+
+def refuse_inputs_as_outputs(outputs: Iterable[str | None], inputs: Iterable[str | None]) -> None:
+    """Refuse an output that would replace an input, even with ``--force``: an output that
+    is an input file or a file inside an input folder, or an output folder that is or holds
+    an input (a folder written whole would take its files).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> seg = Path(tempfile.mkdtemp()); _ = (seg / "graph.json").write_text("{}")
+    >>> refuse_inputs_as_outputs([str(seg / "route.geojson")], [str(seg)])  # a new file
+    >>> refuse_inputs_as_outputs([str(seg / "graph.json")], [str(seg)])
+    Traceback (most recent call last):
+    ...
+    topomap.errors.UsageError: ...graph.json would be written over the input ...: choose ...
+    """
+    sources = [Path(path).resolve() for path in inputs if path is not None]
+    for output in outputs:
+        if output is None:
+            continue
+        target = Path(output).resolve()
+        for source in sources:
+            inside = source.is_dir() and source in target.parents and target.exists()
+            holds = target == source or target in source.parents
+            if inside or holds:
+                raise UsageError(
+                    f"{output} would be written over the input {source}: choose another output"
+                )

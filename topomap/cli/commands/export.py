@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from topomap.cli.commands.common import RADIUS, point_or_region
+from topomap.cli.commands.common import RADIUS, output_path, point_or_region
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -13,12 +13,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     export.add_argument("map", help="map_server YAML")
     export.add_argument("--regions", help="folder written by `topomap segment` (else segment now)")
     export.add_argument(
-        "--nav2-route", help="OUT.geojson: the building's route graph (doors, regions)"
+        "--nav2-route",
+        type=output_path,
+        help="OUT.geojson: the building's route graph (doors, regions)",
     )
     export.add_argument(
-        "--planner-graph", help="OUT.geojson: the planner's internal portal graph (debugging)"
+        "--planner-graph",
+        type=output_path,
+        help="OUT.geojson: the planner's internal portal graph (debugging)",
     )
-    export.add_argument("--rosbag", help="OUT: a ROS 2 bag folder (map, regions, markers)")
+    export.add_argument(
+        "--rosbag", type=output_path, help="OUT: a ROS 2 bag folder (map, regions, markers)"
+    )
     export.add_argument("--storage", default="mcap", choices=["mcap", "sqlite3"])
     export.add_argument(
         "--path",

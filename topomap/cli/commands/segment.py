@@ -12,6 +12,7 @@ from maps.files import OutputFolder, write_text
 from topomap.cli.commands.common import (
     DISTANCE,
     ONLINE_METHODS,
+    SHARE,
     add_bag_options,
     add_output_options,
     add_picture_option,
@@ -58,7 +59,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="--online: keyframes segmented offline first (default 10%% of the log, at least 40)",
     )
     seg.add_argument(
-        "--theta", type=float, default=0.5, help="--online-method centres: acceptance, in [0, 1]"
+        "--theta", type=SHARE, default=0.5, help="--online-method centres: acceptance, in [0, 1]"
     )
     seg.add_argument("--frames", type=int, help="a picture every N keyframes and regions.gif")
     seg.add_argument(
