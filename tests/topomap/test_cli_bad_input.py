@@ -689,3 +689,18 @@ def test_drawn_rooms_that_are_no_json_or_no_polygons_name_the_file_and_the_room(
     rooms = [{"name": "hall", "polygon": [[0, 0], [1, 1]]}]
     with pytest.raises(MapFormatError, match="room 1 \\('hall'\\): a polygon needs"):
         drawn_rooms(grid, rooms)
+    for rooms, shown in (
+        (["x"], "a polygon needs"),
+        ([{"polygon": [[0, 0], [1]]}], "a polygon needs"),
+        ([{"polygon": [[0, 0], ["a", 1], [1, 1]]}], "a polygon needs"),
+        ([{"name": "far", "polygon": [[100, 100], [101, 100], [101, 101]]}], "lies off the map"),
+        ("x", "the rooms are a list"),
+    ):
+        with pytest.raises(MapFormatError, match=shown):
+            drawn_rooms(grid, rooms)
+    far = [{"name": "a", "polygon": [[0, 0], [5, 0], [1e12, 1e12], [0, 5]]}]
+    assert drawn_rooms(grid, far).sum() > 0  # the part on the map, not the plane
+    for text in ('{"intel": {"log": 5}}', '{"intel": ' + "[" * 5000 + "]" * 5000 + "}"):
+        bad.write_text(text)
+        with pytest.raises(MapFormatError, match=r"carmen_rooms\.json"):
+            read_drawn(bad, "drawn rooms JSON")

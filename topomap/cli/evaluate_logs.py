@@ -48,16 +48,59 @@ def drawn_rooms(grid: OccupancyGrid, rooms: list[dict[str, Any]]) -> NDArray[np.
     (np.int32(1), np.int32(2), [1, 2])
     """
     labels = np.zeros(grid.shape, np.int32)
+    if not isinstance(rooms, list):
+        raise MapFormatError(f"the rooms are a list of {{name, polygon}}, got {rooms!r:.80}")
+    x0, y0, x1, y1 = grid.bounds()
     for number, room in enumerate(rooms, 1):
-        xy = np.asarray(room.get("polygon", []), float)
+        polygon = room.get("polygon") if isinstance(room, dict) else None
+        try:
+            xy = np.asarray(polygon if polygon is not None else [], float)
+        except (TypeError, ValueError, OverflowError):  # ragged, text, 400-digit numbers
+            xy = np.zeros(0)
+        name = room.get("name", "?") if isinstance(room, dict) else "?"
         if xy.ndim != 2 or xy.shape[1] != 2 or len(xy) < 3 or not np.isfinite(xy).all():
             raise MapFormatError(
-                f"room {number} ({room.get('name', '?')!r}): a polygon needs at least three "
-                f"[x, y] points in metres, got {room.get('polygon')!r}"
+                f"room {number} ({name!r:.40}): a polygon needs at least three [x, y] points "
+                f"in metres, got {polygon!r:.80}"
             )
-        rows, cols = grid.world_to_cell(xy[:, 0], xy[:, 1])
-        cv2.fillPoly(labels, [np.column_stack([cols, rows]).astype(np.int32)], number)
+        if xy[:, 0].max() < x0 or xy[:, 0].min() > x1 or xy[:, 1].max() < y0 or xy[:, 1].min() > y1:
+            raise MapFormatError(
+                f"room {number} ({name!r:.40}) lies off the map (x {x0:g}..{x1:g}, "
+                f"y {y0:g}..{y1:g} m): the rooms are of another map or frame"
+            )
+        for part in _on_map(xy, (x0, y0, x1, y1)):
+            rows, cols = grid.world_to_cell(part[:, 0], part[:, 1])
+            cv2.fillPoly(labels, [np.column_stack([cols, rows]).astype(np.int32)], number)
     return np.where(grid.free, labels, 0)
+
+
+def _on_map(xy: NDArray[np.float64], box: tuple[float, float, float, float]) -> list:
+    """The polygon ``xy`` (metres) as it is drawn on a map of bounds ``box``: itself when it
+    lies within a metre of them (the rooms people draw, slits and all), else its part within
+    them (a vertex a million kilometres off would be rasterised across the whole plane).
+
+    Examples
+    --------
+    >>> square = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
+    >>> _on_map(square, (0, 0, 10, 10))[0] is square
+    True
+    >>> far = np.array([[0.0, 0.0], [1e12, 0.0], [0.0, 2.0]])
+    >>> float(np.abs(_on_map(far, (0, 0, 10, 10))[0]).max()) <= 11
+    True
+    """
+    x0, y0, x1, y1 = box
+    low, high = xy.min(axis=0), xy.max(axis=0)
+    if low[0] >= x0 - 1 and low[1] >= y0 - 1 and high[0] <= x1 + 1 and high[1] <= y1 + 1:
+        return [xy]
+    import shapely
+
+    inside = shapely.Polygon(xy).buffer(0).intersection(shapely.box(x0 - 1, y0 - 1, x1 + 1, y1 + 1))
+    parts = getattr(inside, "geoms", [inside])
+    return [
+        np.asarray(p.exterior.coords)
+        for p in parts
+        if isinstance(p, shapely.Polygon) and not p.is_empty
+    ]
 
 
 def evaluate_logs(

@@ -263,10 +263,10 @@ def read_drawn(
         raise MapFileNotFoundError(path, what)
     try:
         drawn = json.loads(path.read_text())
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise MapFormatError(f"{path}: not a {what}: {error}") from None
+    except (UnicodeDecodeError, ValueError, RecursionError) as error:  # 5000-digit numbers too
+        raise MapFormatError(f"{path}: not a {what}: {str(error)[:200]}") from None
     if not isinstance(drawn, dict) or not all(
-        isinstance(shapes, dict) and "log" in shapes for shapes in drawn.values()
+        isinstance(shapes, dict) and isinstance(shapes.get("log"), str) for shapes in drawn.values()
     ):
         raise MapFormatError(f"{path}: a {what} maps each log's name to its shapes and 'log'")
     return drawn
