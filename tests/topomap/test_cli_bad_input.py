@@ -70,6 +70,11 @@ def _copy(saved: Path, to: Path) -> Path:
         (["demo", "--jobs", "0"], "--jobs"),
         (["view", "REGIONS", "--max-paths", "-1"], "--max-paths"),
         (["plan", "MAP", "--start", "1,1", "--goal", "2", "--robot-radius", "1000"], "radius"),
+        (["bench", "sim", "--scans", "-5"], "--scans"),
+        (["bench", "plan", "--queries", "10000000000"], "--queries"),
+        (["bench", "plan", "--budget", "nan"], "--budget"),
+        (["bench", "batch", "--maps", "100000000"], "--maps"),
+        (["eval", "runs", "--seeds", "100000000"], "--seeds"),
     ],
 )
 def test_numbers_out_of_range_are_usage_errors(tmp_path, capsys, argv, shown):

@@ -8,14 +8,20 @@ from pathlib import Path
 
 from topomap.cli.commands.common import (
     ONLINE_METHODS,
+    RADIUS,
     SHARE,
     add_output_options,
     add_robot_options,
+    count_type,
+    number_type,
     refuse_existing,
     robot_spec,
     worker_count,
 )
 from topomap.cli.tables import markdown_table
+
+#: ``--time-limit`` and ``--budget``: seconds, up to an hour.
+SECONDS = number_type(0.0, 3600.0, low_open=True, unit="s")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -24,13 +30,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     bench_sub = bench.add_subparsers(dest="bench", required=True)
     sim = bench_sub.add_parser("sim", help="laser simulator speed")
     add_output_options(sim, "out/bench-sim")
-    sim.add_argument("--scans", type=int, nargs="+", default=[1_000, 10_000])
-    sim.add_argument("--beams", type=int, nargs="+", default=[181, 361])
+    sim.add_argument("--scans", type=count_type(1, 1_000_000), nargs="+", default=[1_000, 10_000])
+    sim.add_argument("--beams", type=count_type(2, 100_000), nargs="+", default=[181, 361])
     sim.set_defaults(func=cmd_bench_sim)
     seg_bench = bench_sub.add_parser("segment", help="spectral partition speed against naive")
     add_output_options(seg_bench, "out/bench-segment")
-    seg_bench.add_argument("--sizes", type=int, nargs="+", default=[1_000, 2_000, 5_000, 10_000])
-    seg_bench.add_argument("--naive-up-to", type=int, default=2_000)
+    seg_bench.add_argument(
+        "--sizes", type=count_type(2, 100_000), nargs="+", default=[1_000, 2_000, 5_000, 10_000]
+    )
+    seg_bench.add_argument("--naive-up-to", type=count_type(0, 100_000), default=2_000)
     seg_bench.add_argument("--building", default="campus", choices=["flat", "office", "campus"])
     seg_bench.set_defaults(func=cmd_bench_segment)
     maps_bench = bench_sub.add_parser("maps", help="the whole segmentation over map sizes")
@@ -53,8 +61,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         default=["latency", "quality", "growing"],
         choices=["latency", "quality", "growing"],
     )
-    online_bench.add_argument("--keyframes", type=int, default=10_000, help="of the long run")
-    online_bench.add_argument("--seed-keyframes", type=int, default=500, help="long run's seed")
+    online_bench.add_argument(
+        "--keyframes", type=count_type(2, 1_000_000), default=10_000, help="of the long run"
+    )
+    online_bench.add_argument(
+        "--seed-keyframes", type=count_type(2, 100_000), default=500, help="long run's seed"
+    )
     online_bench.add_argument("--building", default="campus", choices=["flat", "office", "campus"])
     online_bench.add_argument(
         "--offline-up-to", type=int, default=2_000, help="re-run offline every 100 up to this"
@@ -83,11 +95,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="generated buildings (flat, office, campus) and 512 x 512 grid maps of rooms "
         "8, 16 or 32 cells apart with one-cell doors (rooms8, rooms16, rooms32)",
     )
-    plan_bench.add_argument("--queries", type=int, default=30, help="per map")
-    plan_bench.add_argument("--robot-radius", type=float, default=0.2, help="metres")
-    plan_bench.add_argument("--time-limit", type=float, default=20.0, help="flat planners, s")
+    plan_bench.add_argument("--queries", type=count_type(1, 10_000), default=30, help="per map")
+    plan_bench.add_argument("--robot-radius", type=RADIUS, default=0.2, help="metres")
+    plan_bench.add_argument("--time-limit", type=SECONDS, default=20.0, help="flat planners, s")
     plan_bench.add_argument(
-        "--budget", type=float, default=30.0, help="query seconds per planner and map, then skip"
+        "--budget", type=SECONDS, default=30.0, help="query seconds per planner and map, then skip"
     )
     plan_bench.add_argument(
         "--python-astar", action="store_true", help="also the pure-Python grid A* (reference)"
@@ -107,7 +119,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     plan_bench.set_defaults(func=cmd_bench_plan)
     batch_bench = bench_sub.add_parser("batch", help="topomap batch: maps per minute, 1-2 workers")
     add_output_options(batch_bench, "out/bench-batch")
-    batch_bench.add_argument("--maps", type=int, default=24, help="generated buildings")
+    batch_bench.add_argument(
+        "--maps", type=count_type(1, 10_000), default=24, help="generated buildings"
+    )
     batch_bench.add_argument("--size", default="flat", choices=["flat", "office"])
     batch_bench.add_argument("--workers", type=worker_count, nargs="+", default=[1, 2])
     batch_bench.add_argument("--rounds", type=worker_count, default=2, help="turns per count")

@@ -191,6 +191,28 @@ SHARE = number_type(0.0, 1.0, unit="")
 CONTRAST = number_type(0.0, 63.0, unit="")
 
 
+def count_type(lo: int, hi: int) -> Any:
+    """An argparse type: a whole number in ``lo..hi``, so a count out of range (a negative
+    one, or 10^10 queries that would run until killed) is a usage error before any work.
+
+    Examples
+    --------
+    >>> count_type(1, 100)("30")
+    30
+    >>> count_type(1, 100)("-5")
+    Traceback (most recent call last):
+    ...
+    argparse.ArgumentTypeError: must be a whole number in 1..100, got '-5'
+    """
+
+    def count(text: str) -> int:
+        if not (text.isdigit() and len(text) <= 12 and lo <= int(text) <= hi):
+            raise argparse.ArgumentTypeError(f"must be a whole number in {lo}..{hi}, got {text!r}")
+        return int(text)
+
+    return count
+
+
 #: The most workers, rounds or seeds a command takes: a thousand processes or runs is more
 #: than a machine gives a batch, and a count of 10^8 would run until it is killed.
 MAX_COUNT = 1000
