@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import inspect
 import math
-from typing import Any, TypeVar
+from typing import Any, TypeGuard, TypeVar
 
 import numpy as np
 
@@ -147,7 +147,7 @@ def check_lengths(estimator: object, *names: str) -> None:
             raise ParameterError(f"{name} must be a finite number > 0 metres, got {value!r}")
 
 
-def is_count(value: object) -> bool:
+def is_count(value: object) -> TypeGuard[int | np.integer]:
     """Whether ``value`` is an integer (Python's or numpy's), not a bool: ``k=True`` is no
     count of regions.
 

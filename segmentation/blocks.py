@@ -21,7 +21,7 @@ from scipy.spatial import cKDTree
 
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
-from segmentation.base import Estimator
+from segmentation.base import Estimator, is_count
 from segmentation.distinct import label_counts
 from segmentation.errors import ParameterError
 from segmentation.spectral import SpectralSegmenter, at_most, kmeans
@@ -168,10 +168,7 @@ def check_n_jobs(n_jobs: object) -> None:
     segmentation.errors.ParameterError: n_jobs must be None or a nonzero integer within ±1024, got 0
     """
     if n_jobs is not None and not (
-        isinstance(n_jobs, int | np.integer)
-        and not isinstance(n_jobs, bool)
-        and n_jobs != 0
-        and -MAX_JOBS <= int(n_jobs) <= MAX_JOBS
+        is_count(n_jobs) and n_jobs != 0 and -MAX_JOBS <= int(n_jobs) <= MAX_JOBS
     ):
         raise ParameterError(
             f"n_jobs must be None or a nonzero integer within ±{MAX_JOBS}, got {n_jobs!r}"

@@ -324,12 +324,18 @@ def test_resampled_cells_are_what_a_mapper_makes_and_a_split_map_comes_back(
     assert (back.cells == cells).all() and (back_rooms == np.where(grid.occupied, 0, rooms)).all()
 
 
-def test_eval_corridors_finds_intels_ring_corridor_in_one_region(tmp_path, data_dir):
-    # the ring's corners have wide doors off them: a corridor with doors along it
-    drawn = json.loads((Path(__file__).parents[1] / "data/labels/carmen.json").read_text())
+def _intel_labels(tmp_path: Path, name: str) -> Path:
+    """A labels folder holding the Intel log's entry of ``tests/data/labels/<name>`` only."""
+    drawn = json.loads((Path(__file__).parents[1] / "data/labels" / name).read_text())
     labels = tmp_path / "labels"
     labels.mkdir()
-    (labels / "carmen.json").write_text(json.dumps({"intel": drawn["intel"]}))
+    (labels / name).write_text(json.dumps({"intel": drawn["intel"]}))
+    return labels
+
+
+def test_eval_corridors_finds_intels_ring_corridor_in_one_region(tmp_path, data_dir):
+    # the ring's corners have wide doors off them: a corridor with doors along it
+    labels = _intel_labels(tmp_path, "carmen.json")
     out = tmp_path / "out"
     command = ["eval", "corridors", str(data_dir / "carmen"), "--hand-labels", str(labels)]
     assert main([*command, "--out", str(out)]) == 0
@@ -338,10 +344,7 @@ def test_eval_corridors_finds_intels_ring_corridor_in_one_region(tmp_path, data_
 
 
 def test_eval_logs_scores_the_keyframes_against_the_drawn_rooms(tmp_path, data_dir, capsys):
-    drawn = json.loads((Path(__file__).parents[1] / "data/labels/carmen_rooms.json").read_text())
-    labels = tmp_path / "labels"
-    labels.mkdir()
-    (labels / "carmen_rooms.json").write_text(json.dumps({"intel": drawn["intel"]}))
+    labels = _intel_labels(tmp_path, "carmen_rooms.json")
     out = tmp_path / "out"
     command = ["eval", "logs", str(data_dir / "carmen"), "--hand-labels", str(labels)]
     assert main([*command, "--out", str(out)]) == 0

@@ -36,7 +36,8 @@ def drawn_rooms(grid: OccupancyGrid, rooms: list[dict[str, Any]]) -> NDArray[np.
     Raises
     ------
     MapFormatError
-        A room without a polygon of at least three points.
+        Rooms that are not a list, a room without a polygon of at least three finite points,
+        or one that lies wholly off the map (rooms drawn on another map or frame).
 
     Examples
     --------
