@@ -28,7 +28,7 @@ from maps.errors import MapTooLargeError, OutputExistsError
 from maps.files import OutputFolder, write_text
 from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
-from maps.scan import Keyframe, poses_array
+from maps.scan import Keyframe, poses_array, seeing
 from segmentation.errors import SegmentationError
 from segmentation.events import Event
 from segmentation.graph import region_graph
@@ -350,7 +350,9 @@ def segment_online(
     offline command (``regions.png``, ``graph.graphml``, ``graph.json``, ``regions.geojson``,
     ``map.yaml``, ``keyframes.csv``, ``segmentation.png`` unless not ``picture``,
     ``summary.json``) for its final partition, plus ``events.jsonl`` and, with
-    ``frames_every``, ``frames/*.png`` and ``regions.gif``. Returns the summary.
+    ``frames_every``, ``frames/*.png`` and ``regions.gif``. Returns the summary. Keyframes with
+    no valid beam are left out, as offline (:func:`~maps.scan.seeing`), and counted in the
+    summary.
 
     Every output is checked before any work (:func:`online_outputs`; ``overwrite`` to replace
     them) and all appear at once, written through :class:`~maps.files.OutputFolder`: a failed
@@ -377,10 +379,11 @@ def segment_online(
     if frames_every and not overwrite and (out / "frames").exists():
         raise OutputExistsError(out / "frames", "--force")
     folder = OutputFolder(out, names, overwrite=overwrite, how="--force", last="summary.json")
+    seen = seeing(keyframes)
     with folder as work:
         try:
             run = run_online(
-                keyframes,
+                seen,
                 seed_keyframes=seed_keyframes,
                 method=method,
                 theta=theta,
@@ -394,11 +397,11 @@ def segment_online(
         except MapTooLargeError as err:
             raise MapTooLargeError(str(err), path=source) from None
         online = run.online
-        regions, graph, keyframe_regions = dense_regions(grid, keyframes, online.labels_)
+        regions, graph, keyframe_regions = dense_regions(grid, seen, online.labels_)
         dense_seconds = time.perf_counter() - start
         if graph.number_of_nodes() == 0:  # as the offline command refuses a map without space
             raise SegmentationError(
-                f"{source}: no region: the {len(keyframes)} keyframes saw no free space a "
+                f"{source}: no region: the {len(seen)} keyframes saw no free space a "
                 f"robot fits in ({int(grid.free.sum())} free cells on the map)"
             )
         written = [
@@ -407,7 +410,7 @@ def segment_online(
             write_node_link(graph, work / "graph.json"),
             write_geojson(graph, work / "regions.geojson"),
             grid.save(work / "map.yaml"),
-            write_keyframes(work / "keyframes.csv", keyframes, keyframe_regions, online),
+            write_keyframes(work / "keyframes.csv", seen, keyframe_regions, online),
             write_events(work / "events.jsonl", online.events_),
         ]
         if picture:
@@ -417,7 +420,8 @@ def segment_online(
             )
         if run.frames:
             written.append(write_gif(run.frames, work / "regions.gif"))
-        summary = _online_summary(run, keyframes, graph, source, method, theta, dense_seconds)
+        skipped = len(keyframes) - len(seen)
+        summary = _online_summary(run, seen, skipped, graph, source, method, theta, dense_seconds)
         summary["written"] = [p.name for p in written]
         write_text(work / "summary.json", json.dumps(summary, indent=2))
     return summary
@@ -426,18 +430,21 @@ def segment_online(
 def _online_summary(
     run: OnlineRun,
     keyframes: Sequence[Keyframe],
+    skipped: int,
     graph: nx.Graph,
     source: str,
     method: str,
     theta: float,
     dense_seconds: float,
 ) -> dict[str, Any]:
-    """The summary of :func:`segment_online` (but the files written)."""
+    """The summary of :func:`segment_online` (but the files written) of a run of
+    ``keyframes``, ``skipped`` more having no valid beam."""
     online = run.online
     kinds = [e.kind for e in online.events_ if e.keyframe >= online.n_seed_]
     return {
         "source": source,
         "keyframes": len(keyframes),
+        "keyframes_without_valid_beam": skipped,
         "method": method,
         "seed_keyframes": online.n_seed_,
         **(
