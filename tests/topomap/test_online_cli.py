@@ -210,3 +210,24 @@ def test_online_skips_a_scan_with_no_valid_beam_as_offline(short_log, tmp_path, 
     rows = [(outs[log] / "keyframes.csv").read_text().splitlines() for log in outs]
     shifted = [row.split(",", 1)[1] for row in rows[1]]  # the scans after it: one line later
     assert [row.split(",", 1)[1] for row in rows[0]] == shifted
+
+
+def test_online_refuses_a_run_larger_than_memory_before_any_fit(tmp_path, capsys, monkeypatch):
+    from tests.maps.test_carmen import _line
+
+    monkeypatch.setattr("maps.limits._memory_bytes", lambda: 2**26)  # a million cells
+    walk = [(2.0 * i, 0.0) for i in range(30)] + [(60.0, 2.0 * i) for i in range(30)]
+    log = tmp_path / "walk.log"  # an L of 60 m each way: 1300 x 1320 cells of 5 cm
+    log.write_text("".join(_line([3.0] * 90, (x, y, 0.0)) for x, y in walk))
+    assert main(["-q", "segment", "--scans", str(log), "--out", str(tmp_path / "offline")]) == 2
+    offline = capsys.readouterr().err.strip().removeprefix("topomap: error: ")
+    assert "larger than memory allows" in offline and "the keyframes span 65 x 66 m" in offline
+
+    def never(*_args, **_kwargs):
+        raise AssertionError("the online pass started before the map's extent was checked")
+
+    monkeypatch.setattr("topomap.cli.online.run_online", never)
+    for method in ("windows", "centres"):
+        assert _online(log, tmp_path / "out", "--online-method", method) == 2
+        assert capsys.readouterr().err.strip() == f"topomap: error: {log}: {offline}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.log"]

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from maps.errors import MapTooLargeError, OutputExistsError
 from maps.files import OutputFolder, write_text
 from maps.grid import OccupancyGrid
-from maps.mapping import grid_from_keyframes
+from maps.mapping import check_map_extent, grid_from_keyframes
 from maps.scan import Keyframe, poses_array, seeing
 from segmentation.errors import SegmentationError
 from segmentation.events import Event
@@ -49,6 +49,8 @@ log = logging.getLogger(__name__)
 SEED_SHARE = 0.1
 #: ... and at least this many (fewer cannot hold two rooms' worth of keyframes).
 MIN_SEED = 40
+#: Cell size of the map of a run, metres (the offline command's).
+RESOLUTION = 0.05
 
 
 def default_seed(count: int) -> int:
@@ -81,7 +83,7 @@ def offline_segmenter(
     :class:`~topomap.topomap.TopoMap` makes it: the clearance basins of ``grid`` (by default
     the map built from ``keyframes``), at most one per keyframe."""
     if options.get("k") is None:
-        grid = grid_from_keyframes(keyframes, 0.05) if grid is None else grid
+        grid = grid_from_keyframes(keyframes, RESOLUTION) if grid is None else grid
         options["k"] = min(len(keyframes), count_basins(grid, basins(grid)))
     return SpectralSegmenter(random_state=random_state, **options)
 
@@ -363,7 +365,8 @@ def segment_online(
     OutputExistsError
         An output exists and not ``overwrite``.
     MapTooLargeError
-        The keyframes spread farther than memory allows; naming ``source``.
+        The keyframes spread farther than memory allows (checked before the online pass, as
+        offline before the map is built); naming ``source``.
     SegmentationError
         No region was found (the keyframes saw no free space).
     """
@@ -382,6 +385,7 @@ def segment_online(
     seen = seeing(keyframes)
     with folder as work:
         try:
+            check_map_extent(keyframes, RESOLUTION)  # the run's map, refused before any fit
             run = run_online(
                 seen,
                 seed_keyframes=seed_keyframes,
@@ -393,7 +397,7 @@ def segment_online(
                 **options,
             )
             start = time.perf_counter()
-            grid = grid_from_keyframes(keyframes, 0.05)
+            grid = grid_from_keyframes(keyframes, RESOLUTION)
         except MapTooLargeError as err:
             raise MapTooLargeError(str(err), path=source) from None
         online = run.online
