@@ -48,17 +48,58 @@ def grid_from_keyframes(
     margin
         Metres of unknown border around the observed area.
     """
+    builder = MapBuilder(resolution, max_range=max_range, occupied_ratio=occupied_ratio)
+    ends = _reserve(builder, keyframes, margin)
+    for frame, (points, keep) in zip(keyframes, ends, strict=True):
+        builder.count(np.asarray(frame.pose[:2]), points, keep)
+    return builder.grid()
+
+
+def check_map_extent(
+    keyframes: Sequence[Keyframe],
+    resolution: float = 0.05,
+    *,
+    max_range: float = 30.0,
+    margin: float = 1.0,
+) -> None:
+    """Refuse keyframes whose map (:func:`grid_from_keyframes` with the same options) would be
+    larger than memory allows, as it does, before a cell of it is allocated.
+
+    Raises
+    ------
+    MapTooLargeError
+        Naming the map's size, the keyframes' span and the keyframe farthest from the others.
+
+    Examples
+    --------
+    >>> from maps.scan import LaserScan
+    >>> scan = LaserScan(np.full(9, 2.0), -1.0, 0.25)
+    >>> check_map_extent([Keyframe((0.0, 0.0, 0.0), scan), Keyframe((50.0, 0.0, 0.0), scan)])
+    >>> far = [Keyframe((x, x, 0.0), scan, i) for i, x in enumerate((0.0, 1.0, 3e4))]
+    >>> check_map_extent(far)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    maps.errors.MapTooLargeError: map at 0.05 m per cell of ... is scan 2 at (3e+04, 3e+04) m
+    """
+    _reserve(MapBuilder(resolution, max_range=max_range), keyframes, margin)
+
+
+def _reserve(
+    builder: MapBuilder, keyframes: Sequence[Keyframe], margin: float
+) -> list[tuple[NDArray[np.float64], NDArray[np.bool_]]]:
+    """Reserve in ``builder`` the map of ``keyframes`` with ``margin`` metres around (no cell
+    allocated yet); the end points of each keyframe's beams and which of them count."""
     if not keyframes:
         raise InvalidScanError("cannot build a map from no keyframes")
     problem = finite_in(margin, "margin", 0.0, MAX_LENGTH, unit="m")
     if problem is not None:
         raise InvalidScanError(problem)
-    builder = MapBuilder(resolution, max_range=max_range, occupied_ratio=occupied_ratio)
     ends = [builder.end_points(frame) for frame in keyframes]
     every = np.vstack([p[k] for p, k in ends] + [[frame.pose[:2] for frame in keyframes]])
     # the corner on the lattice of the cells, as MapBuilder.add puts it: a map built keyframe
     # by keyframe has the same cells
-    lo = np.floor((every.min(axis=0) - margin) / resolution) * resolution
+    res = builder.resolution
+    lo = np.floor((every.min(axis=0) - margin) / res) * res
     hi = every.max(axis=0) + margin
     try:
         builder.reserve(lo, hi)
@@ -70,9 +111,7 @@ def grid_from_keyframes(
             f"{err}: the keyframes span {hi[0] - lo[0]:.4g} x {hi[1] - lo[1]:.4g} m; the farthest "
             f"from the others is scan {keyframes[far].scan_index} at ({x:.4g}, {y:.4g}) m"
         ) from None
-    for frame, (points, keep) in zip(keyframes, ends, strict=True):
-        builder.count(np.asarray(frame.pose[:2]), points, keep)
-    return builder.grid()
+    return ends
 
 
 class MapBuilder:

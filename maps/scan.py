@@ -281,6 +281,21 @@ def keyframe_list(frames: Iterable[Keyframe]) -> list[Keyframe]:
     return frames
 
 
+def seeing(frames: Sequence[Keyframe]) -> list[Keyframe]:
+    """The frames whose scan has a valid beam: a scan with none (every reading NaN, infinite,
+    under the sensor's least range or beyond its greatest) saw nothing, and is clustered
+    neither offline nor online.
+
+    Examples
+    --------
+    >>> blind = Keyframe((0.0, 0.0, 0.0), LaserScan([float("nan"), 0.0], -0.1, 0.1, 0.05))
+    >>> seen = Keyframe((1.0, 0.0, 0.0), LaserScan([1.0, 0.0], -0.1, 0.1, 0.05))
+    >>> [frame.pose[0] for frame in seeing([blind, seen])]
+    [1.0]
+    """
+    return [frame for frame in frames if frame.scan.valid.any()]
+
+
 def poses_array(frames: Sequence[Keyframe]) -> NDArray[np.float64]:
     """``(n, 3)`` array of the frames' poses (:func:`keyframe_list`'s error for an item that
     is no keyframe)."""

@@ -24,9 +24,11 @@ from numpy.typing import ArrayLike, NDArray
 from shapely.geometry import Polygon
 
 from maps.grid import OccupancyGrid
+from maps.limits import MAX_LENGTH, finite_in
 from planners.errors import PlannerParameterError
 from planners.robots import Footprint
 from planners.workspace import crop_grid
+from segmentation.base import is_count
 
 #: Heading bins of a configuration space by default.
 HEADINGS = 64
@@ -118,13 +120,16 @@ class HeadingCSpace:
     blocked: NDArray[np.uint8] = field(default=None, repr=False)  # type: ignore[arg-type]
 
     def __post_init__(self) -> None:
-        if self.headings % 8 or not 8 <= self.headings <= 256:
+        headings = self.headings
+        if not is_count(headings) or headings % 8 or not 8 <= headings <= 256:
             raise PlannerParameterError(
-                f"headings must be a multiple of 8 in [8, 256], got {self.headings}"
+                f"headings must be a multiple of 8 in [8, 256], got {headings!r:.80}"
             )
+        if self.margin is not None:
+            problem = finite_in(self.margin, "margin", 0.0, MAX_LENGTH, unit="m")
+            if problem is not None:
+                raise PlannerParameterError(problem)
         margin = self.grid.resolution / 2 if self.margin is None else float(self.margin)
-        if not (math.isfinite(margin) and margin >= 0):
-            raise PlannerParameterError(f"margin must be >= 0 metres, got {self.margin}")
         object.__setattr__(self, "margin", margin)
         if self.blocked is None:
             object.__setattr__(self, "blocked", self._build())

@@ -43,6 +43,25 @@ PLANNERS = (
 ROADMAP_PLANNERS = ("PRM", "PRMstar")
 
 
+def check_planner(planner: object) -> str:
+    """``planner`` once it is the name of one of :data:`PLANNERS`.
+
+    Examples
+    --------
+    >>> check_planner("RRT")
+    'RRT'
+    >>> check_planner(["RRT"])  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    planners.errors.PlannerParameterError: unknown OMPL planner ['RRT']; known: AORRTC, ...
+    """
+    if not isinstance(planner, str) or planner not in PLANNERS:
+        raise PlannerParameterError(
+            f"unknown OMPL planner {planner!r:.80}; known: {', '.join(PLANNERS)}"
+        )
+    return planner
+
+
 class _ExactMotion(ob.MotionValidator):
     """OMPL motion validator that defers to the workspace's exact straight-motion test."""
 
@@ -152,10 +171,7 @@ class FlatPlanner:
         simplify: bool = True,
         random_state: RandomState = 0,
     ) -> None:
-        if planner not in PLANNERS:
-            raise PlannerParameterError(
-                f"unknown OMPL planner {planner!r}; known: {', '.join(PLANNERS)}"
-            )
+        check_planner(planner)
         time_limit = checked_time_limit(time_limit)
         if bounds is not None and not (
             len(bounds) == 4
@@ -242,8 +258,9 @@ def _seed_once(random_state: RandomState) -> None:
     """Seed OMPL's process-wide generator the first time a planner is made; OMPL warns and
     ignores later seeds once sampling has started."""
     global _seeded
+    generator = as_generator(random_state)  # refused though the seed is set: it is no seed
     if not _seeded and random_state is not None:
-        ou.RNG.setSeed(int(as_generator(random_state).integers(1, 2**31 - 1)))
+        ou.RNG.setSeed(int(generator.integers(1, 2**31 - 1)))
         _seeded = True
 
 

@@ -32,9 +32,9 @@ from planners.errors import (
     checked_time_limit,
 )
 from planners.flat import (
-    PLANNERS,
     ROADMAP_PLANNERS,
     _seed_once,
+    check_planner,
     make_planner,
     plane_bounds,
     solve_query,
@@ -73,10 +73,7 @@ class KinematicOMPL:
     def __init__(
         self, cspace: HeadingCSpace, planner: str = "RRTConnect", random_state: RandomState = 0
     ) -> None:
-        if planner not in PLANNERS:
-            raise PlannerParameterError(
-                f"unknown OMPL planner {planner!r}; known: {', '.join(PLANNERS)}"
-            )
+        check_planner(planner)
         ou.setLogLevel(ou.LOG_WARN)
         _seed_once(random_state)
         self.cspace = cspace
@@ -350,7 +347,7 @@ class FlatKinematicPlanner:
     ) -> None:
         time_limit = checked_time_limit(time_limit)
         self.cspace, self.time_limit = cspace, float(time_limit)
-        self.name = f"flat_{planner.lower()}"
+        self.name = f"flat_{check_planner(planner).lower()}"
         self.ompl = KinematicOMPL(cspace, planner, random_state)
 
     def plan(self, start: ArrayLike, goal: ArrayLike) -> PlannedPath:

@@ -23,8 +23,10 @@ from __future__ import annotations
 import logging
 import time
 from collections import OrderedDict
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from functools import partial
+from typing import Any
 
 import cv2
 import networkx as nx
@@ -33,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
 from maps.limits import MAX_LENGTH, finite_in
-from maps.seeding import RandomState
+from maps.seeding import RandomState, as_generator
 from planners.cspace import HeadingCSpace
 from planners.errors import (
     InvalidQueryError,
@@ -42,7 +44,7 @@ from planners.errors import (
     PlanningError,
     checked_time_limit,
 )
-from planners.flat import _seed_once
+from planners.flat import _seed_once, check_planner
 from planners.hierarchical import HierarchicalPlanner, regions_along
 from planners.kinematic import KinematicOMPL, Pose, describe, end_poses
 from planners.legs import Crossing, door_poses
@@ -85,6 +87,65 @@ class Route:
     boxes: list
     ids: list[int]
     crossings: list[Crossing]
+
+
+def _check_routes(routes: object) -> None:
+    if not (isinstance(routes, int) and not isinstance(routes, bool) and routes >= 1):
+        raise PlannerParameterError(f"routes must be an integer >= 1, got {routes!r:.80}")
+
+
+def _check_mode(mode: object) -> None:
+    if not (isinstance(mode, str) and mode in MODES):
+        raise PlannerParameterError(f"mode must be one of {', '.join(MODES)}, got {mode!r:.80}")
+
+
+def _check_margin(name: str, margin: object) -> None:
+    problem = None if margin is None else finite_in(margin, name, 0.0, MAX_LENGTH, unit="m")
+    if problem is not None:
+        raise PlannerParameterError(problem)
+
+
+#: The check of each option of :class:`KinematicHierarchicalPlanner` but the configuration
+#: space, the labels and the graph.
+_OPTION_CHECKS: dict[str, Callable[[Any], object]] = {
+    "planner": lambda planner: planner is None or check_planner(planner),
+    "time_limit": checked_time_limit,
+    "routes": _check_routes,
+    "mode": _check_mode,
+    "door_margin": partial(_check_margin, "door_margin"),
+    "submap_margin": partial(_check_margin, "submap_margin"),
+    "random_state": as_generator,
+}
+
+
+def check_options(**options: Any) -> None:
+    """Raise a typed error naming the first of ``options`` that
+    :class:`KinematicHierarchicalPlanner` does not take or that makes no sense, before
+    anything is built or the options are a key (a list is no planner name, nor a key).
+
+    Raises
+    ------
+    PlannerParameterError
+        An unknown option or a value out of range or of the wrong kind.
+    RandomStateError
+        A ``random_state`` that is no seed.
+
+    Examples
+    --------
+    >>> check_options(planner="RRT", routes=2, door_margin=None)
+    >>> check_options(routes=[2])
+    Traceback (most recent call last):
+    ...
+    planners.errors.PlannerParameterError: routes must be an integer >= 1, got [2]
+    """
+    for name, value in options.items():
+        check = _OPTION_CHECKS.get(name)
+        if check is None:
+            known = ", ".join(_OPTION_CHECKS)
+            raise PlannerParameterError(
+                f"unknown option {name}={value!r:.80}; the options are {known}"
+            )
+        check(value)
 
 
 class KinematicHierarchicalPlanner:
@@ -142,15 +203,15 @@ class KinematicHierarchicalPlanner:
         random_state: RandomState = 0,
     ) -> None:
         clock = time.perf_counter()
-        time_limit = checked_time_limit(time_limit)
-        if not (isinstance(routes, int) and not isinstance(routes, bool) and routes >= 1):
-            raise PlannerParameterError(f"routes must be an integer >= 1, got {routes!r}")
-        if mode not in MODES:
-            raise PlannerParameterError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
-        for name, value in (("submap_margin", submap_margin), ("door_margin", door_margin)):
-            problem = None if value is None else finite_in(value, name, 0.0, MAX_LENGTH, unit="m")
-            if problem is not None:
-                raise PlannerParameterError(problem)
+        check_options(
+            planner=planner,
+            time_limit=time_limit,
+            routes=routes,
+            mode=mode,
+            door_margin=door_margin,
+            submap_margin=submap_margin,
+            random_state=random_state,
+        )
         margin = cspace.robot.reach if submap_margin is None else float(submap_margin)
         _seed_once(random_state)
         fit = 2 * cspace.growth if door_margin is None else float(door_margin)

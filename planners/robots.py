@@ -101,7 +101,10 @@ class Footprint:
     reverses = True
 
     def __post_init__(self) -> None:
-        p = np.asarray(self.polygon, float)
+        try:
+            p = np.asarray(self.polygon, float)
+        except (TypeError, ValueError):  # a dict, strings, ragged corners
+            p = np.zeros((0, 2))
         if p.ndim != 2 or p.shape[1] != 2 or len(p) < 3 or not np.all(np.isfinite(p)):
             raise RobotSpecError(
                 f"a footprint needs 3 or more finite (x, y) corners, got {self.polygon!r}"

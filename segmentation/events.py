@@ -11,7 +11,7 @@ import networkx as nx
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.scan import Keyframe
+from maps.scan import Keyframe, keyframe_list, seeing
 from segmentation.base import Estimator
 from segmentation.errors import SegmentationError
 from segmentation.online_regions import OnlineRegions
@@ -69,34 +69,55 @@ class Event:
 class OnlineEstimator(Estimator):
     """The queries of a fitted online engine: the region of every keyframe now and on arrival,
     the dense regions at a point and their graph. Engines keep ``_labels`` and ``_arrival``
-    (grown as keyframes arrive), ``_n`` (keyframes so far), ``regions_`` and ``_fitted``."""
+    (grown as keyframes arrive), ``_n`` (keyframes so far), ``regions_`` and ``_fitted``.
+
+    A keyframe whose scan has no valid beam saw nothing: as offline, it is skipped (in the
+    seed and when it arrives), counted in ``n_skipped_``, and every other keyframe gets the
+    region it would get without it.
+    """
 
     _labels: NDArray[np.int64]
     _arrival: NDArray[np.int64]
     _n: int
     regions_: OnlineRegions | None
+    n_skipped_: int
+
+    def _seeing(self, keyframes: Sequence[Keyframe]) -> list[Keyframe]:
+        """The seed ``keyframes`` (:func:`~maps.scan.keyframe_list`) but those with no valid
+        beam, which ``n_skipped_`` counts from here on."""
+        keyframes = keyframe_list(keyframes)
+        seen = seeing(keyframes)
+        self.n_skipped_ = len(keyframes) - len(seen)
+        return seen
 
     def partial_fit(self, keyframes: Keyframe | Sequence[Keyframe]) -> int | list[int]:
-        """Assign one keyframe (returns its region) or a batch (returns a list), in order.
+        """Assign one keyframe (returns its region) or a batch (returns a list), in order; a
+        keyframe with no valid beam is skipped (its region 0).
 
         Raises
         ------
         OnlineStateError
             Before ``fit``.
         SegmentationError
-            A keyframe with no valid beam, a pose that is not finite, or one too far from
-            everything seen so far (``max_gap``); the segmenter is as it was before that
-            keyframe.
+            A keyframe with a pose that is not finite, or one too far from everything seen
+            so far (``max_gap``); the segmenter is as it was before that keyframe.
         """
         if not getattr(self, "_fitted", False):
             raise OnlineStateError("partial_fit before fit: fit the seed keyframes first")
         if isinstance(keyframes, Keyframe):
-            return self._arrive(keyframes)
+            return self._offer(keyframes)
         if not isinstance(keyframes, Sequence):  # each keyframe is checked as it arrives
             raise SegmentationError(
                 f"partial_fit takes a Keyframe or a list of them, got {keyframes!r:.200}"
             )
-        return [self._arrive(k) for k in keyframes]
+        return [self._offer(k) for k in keyframes]
+
+    def _offer(self, keyframe: Keyframe) -> int:
+        """:meth:`_arrive`, or 0 for a keyframe with no valid beam, skipped."""
+        if isinstance(keyframe, Keyframe) and not seeing([keyframe]):
+            self.n_skipped_ += 1
+            return 0
+        return self._arrive(keyframe)
 
     def _arrive(self, keyframe: Keyframe) -> int:
         raise NotImplementedError
@@ -107,7 +128,7 @@ class OnlineEstimator(Estimator):
 
     @property
     def labels_(self) -> NDArray[np.int64]:
-        """Region of every keyframe so far (a merged id is replaced)."""
+        """Region of every keyframe so far but those skipped (a merged id is replaced)."""
         self._check_fitted()
         return self._labels[: self._n].copy()
 

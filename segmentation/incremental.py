@@ -60,7 +60,7 @@ from numpy.typing import NDArray
 from maps.grid import OccupancyGrid
 from maps.limits import RESOLUTION_RANGE, finite_in
 from maps.mapping import MapBuilder
-from maps.scan import Keyframe, keyframe_list
+from maps.scan import Keyframe
 from segmentation.affinity import standing_places
 from segmentation.arrivals import KeptSimilarities, one_to_many
 from segmentation.base import check_flags, check_lengths, clone, is_count
@@ -191,19 +191,23 @@ class IncrementalSegmenter(OnlineEstimator):
 
     # ----------------------------------------------------------------------------- fitting
     def fit(self, keyframes: Sequence[Keyframe]) -> IncrementalSegmenter:
-        """Seed: the offline partition of ``keyframes`` (all of them, one window).
+        """Seed: the offline partition of ``keyframes`` (all of them, one window, but those
+        with no valid beam, skipped).
 
         Raises
         ------
         ParameterError
             A parameter out of range (checked here, not when the segmenter is made).
         SegmentationError
-            Fewer than two keyframes, or one with no valid beam or a pose that is not finite.
+            Fewer than two keyframes with a valid beam, or one with a pose that is not finite.
         """
         self._validate_params()
-        keyframes = keyframe_list(keyframes)
+        keyframes = self._seeing(keyframes)
         if len(keyframes) < 2:
-            raise SegmentationError(f"{len(keyframes)} keyframe(s) cannot seed: give two or more")
+            raise SegmentationError(
+                f"{len(keyframes)} keyframe(s) with a valid beam cannot seed "
+                f"({self.n_skipped_} with none skipped): give two or more"
+            )
         self._fitted = False
         for previous in (getattr(self, "_pending", None), getattr(self, "_whole", None)):
             if previous is not None and previous.worker is not None:
@@ -259,13 +263,12 @@ class IncrementalSegmenter(OnlineEstimator):
 
     # ----------------------------------------------------------------------------- internals
     def _check(self, keyframe: Keyframe, index: int) -> NDArray[np.float64]:
-        """The keyframe's distance to every earlier one, or a SegmentationError."""
+        """The keyframe's distance to every earlier one, or a SegmentationError (the keyframe
+        has a valid beam)."""
         if not isinstance(keyframe, Keyframe):
             raise SegmentationError(f"keyframe {index} is not a Keyframe: {keyframe!r}")
         if not np.all(np.isfinite(keyframe.pose)):
             raise SegmentationError(f"keyframe {index} has a pose that is not finite")
-        if not keyframe.scan.valid.any():
-            raise SegmentationError(f"keyframe {index} has no valid beam")
         return np.hypot(*(self._poses[:index] - keyframe.pose[:2]).T)
 
     def _similar(self, keyframe: Keyframe, distance: NDArray[np.float64]) -> dict[int, float]:

@@ -32,7 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from maps.limits import finite_in
-from maps.scan import Keyframe, keyframe_list
+from maps.scan import Keyframe
 from segmentation.base import check_flags, check_lengths, clone, is_count
 from segmentation.centres import (
     CellIndex,
@@ -165,22 +165,26 @@ class OnlineSegmenter(OnlineEstimator):
 
     # ----------------------------------------------------------------------------- fitting
     def fit(self, keyframes: Sequence[Keyframe]) -> OnlineSegmenter:
-        """Build the seed: the offline partition of ``keyframes``, its centres and ``T``.
+        """Build the seed: the offline partition of ``keyframes`` (but those with no valid
+        beam, skipped), its centres and ``T``.
 
         Raises
         ------
         SegmentationError
-            No keyframes, a keyframe with no valid beam or a pose that is not finite, or a
+            No keyframe with a valid beam, a keyframe with a pose that is not finite, or a
             seed of a single cluster (``T`` needs two).
         """
         self._validate_params()
-        keyframes = keyframe_list(keyframes)
+        keyframes = self._seeing(keyframes)
         self._fitted = False
         self.segmenter_ = segmenter = clone(self.segmenter or SpectralSegmenter())
         self._prepare(segmenter)
         scans = [self._scan(k, i) for i, k in enumerate(keyframes)]
         if not scans:
-            raise SegmentationError("no keyframes to seed the online segmentation")
+            raise SegmentationError(
+                f"no keyframes to seed the online segmentation ({self.n_skipped_} with no "
+                "valid beam skipped)"
+            )
         segmenter.fit(keyframes)
         if segmenter.n_regions_ < 2:
             raise SegmentationError(
@@ -257,7 +261,8 @@ class OnlineSegmenter(OnlineEstimator):
     def _scan(
         self, keyframe: Keyframe, index: int
     ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
-        """Cell keys, tile keys and points of a keyframe, or a SegmentationError."""
+        """Cell keys, tile keys and points of a keyframe (one with a valid beam), or a
+        SegmentationError."""
         if not isinstance(keyframe, Keyframe):
             raise SegmentationError(f"keyframe {index} is not a Keyframe: {keyframe!r}")
         if not np.all(np.isfinite(keyframe.pose)):
@@ -266,10 +271,6 @@ class OnlineSegmenter(OnlineEstimator):
                 f"finite: {keyframe.pose}"
             )
         points = keyframe.points()
-        if len(points) == 0:
-            raise SegmentationError(
-                f"keyframe {index} (scan_index {keyframe.scan_index}) has no valid beam"
-            )
         keys = cells_of(points, self._resolution)
         return keys, distinct(cell_keys(decode(keys) >> self._tile_bits)), points
 

@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from maps.errors import TopomapError
 from maps.grid import OccupancyGrid
 from maps.limits import MAX_LENGTH, finite_in
-from maps.scan import Keyframe, keyframe_list, poses_array
+from maps.scan import Keyframe, keyframe_list, poses_array, seeing
 from maps.seeding import RandomState
 from maps.sim.laser import LaserModel
 from segmentation.affinity import BESIDE, PassageAffinity, standing_places
@@ -277,30 +277,30 @@ class MapSegmenter(Estimator):
             lap("keyframes")
         keyframes = keyframe_list(keyframes)
         stage("spectral")
-        seeing = [k for k in keyframes if k.scan.valid.any()]  # a scan that hit nothing: no place
-        if len(seeing) < 2:
+        seen = seeing(keyframes)  # a scan that hit nothing: no place
+        if len(seen) < 2:
             raise SegmentationError(
-                f"{len(seeing)} of {len(keyframes)} keyframes saw a wall within their laser's "
+                f"{len(seen)} of {len(keyframes)} keyframes saw a wall within their laser's "
                 "range: at least 2 are needed to cluster"
             )
-        if len(seeing) < len(keyframes):
-            log.info("%d keyframes saw no wall and are not clustered", len(keyframes) - len(seeing))
-        poses = poses_array(seeing)
+        if len(seen) < len(keyframes):
+            log.info("%d keyframes saw no wall and are not clustered", len(keyframes) - len(seen))
+        poses = poses_array(seen)
         rows, cols = space.world_to_cell(poses[:, 0], poses[:, 1])
         if not space.contains(rows, cols).any():
             x0, y0, x1, y1 = grid.bounds()
             raise SegmentationError(
-                f"none of the {len(seeing)} keyframes stands on the map (x {x0:.6g}..{x1:.6g}, "
+                f"none of the {len(seen)} keyframes stands on the map (x {x0:.6g}..{x1:.6g}, "
                 f"y {y0:.6g}..{y1:.6g} m; the first at ({poses[0, 0]:.6g}, {poses[0, 1]:.6g})): "
                 "the keyframes and the map are in different frames"
             )
         standing = standing_places(space, places, poses)
         if not standing.any():
             raise SegmentationError(
-                f"none of the {len(seeing)} keyframes stands within {BESIDE} m of the space "
+                f"none of the {len(seen)} keyframes stands within {BESIDE} m of the space "
                 "a robot fits in: the keyframes and the map are in different frames"
             )
-        fitted = self.partition(space, places, seeing, spectral)
+        fitted = self.partition(space, places, seen, spectral)
         lap("spectral")
         stage("regions")
         if self.spectral.k is None:  # the places vote: regions are whole places

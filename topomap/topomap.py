@@ -351,14 +351,18 @@ class TopoMap:
         ------
         RobotSpecError
             A spec that cannot be read, or a disc (:meth:`planner` plans for discs).
+        PlannerParameterError, RandomStateError
+            An option it does not take or that makes no sense
+            (:func:`~planners.kinematic_hierarchical.check_options`).
         """
         from planners.cspace import HeadingCSpace
-        from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
+        from planners.kinematic_hierarchical import KinematicHierarchicalPlanner, check_options
         from planners.robots import Footprint, RobotSpecError, parse_robot
 
         model = parse_robot(robot)
         if not isinstance(model, Footprint):
             raise RobotSpecError(f"robot {robot!r} is a disc: use planner(robot_radius)")
+        check_options(**options)  # before they are a key: a list is no option
         key = (robot if isinstance(robot, str) else id(robot), tuple(sorted(options.items())))
         if key not in self._kinematic:
             cspace = HeadingCSpace(self.grid, model)

@@ -4,6 +4,7 @@ routes, seeds, typed errors)."""
 
 import json
 import math
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -180,6 +181,29 @@ def test_bad_queries_are_typed_errors():
         planner.plan((1.0, 2.0), (7.0, math.inf))
     with pytest.raises(RegionNotFoundError, match="no region 9"):
         planner.plan((1.0, 2.0), 9)
+
+
+@pytest.mark.parametrize("value", [["RRT"], {"RRT": 1}, "x"])
+def test_options_of_the_wrong_kind_are_typed_errors_naming_the_value(value, monkeypatch):
+    grid, labels = _rooms(1.0)
+    space = HeadingCSpace(grid, parse_robot("rect:0.6x0.4"), headings=8)
+    shown = re.escape(repr(value))
+    with pytest.raises(PlannerParameterError, match=f"unknown OMPL planner {shown}"):
+        FlatKinematicPlanner(space, value)  # type: ignore[arg-type]
+    for name in ("headings", "margin"):
+        with pytest.raises(PlannerParameterError, match=f"{name} .*{shown}"):
+            HeadingCSpace(grid, space.robot, **{name: value})
+    with pytest.raises(RobotSpecError, match=f"corners, got {shown}"):
+        Footprint(value)  # type: ignore[arg-type]
+
+    def never(*_args):
+        raise AssertionError("the door graph was made before the options were checked")
+
+    monkeypatch.setattr("planners.kinematic_hierarchical.HierarchicalPlanner", never)
+    graph = region_graph(Regions(grid, labels))
+    for name in ("planner", "mode"):
+        with pytest.raises(PlannerParameterError, match=f"{name}.* {shown}"):
+            KinematicHierarchicalPlanner(space, labels, graph, **{name: value})
 
 
 @given(st.floats(-1e17, 1e17, allow_nan=False), st.booleans())

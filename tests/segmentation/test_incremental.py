@@ -19,7 +19,7 @@ from segmentation.pipeline import MapSegmenter
 from segmentation.similarity import ByFieldOfView, NearestNeighbour
 from segmentation.spectral import SpectralSegmenter
 from segmentation.views import SharedView
-from tests.segmentation.test_online import _empty_scan_keyframe, _recount
+from tests.segmentation.test_online import _blind_keyframes, _empty_scan_keyframe, _recount
 
 
 @pytest.fixture(scope="module")
@@ -96,8 +96,7 @@ def test_refused_keyframes_leave_the_state_unchanged(office_run):
     keyframes = office_run[1]
     online = IncrementalSegmenter().fit(keyframes[:40])
     before = online.labels_.tolist(), list(online.events_)
-    with pytest.raises(SegmentationError, match=r"keyframe 40 has no valid beam"):
-        online.partial_fit(_empty_scan_keyframe())
+    assert online.partial_fit(_empty_scan_keyframe()) == 0  # skipped, as offline
     far = dataclasses.replace(keyframes[50], pose=(500.0, 500.0, 0.0))
     with pytest.raises(SegmentationError, match=r"keyframe 40 .* m from every earlier"):
         online.partial_fit(far)
@@ -113,6 +112,22 @@ def test_refused_keyframes_leave_the_state_unchanged(office_run):
     for whole in (1.0, 0.5, -1, float("inf"), float("nan"), "2"):
         with pytest.raises(ParameterError, match="whole must be 0 or a finite number > 1"):
             IncrementalSegmenter(whole=whole).fit(keyframes[:40])
+
+
+def test_a_keyframe_with_no_valid_beam_is_skipped_as_offline(office_run):
+    keyframes, blind = office_run[1][:150], _blind_keyframes()
+    clean = IncrementalSegmenter(background=False).fit(keyframes[:40])
+    clean.partial_fit(keyframes[40:])
+    online = IncrementalSegmenter(background=False).fit(
+        [*keyframes[:20], blind[0], *keyframes[20:40]]
+    )
+    regions = online.partial_fit([*keyframes[40:90], *blind[1:], *keyframes[90:]])
+    assert regions[50:54] == [0, 0, 0, 0] and online.n_skipped_ == 5
+    assert online.labels_.tolist() == clean.labels_.tolist()
+    assert online.arrival_labels_.tolist() == clean.arrival_labels_.tolist()
+    assert online.events_ == clean.events_
+    with pytest.raises(SegmentationError, match=r"0 keyframe\(s\) with a valid beam .* \(5 with"):
+        IncrementalSegmenter().fit(blind)
 
 
 def test_a_map_built_keyframe_by_keyframe_equals_one_built_at_once(office_run):

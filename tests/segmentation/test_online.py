@@ -186,6 +186,28 @@ def _empty_scan_keyframe() -> Keyframe:
     return Keyframe((1.0, 1.0, 0.0), LaserScan(np.full(10, np.nan), -1.0, 0.2))
 
 
+def _blind_keyframes() -> list[Keyframe]:
+    """A keyframe with no valid beam of each kind: NaN, infinite either way, under the least
+    range, beyond the greatest."""
+    readings = (np.nan, np.inf, -np.inf, 0.05, 20.0)
+    return [
+        Keyframe((1.0, 1.0, 0.0), LaserScan(np.full(10, r), -1.0, 0.2, 0.1, 10.0), 900 + i)
+        for i, r in enumerate(readings)
+    ]
+
+
+def test_a_keyframe_with_no_valid_beam_is_skipped_as_offline(flat_run, flat_online):
+    keyframes, blind = flat_run[1], _blind_keyframes()
+    online = OnlineSegmenter(SpectralSegmenter(random_state=0))
+    online.fit([*keyframes[:40], blind[0], *keyframes[40:80]])
+    assert online.n_skipped_ == 1
+    regions = online.partial_fit([*keyframes[80:150], *blind[1:], *keyframes[150:]])
+    assert regions[70:74] == [0, 0, 0, 0] and online.n_skipped_ == 5
+    assert online.partial_fit(blind[0]) == 0 and online.n_skipped_ == 6
+    assert _state(online) == _state(flat_online)
+    assert online.arrival_labels_.tolist() == flat_online.arrival_labels_.tolist()
+
+
 def _state(online: OnlineSegmenter):
     assert online.regions_ is not None
     return (
@@ -201,8 +223,7 @@ def test_refused_keyframes_leave_the_state_unchanged(flat_run):
     keyframes = flat_run[1]
     online = OnlineSegmenter(SpectralSegmenter(random_state=0)).fit(keyframes[:60])
     before = _state(online)
-    with pytest.raises(SegmentationError, match=r"keyframe 60 .*no valid beam"):
-        online.partial_fit(_empty_scan_keyframe())
+    assert online.partial_fit(_empty_scan_keyframe()) == 0  # skipped, as offline
     far = dataclasses.replace(keyframes[70], pose=(500.0, 500.0, 0.0))
     with pytest.raises(SegmentationError, match=r"\(500.00, 500.00\) is .* outside the map"):
         online.partial_fit(far)
@@ -230,8 +251,8 @@ def test_bad_parameters_and_order_are_typed_errors(flat_run):
         OnlineSegmenter().region_at(0.0, 0.0)
     with pytest.raises(SegmentationError, match="no keyframes"):
         OnlineSegmenter().fit([])
-    with pytest.raises(SegmentationError, match=r"keyframe 1 .*no valid beam"):
-        OnlineSegmenter().fit([flat_run[1][0], _empty_scan_keyframe()])
+    with pytest.raises(SegmentationError, match=r"no keyframes .* \(1 with no valid beam"):
+        OnlineSegmenter().fit([_empty_scan_keyframe()])
     for reach, resolution, shown in (
         (1e5, 0.2, "larger than memory allows"),  # a window of 10^12 cells, before allocating
         (4.0, 1e-9, "resolution must lie in"),

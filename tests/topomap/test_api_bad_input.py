@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import time
 
 import numpy as np
@@ -424,6 +425,38 @@ def test_footprint_planner_options_and_scans_of_the_wrong_kind_are_typed(topo):
         LaserScan([10**400], 0.0, 0.1)
     with pytest.raises(InvalidScanError, match="not a LaserScan message"):
         LaserScan.from_msg_fields(None)
+
+
+@pytest.mark.parametrize("value", [["RRT"], {"routes": 2}])
+@pytest.mark.parametrize(
+    "name",
+    ["planner", "time_limit", "routes", "mode", "door_margin", "submap_margin", "random_state"],
+)
+def test_a_footprint_planner_option_that_is_no_key_is_a_typed_error_naming_it(
+    topo, monkeypatch, name, value
+):
+    from planners.errors import PlannerParameterError
+
+    monkeypatch.setattr("planners.cspace.HeadingCSpace._build", _never_built)
+    shown = rf"{name}.* {re.escape(repr(value))}"
+    with pytest.raises((PlannerParameterError, RandomStateError), match=shown):
+        topo.kinematic_planner("rect:0.5x0.3", **{name: value})
+
+
+def test_a_footprint_planner_option_or_robot_it_does_not_take_is_a_typed_error(topo, monkeypatch):
+    from planners.errors import PlannerParameterError
+    from planners.robots import RobotSpecError
+
+    monkeypatch.setattr("planners.cspace.HeadingCSpace._build", _never_built)
+    with pytest.raises(PlannerParameterError, match="unknown option planer='RRT'; the options"):
+        topo.kinematic_planner("rect:0.5x0.3", planer="RRT")
+    for robot in (["rect:0.5x0.3"], {"rect": "0.5x0.3"}):
+        with pytest.raises(RobotSpecError, match=re.escape(repr(robot))):
+            topo.kinematic_planner(robot)  # type: ignore[arg-type]
+
+
+def _never_built(*_args, **_kwargs):
+    raise AssertionError("the configuration space was built before the options were checked")
 
 
 def test_the_planners_own_methods_name_a_region_or_point_that_is_none(topo):

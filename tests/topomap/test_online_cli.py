@@ -1,6 +1,7 @@
 import csv
 import gzip
 import json
+import math
 
 import numpy as np
 import pytest
@@ -182,3 +183,51 @@ def test_online_quality_compares_with_the_offline_partition_at_both_resolutions(
     assert windows["ari"] == agreement(
         labels["windows"][fine_offline > 0], fine_offline[fine_offline > 0]
     )
+
+
+@pytest.mark.parametrize("method", ["windows", "centres"])
+def test_online_skips_a_scan_with_no_valid_beam_as_offline(short_log, tmp_path, method):
+    lines = short_log.read_text().splitlines(keepends=True)
+    tokens = lines[22].split()  # a keyframe, and so is the next line
+    beams = int(tokens[1])
+    readings = ["nan", "inf", "-1", "0.001", "1e6"] * beams  # each kind of invalid reading
+    pose = tokens[2 + beams : 5 + beams]
+    pose[2] = str(float(pose[2]) + math.pi)  # turned away: kept as a keyframe
+    blind = " ".join([*tokens[:2], *readings[:beams], *pose, *tokens[5 + beams :]]) + "\n"
+    holed = tmp_path / "holed.log"
+    holed.write_text("".join([*lines[:23], blind, *lines[23:]]))
+    outs = {}
+    for log in (short_log, holed):
+        outs[log] = tmp_path / log.stem
+        assert _online(log, outs[log], "--online-method", method, "--no-picture") == 0
+    without, with_blind = (json.loads((outs[log] / "summary.json").read_text()) for log in outs)
+    assert (
+        without["keyframes_without_valid_beam"],
+        with_blind["keyframes_without_valid_beam"],
+    ) == (0, 1)
+    for name in ("events.jsonl", "graph.json", "map.pgm", "regions.png"):
+        assert (outs[short_log] / name).read_bytes() == (outs[holed] / name).read_bytes(), name
+    rows = [(outs[log] / "keyframes.csv").read_text().splitlines() for log in outs]
+    shifted = [row.split(",", 1)[1] for row in rows[1]]  # the scans after it: one line later
+    assert [row.split(",", 1)[1] for row in rows[0]] == shifted
+
+
+def test_online_refuses_a_run_larger_than_memory_before_any_fit(tmp_path, capsys, monkeypatch):
+    from tests.maps.test_carmen import _line
+
+    monkeypatch.setattr("maps.limits._memory_bytes", lambda: 2**26)  # a million cells
+    walk = [(2.0 * i, 0.0) for i in range(30)] + [(60.0, 2.0 * i) for i in range(30)]
+    log = tmp_path / "walk.log"  # an L of 60 m each way: 1300 x 1320 cells of 5 cm
+    log.write_text("".join(_line([3.0] * 90, (x, y, 0.0)) for x, y in walk))
+    assert main(["-q", "segment", "--scans", str(log), "--out", str(tmp_path / "offline")]) == 2
+    offline = capsys.readouterr().err.strip().removeprefix("topomap: error: ")
+    assert "larger than memory allows" in offline and "the keyframes span 65 x 66 m" in offline
+
+    def never(*_args, **_kwargs):
+        raise AssertionError("the online pass started before the map's extent was checked")
+
+    monkeypatch.setattr("topomap.cli.online.run_online", never)
+    for method in ("windows", "centres"):
+        assert _online(log, tmp_path / "out", "--online-method", method) == 2
+        assert capsys.readouterr().err.strip() == f"topomap: error: {log}: {offline}"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.log"]

@@ -27,8 +27,8 @@ from numpy.typing import NDArray
 from maps.errors import MapTooLargeError, OutputExistsError
 from maps.files import OutputFolder, write_text
 from maps.grid import OccupancyGrid
-from maps.mapping import grid_from_keyframes
-from maps.scan import Keyframe, poses_array
+from maps.mapping import check_map_extent, grid_from_keyframes
+from maps.scan import Keyframe, poses_array, seeing
 from segmentation.errors import SegmentationError
 from segmentation.events import Event
 from segmentation.graph import region_graph
@@ -49,6 +49,8 @@ log = logging.getLogger(__name__)
 SEED_SHARE = 0.1
 #: ... and at least this many (fewer cannot hold two rooms' worth of keyframes).
 MIN_SEED = 40
+#: Cell size of the map of a run, metres (the offline command's).
+RESOLUTION = 0.05
 
 
 def default_seed(count: int) -> int:
@@ -81,7 +83,7 @@ def offline_segmenter(
     :class:`~topomap.topomap.TopoMap` makes it: the clearance basins of ``grid`` (by default
     the map built from ``keyframes``), at most one per keyframe."""
     if options.get("k") is None:
-        grid = grid_from_keyframes(keyframes, 0.05) if grid is None else grid
+        grid = grid_from_keyframes(keyframes, RESOLUTION) if grid is None else grid
         options["k"] = min(len(keyframes), count_basins(grid, basins(grid)))
     return SpectralSegmenter(random_state=random_state, **options)
 
@@ -350,7 +352,9 @@ def segment_online(
     offline command (``regions.png``, ``graph.graphml``, ``graph.json``, ``regions.geojson``,
     ``map.yaml``, ``keyframes.csv``, ``segmentation.png`` unless not ``picture``,
     ``summary.json``) for its final partition, plus ``events.jsonl`` and, with
-    ``frames_every``, ``frames/*.png`` and ``regions.gif``. Returns the summary.
+    ``frames_every``, ``frames/*.png`` and ``regions.gif``. Returns the summary. Keyframes with
+    no valid beam are left out, as offline (:func:`~maps.scan.seeing`), and counted in the
+    summary.
 
     Every output is checked before any work (:func:`online_outputs`; ``overwrite`` to replace
     them) and all appear at once, written through :class:`~maps.files.OutputFolder`: a failed
@@ -361,7 +365,8 @@ def segment_online(
     OutputExistsError
         An output exists and not ``overwrite``.
     MapTooLargeError
-        The keyframes spread farther than memory allows; naming ``source``.
+        The keyframes spread farther than memory allows (checked before the online pass, as
+        offline before the map is built); naming ``source``.
     SegmentationError
         No region was found (the keyframes saw no free space).
     """
@@ -377,10 +382,12 @@ def segment_online(
     if frames_every and not overwrite and (out / "frames").exists():
         raise OutputExistsError(out / "frames", "--force")
     folder = OutputFolder(out, names, overwrite=overwrite, how="--force", last="summary.json")
+    seen = seeing(keyframes)
     with folder as work:
         try:
+            check_map_extent(keyframes, RESOLUTION)  # the run's map, refused before any fit
             run = run_online(
-                keyframes,
+                seen,
                 seed_keyframes=seed_keyframes,
                 method=method,
                 theta=theta,
@@ -390,15 +397,15 @@ def segment_online(
                 **options,
             )
             start = time.perf_counter()
-            grid = grid_from_keyframes(keyframes, 0.05)
+            grid = grid_from_keyframes(keyframes, RESOLUTION)
         except MapTooLargeError as err:
             raise MapTooLargeError(str(err), path=source) from None
         online = run.online
-        regions, graph, keyframe_regions = dense_regions(grid, keyframes, online.labels_)
+        regions, graph, keyframe_regions = dense_regions(grid, seen, online.labels_)
         dense_seconds = time.perf_counter() - start
         if graph.number_of_nodes() == 0:  # as the offline command refuses a map without space
             raise SegmentationError(
-                f"{source}: no region: the {len(keyframes)} keyframes saw no free space a "
+                f"{source}: no region: the {len(seen)} keyframes saw no free space a "
                 f"robot fits in ({int(grid.free.sum())} free cells on the map)"
             )
         written = [
@@ -407,7 +414,7 @@ def segment_online(
             write_node_link(graph, work / "graph.json"),
             write_geojson(graph, work / "regions.geojson"),
             grid.save(work / "map.yaml"),
-            write_keyframes(work / "keyframes.csv", keyframes, keyframe_regions, online),
+            write_keyframes(work / "keyframes.csv", seen, keyframe_regions, online),
             write_events(work / "events.jsonl", online.events_),
         ]
         if picture:
@@ -417,7 +424,8 @@ def segment_online(
             )
         if run.frames:
             written.append(write_gif(run.frames, work / "regions.gif"))
-        summary = _online_summary(run, keyframes, graph, source, method, theta, dense_seconds)
+        skipped = len(keyframes) - len(seen)
+        summary = _online_summary(run, seen, skipped, graph, source, method, theta, dense_seconds)
         summary["written"] = [p.name for p in written]
         write_text(work / "summary.json", json.dumps(summary, indent=2))
     return summary
@@ -426,18 +434,21 @@ def segment_online(
 def _online_summary(
     run: OnlineRun,
     keyframes: Sequence[Keyframe],
+    skipped: int,
     graph: nx.Graph,
     source: str,
     method: str,
     theta: float,
     dense_seconds: float,
 ) -> dict[str, Any]:
-    """The summary of :func:`segment_online` (but the files written)."""
+    """The summary of :func:`segment_online` (but the files written) of a run of
+    ``keyframes``, ``skipped`` more having no valid beam."""
     online = run.online
     kinds = [e.kind for e in online.events_ if e.keyframe >= online.n_seed_]
     return {
         "source": source,
         "keyframes": len(keyframes),
+        "keyframes_without_valid_beam": skipped,
         "method": method,
         "seed_keyframes": online.n_seed_,
         **(
