@@ -70,22 +70,38 @@ def _encoded(graph: nx.Graph) -> nx.Graph:
 
 
 def _decoded(graph: nx.Graph, source: Path) -> nx.Graph:
-    """Inverse of :func:`_encoded`."""
+    """Inverse of :func:`_encoded`; errors name the node or edge."""
+    for node, data in graph.nodes(data=True):
+        if not data and graph.degree(node):  # networkx adds the nodes an edge names
+            a, b = sorted(next(iter(graph.edges(node))))
+            raise ExportFormatError(
+                f"{source}: edge ({a}, {b}) names region {node}, which the file does not hold"
+            )
     out = nx.Graph()
+    where = "the graph"
     try:
         out.graph["resolution"] = float(graph.graph["resolution"])
         out.graph["origin"] = tuple(json.loads(graph.graph["origin"]))
         for node, data in graph.nodes(data=True):
+            where = f"node {node}"
             attrs = dict(data)
-            attrs["polygon"] = shapely.from_wkt(data["polygon"])
+            with np.errstate(invalid="ignore"):  # NaN coordinates: TopoMap.load refuses them
+                attrs["polygon"] = shapely.from_wkt(data["polygon"])
             out.add_node(int(node), **attrs)
         for a, b, data in graph.edges(data=True):
+            where = f"edge ({a}, {b})"
             lo, hi = sorted((int(a), int(b)))
             attrs = dict(data)
             attrs["doors"] = _doors(data["doors"], lo, hi)
             out.add_edge(lo, hi, **attrs)
-    except (KeyError, ValueError, TypeError, RecursionError, shapely.errors.GEOSException) as err:
-        raise ExportFormatError(f"{source}: not a topomap region graph: {err!r:.200}") from None
+    except KeyError as err:
+        raise ExportFormatError(
+            f"{source}: not a topomap region graph: {where} has no field {err.args[0]!r:.80}"
+        ) from None
+    except (ValueError, TypeError, RecursionError, shapely.errors.GEOSException) as err:
+        raise ExportFormatError(
+            f"{source}: not a topomap region graph: {err!r:.200} ({where})"
+        ) from None
     return out
 
 

@@ -103,7 +103,8 @@ def rename(graph: nx.Graph, old: int | str, new: str) -> None:
 def carry_names(graph: nx.Graph, previous: nx.Graph) -> None:
     """Regions of ``graph`` that continue a region of ``previous`` (same id) take its name back
     when their label is the same or a user gave the name; a region whose name one of them took
-    gets the first free number of its label."""
+    (as queries compare names: "corridor 2" is "Aisle 2") gets the first free number of its
+    label."""
     carried = {
         r: previous.nodes[r]["name"]
         for r, label in graph.nodes(data="label")
@@ -114,13 +115,14 @@ def carry_names(graph: nx.Graph, previous: nx.Graph) -> None:
         graph.nodes[region]["name"] = name
         if previous.nodes[region].get(GIVEN):
             graph.nodes[region][GIVEN] = True
-    used = {str(name) for _, name in graph.nodes(data="name")}
+    taken = {normalise_name(str(name)) for name in carried.values()}
+    used = {normalise_name(str(name)) for _, name in graph.nodes(data="name")}
     for region in sorted(graph.nodes):
         data = graph.nodes[region]
-        if region in carried or data["name"] not in carried.values():
+        if region in carried or normalise_name(str(data["name"])) not in taken:
             continue
         number = 1  # a name a continued region took back: the first free number of its label
-        while f"{data['label']} {number}" in used:
+        while normalise_name(f"{data['label']} {number}") in used:
             number += 1
         data["name"] = f"{data['label']} {number}"
-        used.add(data["name"])
+        used.add(normalise_name(data["name"]))

@@ -32,7 +32,9 @@ from typing import TYPE_CHECKING, Any
 
 import networkx as nx
 import numpy as np
+import shapely
 from numpy.typing import NDArray
+from shapely.geometry import MultiPolygon, Polygon
 
 from maps.errors import MapFileNotFoundError
 from maps.files import OutputFolder, check_output_folder, write_text
@@ -50,11 +52,13 @@ from segmentation.export import (
     write_label_image,
     write_node_link,
 )
+from segmentation.names import normalise_name
 from segmentation.pipeline import METHODS
-from segmentation.regions import Regions
+from segmentation.regions import Regions, boundary_pairs
 
 if TYPE_CHECKING:
     from planners.hierarchical import HierarchicalPlanner
+    from segmentation.transitions import Transition
     from topomap.topomap import TopoMap
 
 log = logging.getLogger(__name__)
@@ -226,8 +230,8 @@ def load(folder: str | Path) -> Saved:
         A file that cannot be read (not a regular file, no permission, a name too long).
     ExportFormatError
         Not a topomap folder, one of a newer version, or files that do not belong together
-        (label image and map of different sizes, graph nodes that are not the regions, a file
-        changed since it was saved).
+        (label image and map of different sizes, a region graph that is not the label image's:
+        :func:`_check_graph`, a file changed since it was saved).
     """
     if not isinstance(folder, str | os.PathLike):
         raise ExportFormatError(f"a saved topomap is a folder's path, got {folder!r}")
@@ -355,12 +359,16 @@ def _partition(saved: Any) -> SavedPartition | None:
 
 def _check_graph(graph: nx.Graph, regions: Regions, grid: OccupancyGrid, source: Path) -> None:
     """Refuse a region graph that is not the graph of ``regions`` on ``grid``: other node ids,
-    areas that are not the label image's pixel counts, another resolution or origin, or a
-    name that is only digits (it would read as a region id)."""
-    if sorted(graph.nodes) != regions.ids:
+    another resolution or origin, areas that are not the label image's pixel counts, points
+    that are not finite, names a query cannot tell apart (:func:`_check_names`), outlines
+    that are not their regions' cells (:func:`_outline_problem`), or edges between regions
+    that do not touch or with doors that are not finite (:func:`_check_edges`)."""
+    nodes, ids = set(graph.nodes), set(regions.ids)
+    if nodes != ids:
         raise ExportFormatError(
-            f"{source}: nodes {sorted(graph.nodes)[:10]}... are not the "
-            f"regions of regions.png {regions.ids[:10]}..."
+            f"{source}: the nodes are not the regions of regions.png (nodes "
+            f"{sorted(nodes - ids)[:10]} are no region there, regions {sorted(ids - nodes)[:10]} "
+            "have no node)"
         )
     resolution, origin = graph.graph.get("resolution"), tuple(graph.graph.get("origin", ()))
     if resolution != grid.resolution or origin != grid.origin:
@@ -375,9 +383,179 @@ def _check_graph(graph: nx.Graph, regions: Regions, grid: OccupancyGrid, source:
                 f"{source}: region {region} field 'area_m2' is {area!r}, but regions.png gives "
                 f"it {expected:.6g} m^2"
             )
-        name = data.get("name")
-        if name is not None and str(name).strip().isdigit():
+        for field in ("x", "y"):
+            problem = finite_in(data.get(field), f"field {field!r}", -math.inf, math.inf)
+            if problem is not None:
+                raise ExportFormatError(f"{source}: region {region} {problem}")
+        problem = _outline_problem(data["polygon"], region, regions)
+        if problem is not None:
+            raise ExportFormatError(f"{source}: region {region} field 'polygon' {problem}")
+    _check_names(graph, source)
+    _check_edges(graph, regions, source)
+
+
+def _check_names(graph: nx.Graph, source: Path) -> None:
+    """Refuse a name that is not text, empty, only digits (it would read as a region id) or
+    another region's as queries compare names (:func:`~segmentation.names.normalise_name`),
+    and a region without a name in a labelled map (one whose regions have a ``label``:
+    labelling names them all; a map never labelled has no names but those given)."""
+    labelled = any("label" in data for _, data in graph.nodes(data=True))
+    named: dict[str, int] = {}
+    for region, name in graph.nodes(data="name"):
+        if name is None:
+            if labelled:
+                raise ExportFormatError(
+                    f"{source}: region {region} has no field 'name', but the map is labelled "
+                    "(every region of a labelled map has a name)"
+                )
+            continue
+        wanted = normalise_name(name) if isinstance(name, str) else ""
+        if not wanted:
+            raise ExportFormatError(
+                f"{source}: region {region} field 'name' is {name!r}, not a name (text, not blank)"
+            )
+        if wanted.isdigit():
             raise ExportFormatError(
                 f"{source}: region {region} field 'name' is {name!r}, only digits: it would "
                 "read as a region id"
             )
+        if wanted in named:
+            raise ExportFormatError(
+                f"{source}: region {region} field 'name' is {name!r}, the name of region "
+                f"{named[wanted]} too (names are compared ignoring case, spaces and synonyms)"
+            )
+        named[wanted] = region
+
+
+#: Cells an outline may leave out of its region, and cells of others it may hold, per cell
+#: of its length. An outline written by :func:`save` runs along the cells' edges and holds
+#: exactly the region's cells (and the furniture they enclose); one drawn otherwise, e.g.
+#: simplified by a cell or two, strays by up to about half a cell per cell of its length (an
+#: outline moved three cells strays by 1.5).
+OUTLINE_MARGIN = 1.0
+
+
+def _outline_problem(polygon: object, region: int, regions: Regions) -> str | None:
+    """What is wrong with ``polygon`` as the outline of ``region`` (None: nothing): not a
+    polygon, coordinates that are not finite or off the map, or cells that are not the
+    region's: half its cells or more outside it, as many cells inside it not the region's
+    (:attr:`~segmentation.regions.Regions.enclosing`) as the region's, or either more than
+    :data:`OUTLINE_MARGIN` times its length in cells (a cell is inside when its centre is)."""
+    if not isinstance(polygon, Polygon | MultiPolygon) or polygon.is_empty:
+        return f"is {str(polygon)[:60]!r}, not the outline of cells"
+    xy, ring = shapely.get_coordinates(
+        shapely.get_rings(shapely.get_parts(polygon)), return_index=True
+    )
+    if not np.isfinite(xy).all():
+        return "has coordinates that are not finite numbers"
+    rows, cols = _lattice(regions.grid, xy)
+    height, width = regions.grid.shape
+    if rows.min() < -1 or cols.min() < -1 or rows.max() > height + 1 or cols.max() > width + 1:
+        return f"lies off the map: its bounds are {tuple(round(v, 3) for v in polygon.bounds)}"
+    top, left = max(0, math.floor(rows.min())), max(0, math.floor(cols.min()))
+    box = np.s_[top : min(height, math.ceil(rows.max())), left : min(width, math.ceil(cols.max()))]
+    inside = _cells_inside(rows - top, cols - left, ring, regions.labels[box].shape)
+    if inside is None:
+        return "crosses rows of cells more often than an outline of cells can"
+    cells, around = int(regions.cell_counts[region]), regions.enclosing[box][inside]
+    own = int(np.count_nonzero(regions.labels[box][inside] == region))
+    foreign = around[around != region]
+    margin = OUTLINE_MARGIN * polygon.length / regions.grid.resolution
+    if 2 * own > cells and len(foreign) < own and max(cells - own, len(foreign)) <= margin:
+        return None
+    found = f"holds {own / cells:.0%} of the region's {cells} cells in regions.png"
+    if len(foreign):
+        most = int(np.bincount(foreign).argmax())
+        whose = "no region's" if most == 0 else f"region {most}'s"
+        found += f" and {len(foreign)} cells that are not its own (most of them {whose})"
+    return found
+
+
+def _lattice(grid: OccupancyGrid, xy: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    """Map-frame points as ``(row, col)`` in cell edges: cell ``(r, c)`` spans rows
+    ``[r, r + 1)`` and columns ``[c, c + 1)``."""
+    ox, oy, yaw = grid.origin
+    c, s = math.cos(yaw), math.sin(yaw)
+    dx, dy = xy[:, 0] - ox, xy[:, 1] - oy
+    with np.errstate(over="ignore"):  # points far off the map: refused as such
+        return grid.shape[0] - (-s * dx + c * dy) / grid.resolution, (
+            c * dx + s * dy
+        ) / grid.resolution
+
+
+def _cells_inside(
+    rows: NDArray[np.float64],
+    cols: NDArray[np.float64],
+    ring: NDArray[np.intp],
+    shape: tuple[int, int],
+) -> NDArray[np.bool_] | None:
+    """The cells of a grid of ``shape`` whose centres lie inside the rings of vertices
+    ``(rows, cols)`` (cell edges; ``ring`` numbers each vertex's ring, closed), by the
+    even-odd rule: a cell toggles at each edge crossing its row's centre line left of its
+    centre. None when the edges cross more often than an outline of the grid's cells can.
+
+    Examples
+    --------
+    >>> rows, cols = np.array([0.0, 0, 2, 2, 0]), np.array([1.0, 3, 3, 1, 1])  # a square
+    >>> _cells_inside(rows, cols, np.zeros(5, np.intp), (3, 4)).astype(int)
+    array([[0, 1, 1, 0],
+           [0, 1, 1, 0],
+           [0, 0, 0, 0]])
+    """
+    height, width = shape
+    edge = ring[1:] == ring[:-1]
+    r0, r1, c0, c1 = rows[:-1][edge], rows[1:][edge], cols[:-1][edge], cols[1:][edge]
+    # each edge crosses the centre lines (row + 0.5) of rows [first, stop): half open
+    first = np.clip(np.ceil(np.minimum(r0, r1) - 0.5), 0, height).astype(np.int64)
+    stop = np.clip(np.ceil(np.maximum(r0, r1) - 0.5), 0, height).astype(np.int64)
+    count = stop - first
+    if count.sum() > height * (width + 1):
+        return None
+    which = np.repeat(np.arange(len(count)), count)
+    row = first[which] + np.arange(len(which)) - np.repeat(np.cumsum(count) - count, count)
+    r0, r1, c0, c1 = r0[which], r1[which], c0[which], c1[which]
+    col = c0 + (row + 0.5 - r0) * (c1 - c0) / (r1 - r0)
+    at = np.clip(np.ceil(col - 0.5), 0, width).astype(np.int64)  # the first cell right of it
+    toggles = np.zeros((height, width + 1), bool)
+    np.logical_xor.at(toggles, (row, at), True)
+    return np.logical_xor.accumulate(toggles[:, :width], axis=1)
+
+
+def _check_edges(graph: nx.Graph, regions: Regions, source: Path) -> None:
+    """Refuse an edge between regions that do not touch in the label image (no 4-neighbour
+    cells), with no door, a ``width`` or door numbers that are not finite (a door's clear
+    width may be ``inf``: not measured), or negative widths."""
+    ra, ca, rb, cb = boundary_pairs(regions.labels)
+    step = int(regions.labels.max(initial=0)) + 1
+    touching = set(np.unique(regions.labels[ra, ca] * step + regions.labels[rb, cb]).tolist())
+    for a, b, data in graph.edges(data=True):
+        edge = f"{source}: edge ({a}, {b})"
+        if min(a, b) * step + max(a, b) not in touching:
+            raise ExportFormatError(f"{edge}: regions {a} and {b} do not touch in regions.png")
+        doors = data["doors"]
+        if not doors:
+            raise ExportFormatError(f"{edge} field 'doors' holds no door")
+        problem = finite_in(data.get("width"), "field 'width'", 0, math.inf)
+        for number, door in enumerate(doors, 1):
+            problem = problem or _door_problem(door, f"door {number}'s")
+        if problem is not None:
+            raise ExportFormatError(f"{edge} {problem}")
+
+
+def _door_problem(door: Transition, name: str) -> str | None:
+    """What is wrong with the numbers of ``door`` (None: nothing): a coordinate that is not
+    finite, a width that is not a finite number >= 0 (the clear width may be ``inf``: not
+    measured). Problems start with ``name``."""
+    points = {"start": door.start, "end": door.end, "centre": door.centre}
+    problems = [
+        *(
+            finite_in(value, f"{name} {point} {axis}", -math.inf, math.inf)
+            for point, xy in points.items()
+            for axis, value in zip("xy", xy, strict=True)
+        ),
+        finite_in(door.width, f"{name} width", 0, math.inf),
+        None
+        if door.clear_width == math.inf
+        else finite_in(door.clear_width, f"{name} clear width", 0, math.inf),
+    ]
+    return next((problem for problem in problems if problem is not None), None)

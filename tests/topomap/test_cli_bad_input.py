@@ -5,20 +5,32 @@ saved folder is refused."""
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import itertools
 import json
+import math
+import re
 from pathlib import Path
 
 import cv2
+import networkx as nx
 import numpy as np
 import pytest
+import shapely
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from shapely import affinity
 
 from maps.errors import MapFileNotFoundError, MapFormatError, OutputExistsError
 from maps.grid import OccupancyGrid
 from maps.sim.floorplan import generate_floor_plan
 from segmentation.errors import ExportFormatError
+from segmentation.export import read_graphml, write_graphml
+from segmentation.regions import Regions
+from topomap import saving
 from topomap.cli.batch import BatchOptions, process, scheduler_address
 from topomap.cli.inputs import Job, find_inputs
 from topomap.cli.main import main
@@ -301,7 +313,7 @@ def test_a_changed_saved_folder_is_refused(tmp_path, saved):
     area = graph.nodes[first]["area_m2"]
     cases = {
         "area": (f">{area}<", f">{area * 2}<", "area_m2"),
-        "id": (f'<node id="{first}">', '<node id="999">', "nodes|region graph"),
+        "id": (f'<node id="{first}">', '<node id="999">', "nodes|region graph|names region"),
         "resolution": ('<data key="d0">0.05</data>', '<data key="d0">0.1</data>', "resolution"),
     }
     for name, (old, new, shown) in cases.items():
@@ -384,6 +396,174 @@ def test_a_digit_name_never_shadows_a_region_id(tmp_path, saved):
     (folder / "graph.graphml").write_text(text)
     with pytest.raises(ExportFormatError, match="only digits"):
         TopoMap.load(folder)
+
+
+def _redigest(folder: Path) -> Path:
+    """``folder`` with the digest of its changed graph.graphml written into topomap.json as
+    TopoMap.save writes it: only the checks of the graph can refuse it."""
+    about = json.loads((folder / "topomap.json").read_text())
+    about["files"]["graph.graphml"] = saving._digest(folder / "graph.graphml")
+    (folder / "topomap.json").write_text(json.dumps(about, indent=2))
+    return folder
+
+
+def _non_neighbours(graph: nx.Graph) -> tuple[int, int]:
+    """Two regions whose outlines do not even touch (so their cells do not either)."""
+    return next(
+        (a, b)
+        for a, b in itertools.combinations(sorted(graph.nodes), 2)
+        if not graph.nodes[a]["polygon"].intersects(graph.nodes[b]["polygon"])
+    )
+
+
+def _swap_outlines(graph: nx.Graph) -> None:
+    one, two = graph.nodes[1], graph.nodes[2]
+    one["polygon"], two["polygon"] = two["polygon"], one["polygon"]
+
+
+def _first_door(graph: nx.Graph, **numbers: object) -> None:
+    data = graph.edges[min(graph.edges)]
+    data["doors"] = (dataclasses.replace(data["doors"][0], **numbers), *data["doors"][1:])
+
+
+def _nan_outline() -> shapely.Polygon:
+    with np.errstate(invalid="ignore"):  # shapely warns of NaN
+        return shapely.Polygon([(0, 0), (math.nan, 1), (1, 1)])
+
+
+# a damage to the graph (the digests written again) and what the refusal says
+_DAMAGES = {
+    "another region's outline": (
+        _swap_outlines,
+        r"region 1 field 'polygon' holds 0% of the region's \d+ cells in regions\.png and \d+ "
+        r"cells that are not its own \(most of them region 2's\)",
+    ),
+    "an outline moved half a metre": (
+        lambda g: g.nodes[3].update(polygon=affinity.translate(g.nodes[3]["polygon"], 0.5, 0.5)),
+        r"region 3 field 'polygon' holds \d+% of the region's \d+ cells in regions\.png and ",
+    ),
+    "an outline of NaN": (
+        lambda g: g.nodes[1].update(polygon=_nan_outline()),
+        "region 1 field 'polygon' has coordinates that are not finite numbers",
+    ),
+    "an outline of inf": (
+        lambda g: g.nodes[1].update(polygon=shapely.box(0, 0, math.inf, 1)),
+        "region 1 field 'polygon' has coordinates that are not finite numbers",
+    ),
+    "an outline off the map": (
+        lambda g: g.nodes[1].update(polygon=affinity.translate(g.nodes[1]["polygon"], 1e6)),
+        r"region 1 field 'polygon' lies off the map: its bounds are \(100000",
+    ),
+    "a point for an outline": (
+        lambda g: g.nodes[1].update(polygon=shapely.Point(1, 1)),
+        r"region 1 field 'polygon' is 'POINT \(1 1\)', not the outline of cells",
+    ),
+    "a region's point of NaN": (
+        lambda g: g.nodes[3].update(y=math.nan),
+        "region 3 field 'y' must be a finite number, got nan",
+    ),
+    "an edge between regions that do not touch": (
+        lambda g: g.add_edge(*_non_neighbours(g), **g.edges[min(g.edges)]),
+        r"edge \((\d+), (\d+)\): regions \1 and \2 do not touch in regions\.png",
+    ),
+    "a door of NaN": (
+        lambda g: _first_door(g, centre=(math.nan, 1.0)),
+        r"edge \(\d+, \d+\) door 1's centre x must be a finite number, got nan",
+    ),
+    "a door of inf": (
+        lambda g: _first_door(g, end=(1.0, -math.inf)),
+        r"edge \(\d+, \d+\) door 1's end y must be a finite number, got -inf",
+    ),
+    "a door of negative width": (
+        lambda g: _first_door(g, width=-0.5),
+        r"edge \(\d+, \d+\) door 1's width must lie in \[0, inf\], got -0\.5",
+    ),
+    "an edge's width of inf": (
+        lambda g: g.edges[min(g.edges)].update(width=math.inf),
+        r"edge \(\d+, \d+\) field 'width' must be a finite number, got inf",
+    ),
+    "an edge without doors": (
+        lambda g: g.edges[min(g.edges)].update(doors=()),
+        r"edge \(\d+, \d+\) field 'doors' holds no door",
+    ),
+    "a name twice": (
+        lambda g: g.nodes[2].update(name=g.nodes[1]["name"].upper()),
+        r"region 2 field 'name' is '[A-Z0-9 ]+', the name of region 1 too",
+    ),
+    "a lost name": (
+        lambda g: g.nodes[2].pop("name"),
+        "region 2 has no field 'name', but the map is labelled",
+    ),
+    "an empty name": (
+        lambda g: g.nodes[2].update(name=" "),
+        r"region 2 field 'name' is ' ', not a name \(text, not blank\)",
+    ),
+}
+
+
+@pytest.mark.parametrize("damage", _DAMAGES)
+def test_a_graph_that_disagrees_with_its_labels_is_refused_even_with_its_digest(
+    tmp_path, saved, damage
+):
+    edit, shown = _DAMAGES[damage]
+    folder = _copy(saved, tmp_path)
+    graph = read_graphml(folder / "graph.graphml")
+    edit(graph)
+    write_graphml(graph, folder / "graph.graphml", overwrite=True)
+    with pytest.raises(ExportFormatError, match=rf"graph\.graphml: {shown}"):
+        TopoMap.load(_redigest(folder))
+
+
+def test_an_edge_to_a_region_the_file_lacks_is_refused_by_name(tmp_path, saved):
+    folder = _copy(saved, tmp_path)
+    text = (folder / "graph.graphml").read_text()
+    source, target = re.search(r'<edge source="(\d+)" target="(\d+)"', text).groups()
+    _graph_edit(folder, f'source="{source}" target="{target}"', f'source="{source}" target="99"')
+    shown = rf"graph\.graphml: edge \({source}, 99\) names region 99, which the file does not hold"
+    with pytest.raises(ExportFormatError, match=shown):
+        TopoMap.load(_redigest(folder))
+
+
+def test_outlines_simplified_by_a_cell_still_load(tmp_path, saved):
+    folder = _copy(saved, tmp_path)
+    graph = read_graphml(folder / "graph.graphml")
+    outlines = dict(graph.nodes(data="polygon"))
+    for _, data in graph.nodes(data=True):
+        data["polygon"] = data["polygon"].simplify(graph.graph["resolution"])
+    assert any(not graph.nodes[r]["polygon"].equals(outlines[r]) for r in graph)
+    write_graphml(graph, folder / "graph.graphml", overwrite=True)
+    assert TopoMap.load(_redigest(folder)).regions.ids == sorted(graph.nodes)
+
+
+def test_a_map_never_labelled_loads_without_names(tmp_path, saved):
+    folder = _copy(saved, tmp_path)
+    graph = read_graphml(folder / "graph.graphml")
+    for _, data in graph.nodes(data=True):
+        del data["name"], data["label"]
+    graph.nodes[2]["name"] = "kitchen"  # a name given on a map never labelled
+    write_graphml(graph, folder / "graph.graphml", overwrite=True)
+    topo = TopoMap.load(_redigest(folder))
+    assert dict(topo.graph.nodes(data="name")) == {r: "kitchen" if r == 2 else None for r in graph}
+    assert topo.region("Kitchen") == 2
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    labels=arrays(
+        np.int32, st.tuples(st.integers(2, 9), st.integers(2, 9)), elements=st.integers(0, 3)
+    ),
+    origin=st.tuples(st.floats(-50, 50), st.floats(-50, 50), st.floats(-4, 4)),
+)
+def test_every_outline_a_region_has_holds_exactly_its_cells(labels, origin):
+    # what load checks the outlines with: honest outlines, rotated maps too, are never refused
+    regions = Regions(OccupancyGrid(np.zeros(labels.shape, np.int8), 0.05, origin), labels)
+    for region, polygon in regions.polygons.items():
+        parts = shapely.get_rings(shapely.get_parts(polygon))
+        xy, ring = shapely.get_coordinates(parts, return_index=True)
+        rows, cols = saving._lattice(regions.grid, xy)
+        inside = saving._cells_inside(rows, cols, ring, labels.shape)
+        assert np.array_equal(inside, regions.enclosing == region)
+        assert saving._outline_problem(polygon, region, regions) is None
 
 
 # ---------------------------------------------------------------- batch

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import networkx as nx
 import numpy as np
 import pytest
 
@@ -11,6 +12,7 @@ import maps
 from maps.grid import OccupancyGrid
 from segmentation.growing import MapMismatchError
 from topomap.cli.main import main
+from topomap.labels import carry_names, find_region
 from topomap.topomap import TopoMap
 
 
@@ -62,6 +64,16 @@ def test_the_next_id_survives_save_and_load(explored, tmp_path):
     _, after = explored
     after.save(tmp_path / "saved")
     assert TopoMap.load(tmp_path / "saved").next_id == after.next_id
+
+
+def test_a_carried_name_written_otherwise_is_no_other_region_s_name_too():
+    previous, graph = nx.Graph(), nx.Graph()
+    previous.add_node(1, label="corridor", name="Aisle 2", name_given=True)
+    graph.add_node(1, label="room", name="room 1")
+    graph.add_node(2, label="corridor", name="corridor 2")  # the name queries read "Aisle 2" as
+    carry_names(graph, previous)
+    assert dict(graph.nodes(data="name")) == {1: "Aisle 2", 2: "corridor 1"}
+    assert find_region(graph, "corridor 2") == 1
 
 
 def test_a_map_of_another_building_or_resolution_is_refused(explored):
