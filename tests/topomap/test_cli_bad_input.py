@@ -585,6 +585,8 @@ def _eval_data(folder: Path, plan_map: Path, rooms: np.ndarray, anchors: str | N
         ("a field too long for csv", "not a CSV table (field larger than field limit"),
         ("rooms the wrong size", "people's rooms are 10 x 10 cells"),
         ("no room", "no room drawn"),
+        ("noise", "no room drawn of more than 100 pixels"),
+        ("colour noise", "no room drawn of more than 100 pixels"),
     ],
 )
 def test_eval_segment_refuses_bad_truth_before_scoring(tmp_path, capsys, plan_map, case, shown):
@@ -604,6 +606,10 @@ def test_eval_segment_refuses_bad_truth_before_scoring(tmp_path, capsys, plan_ma
         rooms = np.ones((10, 10))
     elif case == "no room":
         rooms = np.zeros(grid.shape)
+    elif case == "noise":  # rooms of a pixel or a few: none the scores count
+        rooms = np.random.default_rng(0).integers(0, 65535, grid.shape)
+    elif case == "colour noise":
+        rooms = np.random.default_rng(0).integers(0, 65535, (*grid.shape, 3))
     data = _eval_data(tmp_path / "data", plan_map, rooms, anchors)
     out = tmp_path / "out"
     assert main(["-q", "eval", "segment", str(data), "--out", str(out)]) == 2
