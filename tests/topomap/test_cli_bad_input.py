@@ -74,6 +74,8 @@ def _copy(saved: Path, to: Path) -> Path:
         (["bench", "plan", "--queries", "10000000000"], "--queries"),
         (["bench", "plan", "--budget", "nan"], "--budget"),
         (["bench", "batch", "--maps", "100000000"], "--maps"),
+        (["bench", "online", "--seed-fraction", "nan"], "--seed-fraction"),
+        (["bench", "online", "--offline-up-to", "-5"], "--offline-up-to"),
         (["eval", "runs", "--seeds", "100000000"], "--seeds"),
     ],
 )
@@ -778,3 +780,28 @@ def test_eval_corridors_names_the_file_the_log_and_the_corridor(tmp_path, capsys
         drawn.write_text(text)
         assert main([*command, "--out", str(out)]) == 2
         assert f"{drawn}: not a drawn corridors JSON" in _error_line(capsys)
+
+
+_QUICK_PLAN = ["plan", "--sizes", "flat", "--queries", "1", "--planners", "hierarchical"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "shown"),
+    [
+        (["online", "--parts", "latency", "quality", "--logs", "MISSING"], "CARMEN log not found"),
+        (["online", "--parts", "growing", "--snapshots", "MISSING"], "data folder not found"),
+        (["online", "--parts", "latency", "--keyframes", "5"], "--keyframes must be more than"),
+        ([*_QUICK_PLAN, "--maps", "MISSING"], "maps folder not found"),
+        ([*_QUICK_PLAN, "--robot", "rect:0.5x0.3", "--maps", "MISSING"], "maps folder not found"),
+    ],
+)
+@pytest.mark.parametrize("given", [False, True])
+def test_a_refused_bench_leaves_no_folder_behind(tmp_path, capsys, argv, shown, given):
+    # refused before any work: no folder made, and the user's own folder kept as it was
+    out = tmp_path / "out"
+    if given:
+        out.mkdir()
+    argv = [str(tmp_path / "missing") if a == "MISSING" else a for a in argv]
+    assert main(["-q", "bench", *argv, "--out", str(out)]) == 2
+    assert shown in _error_line(capsys)
+    assert out.exists() == given and (not given or not any(out.iterdir()))
