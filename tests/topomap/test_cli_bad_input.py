@@ -86,6 +86,8 @@ def _copy(saved: Path, to: Path) -> Path:
         (["bench", "plan", "--queries", "10000000000"], "--queries"),
         (["bench", "plan", "--budget", "nan"], "--budget"),
         (["bench", "batch", "--maps", "100000000"], "--maps"),
+        (["bench", "online", "--seed-fraction", "nan"], "--seed-fraction"),
+        (["bench", "online", "--offline-up-to", "-5"], "--offline-up-to"),
         (["eval", "runs", "--seeds", "100000000"], "--seeds"),
     ],
 )
@@ -765,6 +767,8 @@ def _eval_data(folder: Path, plan_map: Path, rooms: np.ndarray, anchors: str | N
         ("a field too long for csv", "not a CSV table (field larger than field limit"),
         ("rooms the wrong size", "people's rooms are 10 x 10 cells"),
         ("no room", "no room drawn"),
+        ("noise", "no room drawn of more than 100 pixels"),
+        ("colour noise", "no room drawn of more than 100 pixels"),
     ],
 )
 def test_eval_segment_refuses_bad_truth_before_scoring(tmp_path, capsys, plan_map, case, shown):
@@ -784,6 +788,10 @@ def test_eval_segment_refuses_bad_truth_before_scoring(tmp_path, capsys, plan_ma
         rooms = np.ones((10, 10))
     elif case == "no room":
         rooms = np.zeros(grid.shape)
+    elif case == "noise":  # rooms of a pixel or a few: none the scores count
+        rooms = np.random.default_rng(0).integers(0, 65535, grid.shape)
+    elif case == "colour noise":
+        rooms = np.random.default_rng(0).integers(0, 65535, (*grid.shape, 3))
     data = _eval_data(tmp_path / "data", plan_map, rooms, anchors)
     out = tmp_path / "out"
     assert main(["-q", "eval", "segment", str(data), "--out", str(out)]) == 2
@@ -854,8 +862,8 @@ def test_a_folder_that_may_not_be_listed_and_workers_that_cannot_start_are_typed
 
 
 def test_drawn_rooms_that_are_no_json_or_no_polygons_name_the_file_and_the_room(tmp_path, capsys):
+    from topomap.cli.drawn import read_drawn
     from topomap.cli.evaluate_logs import drawn_rooms
-    from topomap.cli.label_sources import read_drawn
 
     bad = tmp_path / "carmen_rooms.json"
     bad.write_text("{intel: ")
@@ -875,7 +883,7 @@ def test_drawn_rooms_that_are_no_json_or_no_polygons_name_the_file_and_the_room(
     with pytest.raises(MapFormatError, match="room 1 \\('hall'\\): a polygon needs"):
         drawn_rooms(grid, rooms)
     for rooms, shown in (
-        (["x"], "a polygon needs"),
+        (["x"], "room 1 is no {name, polygon} object"),
         ([{"polygon": [[0, 0], [1]]}], "a polygon needs"),
         ([{"polygon": [[0, 0], ["a", 1], [1, 1]]}], "a polygon needs"),
         ([{"name": "far", "polygon": [[100, 100], [101, 100], [101, 101]]}], "lies off the map"),
@@ -889,3 +897,91 @@ def test_drawn_rooms_that_are_no_json_or_no_polygons_name_the_file_and_the_room(
         bad.write_text(text)
         with pytest.raises(MapFormatError, match=r"carmen_rooms\.json"):
             read_drawn(bad, "drawn rooms JSON")
+
+
+_LINE = [[0, 5], [20, 5]]
+
+
+@pytest.mark.parametrize(
+    ("shapes", "shown"),
+    [
+        (
+            {"corridors": [{"width": "2", "line": _LINE}]},
+            "corridor 1: width must be a number, got '2'",
+        ),
+        ({"corridors": [{"line": _LINE}]}, "corridor 1: width must be a number, got None"),
+        ({"corridors": [{"width": float("nan"), "line": _LINE}]}, "width must be a finite number"),
+        ({"corridors": [{"width": float("inf"), "line": _LINE}]}, "width must be a finite number"),
+        ({"corridors": [{"width": -2, "line": _LINE}]}, "width must lie in (0, 1000] m, got -2"),
+        ({"corridors": [{"width": 10**400, "line": _LINE}]}, "got a 401-digit integer"),
+        ({"corridors": [{"width": [[[2]]], "line": _LINE}]}, "width must be a number, got [[[2]]]"),
+        ({"corridors": [{"width": 2, "line": [[0, 5], [20]]}]}, "corridor 1: its line needs"),
+        ({"corridors": [{"width": 2, "line": [[0, 5], ["a", 5]]}]}, "its line needs at least 2"),
+        ({"corridors": [{"width": 2, "line": [[0, 5], [10**400, 5]]}]}, "its line needs"),
+        ({"corridors": [{"width": 2, "line": [[0, 5]]}]}, "its line needs at least 2"),
+        ({"corridors": [{"width": 2}]}, "corridor 1: its line needs at least 2 [x, y] points"),
+        ({"corridors": [{"width": 2, "line": _LINE}, 5]}, "corridor 2 is no {width, line} object"),
+        ({"corridors": 5}, "the corridors are a list of {width, line}, got 5"),
+        ({"halls": [{"polygon": [[0, 0], [1]]}]}, "hall 1: its polygon needs at least 3"),
+        ({"halls": [{}]}, "hall 1: its polygon needs at least 3 [x, y] points in metres, got None"),
+    ],
+)
+def test_drawn_corridors_and_halls_that_are_no_shapes_are_refused(shapes, shown):
+    from topomap.cli.label_sources import drawn_truth
+
+    grid = OccupancyGrid(np.zeros((20, 40), np.int8), 0.5)
+    with pytest.raises(MapFormatError) as found:
+        drawn_truth(grid, shapes)
+    assert shown in str(found.value)
+
+
+def test_a_drawn_corridor_with_a_far_vertex_is_its_part_on_the_map():
+    from topomap.cli.label_sources import drawn_truth
+
+    grid = OccupancyGrid(np.zeros((20, 40), np.int8), 0.5)  # 20 x 10 m
+    far = drawn_truth(grid, {"corridors": [{"width": 2.0, "line": [[0, 5], [1e12, 5]]}]})
+    near = drawn_truth(grid, {"corridors": [{"width": 2.0, "line": _LINE}]})
+    assert (far == near).all()
+
+
+def test_eval_corridors_names_the_file_the_log_and_the_corridor(tmp_path, capsys, data_dir):
+    drawn = tmp_path / "carmen.json"
+    corridors = [{"width": 2.0, "line": _LINE}, {"width": "wide", "line": _LINE}]
+    drawn.write_text(
+        json.dumps({"intel": {"log": "intel-corrected.log.gz", "corridors": corridors}})
+    )
+    out = tmp_path / "out"
+    command = ["-q", "eval", "corridors", str(data_dir / "carmen"), "--hand-labels", str(tmp_path)]
+    assert main([*command, "--out", str(out)]) == 2
+    line = _error_line(capsys)
+    assert line.endswith(f"{drawn}: 'intel', corridor 2: width must be a number, got 'wide'")
+    assert not out.exists()
+    for text in ('{"intel": ' + "[" * 5000 + "]" * 5000 + "}", '{"a": ' + "1" * 5000 + "}"):
+        drawn.write_text(text)
+        assert main([*command, "--out", str(out)]) == 2
+        assert f"{drawn}: not a drawn corridors JSON" in _error_line(capsys)
+
+
+_QUICK_PLAN = ["plan", "--sizes", "flat", "--queries", "1", "--planners", "hierarchical"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "shown"),
+    [
+        (["online", "--parts", "latency", "quality", "--logs", "MISSING"], "CARMEN log not found"),
+        (["online", "--parts", "growing", "--snapshots", "MISSING"], "data folder not found"),
+        (["online", "--parts", "latency", "--keyframes", "5"], "--keyframes must be more than"),
+        ([*_QUICK_PLAN, "--maps", "MISSING"], "maps folder not found"),
+        ([*_QUICK_PLAN, "--robot", "rect:0.5x0.3", "--maps", "MISSING"], "maps folder not found"),
+    ],
+)
+@pytest.mark.parametrize("given", [False, True])
+def test_a_refused_bench_leaves_no_folder_behind(tmp_path, capsys, argv, shown, given):
+    # refused before any work: no folder made, and the user's own folder kept as it was
+    out = tmp_path / "out"
+    if given:
+        out.mkdir()
+    argv = [str(tmp_path / "missing") if a == "MISSING" else a for a in argv]
+    assert main(["-q", "bench", *argv, "--out", str(out)]) == 2
+    assert shown in _error_line(capsys)
+    assert out.exists() == given and (not given or not any(out.iterdir()))

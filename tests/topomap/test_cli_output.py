@@ -1,6 +1,7 @@
 """What the command line shows: progress on stderr (or none with -q), one line and status 2
 for bad input, a traceback for a bug, no file overwritten without --force."""
 
+import argparse
 import importlib
 import json
 import logging
@@ -138,6 +139,52 @@ def test_usage_errors_return_two(capsys):
     assert main(["plan", "map.yaml", "--start", "1,x", "--goal", "2,2"]) == 2
     assert "argument --start: expected X,Y in metres, got '1,x'" in capsys.readouterr().err
     assert main(["--help"]) == 0
+
+
+@pytest.mark.parametrize(
+    ("argv", "shown"),
+    [
+        (["nosuch"], "topomap: error: argument command: invalid choice: 'nosuch'"),
+        (["-x"], "topomap: error: the following arguments are required: command"),
+        (["segment", "m.yaml"], "topomap segment: error: the following arguments are required"),
+        (["segment", "m.yaml", "--out", "o", "--nope"], "topomap segment: error: unrecognized"),
+        (["eval", "segment", "d", "--bad", "1"], "topomap eval segment: error: unrecognized"),
+        (
+            ["eval", "segment", "d", "--out"],
+            "topomap eval segment: error: argument --out: expected",
+        ),
+        (["bench", "seg"], "topomap bench: error: argument bench: invalid choice: 'seg'"),
+        (["bench", "sim", "--scans", "x"], "topomap bench sim: error: argument --scans: must be"),
+        (
+            ["plan", "m.yaml", "--start", "1,x", "--goal", "2"],
+            "topomap plan: error: argument --start",
+        ),
+    ],
+)
+def test_usage_errors_are_one_line_naming_the_command(capsys, argv, shown):
+    # as every other error of the command line: no usage, which --help prints
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(shown), err
+    assert err[0].endswith(f"(see {shown.split(': error')[0]} --help)")
+
+
+def test_help_still_prints_the_usage_and_every_option(capsys):
+    from topomap.cli.main import Parser, build_parser
+
+    assert main(["segment", "--help"]) == 0
+    shown = capsys.readouterr().out
+    assert shown.startswith("usage: topomap segment") and "--robot-radius" in shown
+
+    def parsers(parser):  # every command's parser, subcommands' too
+        yield parser
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for sub in action.choices.values():
+                    yield from parsers(sub)
+
+    found = list(parsers(build_parser()))
+    assert len(found) > 20 and all(type(p) is Parser for p in found)
 
 
 @pytest.mark.slow

@@ -161,12 +161,14 @@ def plan_maps(
 ) -> Iterator[tuple[str, OccupancyGrid]]:
     """The benchmark's maps: generated buildings of ``sizes`` (empty, seed ``seed``), the
     512 x 512 rooms maps of ``sizes`` (:data:`ROOM_MAPS`, seed ``seed``), then every map YAML
-    in ``maps_dir``.
+    in ``maps_dir``; the sizes and the folder are checked when called, before any map is made.
 
     Raises
     ------
     PlannerParameterError
         A name in ``sizes`` that is neither a building nor a rooms map.
+    MapFileNotFoundError
+        A ``maps_dir`` that is no folder, or one without a map YAML.
     """
     unknown = sorted(set(sizes) - set(BUILDINGS.values()) - set(ROOM_MAPS))
     if unknown:
@@ -174,12 +176,7 @@ def plan_maps(
         raise PlannerParameterError(
             f"unknown map sizes {', '.join(unknown)}; known: {', '.join(known)}"
         )
-    for name, size in BUILDINGS.items():
-        if size in sizes:
-            yield name, generate_floor_plan(size, random_state=seed).grid
-    for size, room in ROOM_MAPS.items():
-        if size in sizes:
-            yield f"rooms{room}-512", generate_rooms(512, room, random_state=seed)
+    yamls: list[Path] = []
     if maps_dir is not None:
         folder = Path(maps_dir)
         if not folder.is_dir():
@@ -187,8 +184,21 @@ def plan_maps(
         yamls = sorted(folder.glob("*.yaml"))
         if not yamls:
             raise MapFileNotFoundError(folder / "*.yaml", "map YAML")
-        for yaml in yamls:
-            yield yaml.stem, OccupancyGrid.load(yaml)
+    return _plan_maps(sizes, yamls, seed)
+
+
+def _plan_maps(
+    sizes: tuple[str, ...], yamls: list[Path], seed: int
+) -> Iterator[tuple[str, OccupancyGrid]]:
+    """The maps of :func:`plan_maps`, each made or read when its turn comes."""
+    for name, size in BUILDINGS.items():
+        if size in sizes:
+            yield name, generate_floor_plan(size, random_state=seed).grid
+    for size, room in ROOM_MAPS.items():
+        if size in sizes:
+            yield f"rooms{room}-512", generate_rooms(512, room, random_state=seed)
+    for yaml in yamls:
+        yield yaml.stem, OccupancyGrid.load(yaml)
 
 
 #: Seconds of query time each planner may spend per map before skipping its other queries.
@@ -363,6 +373,7 @@ def bench_plan_robot(
     preprocessing: dict[str, dict[str, Any]] = {}
     found_paths: list[dict[str, Any]] = []
     maps: dict[str, str] = {}
+    made: dict[str, OccupancyGrid] = {}  # the generated maps, saved once all are benchmarked
     for name, grid in plan_maps(sizes, maps_dir, seed):
         clock = time.perf_counter()
         topo = TopoMap.from_grid(grid, random_state=seed)
@@ -419,7 +430,10 @@ def bench_plan_robot(
         if maps_dir is not None and (Path(maps_dir) / f"{name}.yaml").exists():
             maps[name] = str(Path(maps_dir) / f"{name}.yaml")
         else:
-            maps[name] = str(grid.save(Path(out) / "maps" / f"{name}.yaml", overwrite=True))
+            maps[name] = str(Path(out) / "maps" / f"{name}.yaml")
+            made[name] = grid
+    for name, grid in made.items():
+        grid.save(maps[name], overwrite=True)
     summary = summarise(records)
     write_report(out, records, summary, preprocessing, time_limit, seed)
     about = {"footprint": robot.polygon.tolist(), "maps": maps, "paths": found_paths}

@@ -28,6 +28,7 @@ from segmentation.online import OnlineSegmenter
 from segmentation.pipeline import MapSegmenter
 from segmentation.spectral import SpectralSegmenter
 from topomap.cli.bench import robot_keyframes
+from topomap.cli.evaluate import floor_plans
 from topomap.cli.online import (
     ONLINE_METHODS,
     agreement,
@@ -191,9 +192,9 @@ def bench_quality(
     """Online against offline on the demo's run (the robot in the generated office, also
     scored against the generator's rooms: MCC of each made dense on the run's map) and on
     the CARMEN logs (keyframes every 0.5 m)."""
-    runs: list[str] = (["demo office"] if demo else []) + (list(LOGS) if logs_dir else [])
+    logs = carmen_logs(logs_dir) if logs_dir else {}
     records = []
-    for name in progress(runs):
+    for name in progress((["demo office"] if demo else []) + list(logs)):
         if name == "demo office":
             plan = generate_floor_plan("office", furniture=0.3, random_state=seed)
             route = wander(plan.grid, plan.labels, random_state=seed)
@@ -207,14 +208,26 @@ def bench_quality(
                 record["mcc_offline"] = mcc_offline
                 record["mcc_online"] = _mcc(grid, keyframes, online[record["method"]], truth)
         else:
-            path = Path(str(logs_dir)) / f"{name}-corrected.log.gz"
-            if not path.is_file():
-                raise MapFileNotFoundError(path, "CARMEN log")
-            keyframes = select_keyframes(read_carmen(path), distance=0.5)
+            keyframes = select_keyframes(read_carmen(logs[name]), distance=0.5)
             grid = grid_from_keyframes(keyframes, 0.05)
             found = _quality(name, keyframes, grid, seed_fraction, theta, seed)[0]
         records += found
     return records
+
+
+def carmen_logs(logs_dir: str | Path) -> dict[str, Path]:
+    """The files of the CARMEN logs :data:`LOGS` in ``logs_dir``, by name.
+
+    Raises
+    ------
+    MapFileNotFoundError
+        Naming the first log that is not there.
+    """
+    logs = {name: Path(logs_dir) / f"{name}-corrected.log.gz" for name in LOGS}
+    for path in logs.values():
+        if not path.is_file():
+            raise MapFileNotFoundError(path, "CARMEN log")
+    return logs
 
 
 def _mcc(
@@ -268,25 +281,33 @@ def bench_online(
     **options: Any,
 ) -> dict[str, Any]:
     """Run the ``parts`` and write ``results.json`` (``latency``: one record per batch and a
-    summary; ``quality``: one record per run) and ``latency.png`` into ``out``."""
+    summary; ``quality``: one record per run) and ``latency.png`` into ``out``, once every
+    part has run: the logs and snapshots the parts read are checked before any runs, and a
+    run refused leaves no ``out`` behind."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     latency_keys = {"keyframes", "seed_keyframes", "building", "batch", "offline_up_to", "method"}
     results: dict[str, Any] = {}
     common = {k: v for k, v in options.items() if k in ("theta", "seed")}
     options = {k: v for k, v in options.items() if v is not None}
+    snapshots = options.get("snapshots_dir", SNAPSHOTS)
+    if "quality" in parts and options.get("logs_dir"):
+        carmen_logs(options["logs_dir"])
+    if "growing" in parts:
+        floor_plans(snapshots)
     if "latency" in parts:
         chosen = {k: v for k, v in options.items() if k in latency_keys}
         records, summary = bench_latency(**chosen, **common, progress=progress)
         results["latency"] = {"batches": records, "summary": summary}
-        title = f"online, generated {summary['building']}, seed {summary['seed_keyframes']}"
-        draw_latency(out / "latency.png", records, title)
     if "quality" in parts:
         chosen = {k: v for k, v in options.items() if k in ("logs_dir", "seed_fraction")}
         results["quality"] = bench_quality(**chosen, **common, progress=progress)
     if "growing" in parts:
         from topomap.cli.bench_growing import bench_growing
 
-        results["growing"] = bench_growing(options.get("snapshots_dir", SNAPSHOTS), progress)
+        results["growing"] = bench_growing(snapshots, progress)
+    if "latency" in results:
+        summary = results["latency"]["summary"]
+        title = f"online, generated {summary['building']}, seed {summary['seed_keyframes']}"
+        draw_latency(out / "latency.png", results["latency"]["batches"], title)
     write_text(out / "results.json", json.dumps(results, indent=2), overwrite=True)
     return results

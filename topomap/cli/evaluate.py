@@ -19,7 +19,7 @@ from maps.errors import MapFileNotFoundError, MapFormatError, TopomapError
 from maps.grid import FREE, OCCUPIED, UNKNOWN, OccupancyGrid
 from maps.map_server import grid_from_image
 from segmentation.export import read_image_unchanged
-from segmentation.metrics import colour_labels, rose2_score, score
+from segmentation.metrics import MIN_PIXELS, colour_labels, rose2_score, score
 from topomap.errors import led_by
 from topomap.topomap import pipeline_from_options
 
@@ -256,6 +256,13 @@ def evaluate(
     ``seconds`` is the mean wall time of one segmentation call (:meth:`MapSegmenter.segment`:
     the region graph and names not included, like the anchors' segmentation-only times),
     ``cpu_seconds`` its processor time.
+
+    Raises
+    ------
+    MapFormatError
+        People's rooms of another size than the map, or none of more than
+        :data:`~segmentation.metrics.MIN_PIXELS` pixels (an image of noise, all black): a map
+        is never scored, and averaged, against no rooms.
     """
     grid, rooms = plan.grid(), plan.rooms()
     if rooms.shape != grid.shape:
@@ -264,8 +271,13 @@ def evaluate(
             f"{plan.yaml} {grid.shape[1]} x {grid.shape[0]}",
             path=plan.truth,
         )
-    if not rooms.any():
-        raise MapFormatError("no room drawn: nothing to score against", path=plan.truth)
+    sizes = np.bincount(rooms.ravel())[1:]
+    if not (sizes > MIN_PIXELS).any():  # none at all, or noise: rooms the scores ignore
+        raise MapFormatError(
+            f"no room drawn of more than {MIN_PIXELS} pixels, the smallest the scores count "
+            f"({np.count_nonzero(sizes)} smaller): nothing to score against",
+            path=plan.truth,
+        )
     return [
         record
         for factor in cell_factors

@@ -17,7 +17,8 @@ from numpy.typing import NDArray
 
 from segmentation.pipeline import MapSegmenter
 from topomap.classifiers import PLACE_TYPES
-from topomap.cli.label_sources import Progress, carmen_map, drawn_truth, read_drawn
+from topomap.cli.drawn import drawn_for, read_drawn
+from topomap.cli.label_sources import Progress, carmen_map, drawn_truth
 
 #: A region holds a piece of the corridors when it has at least this share of their cells.
 PIECE_SHARE = 0.05
@@ -54,12 +55,14 @@ def evaluate_corridors(
     records = []
     for name, shapes in progress(sorted(read_drawn(drawn_json).items())):
         keyframes, grid = carmen_map(Path(log_dir) / shapes["log"])
+        with drawn_for(drawn_json, name):  # refused before the log is segmented
+            truth = drawn_truth(grid, shapes)
         found = MapSegmenter().segment(grid, keyframes, random_state=0)
         records.append(
             {
                 "log": name,
                 "regions": int(found.regions.labels.max()),
-                **corridor_scores(found.regions.labels, drawn_truth(grid, shapes)),
+                **corridor_scores(found.regions.labels, truth),
             }
         )
     return records

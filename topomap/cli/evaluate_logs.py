@@ -24,7 +24,8 @@ from maps.errors import MapFormatError
 from maps.grid import OccupancyGrid
 from maps.scan import poses_array
 from segmentation.metrics import rose2_score, score
-from topomap.cli.label_sources import Progress, carmen_map, read_drawn
+from topomap.cli.drawn import drawn_cells, drawn_for, drawn_list, drawn_points, read_drawn
+from topomap.cli.label_sources import Progress, carmen_map
 from topomap.cli.online import agreement
 from topomap.topomap import pipeline_from_options
 
@@ -36,8 +37,9 @@ def drawn_rooms(grid: OccupancyGrid, rooms: list[dict[str, Any]]) -> NDArray[np.
     Raises
     ------
     MapFormatError
-        Rooms that are not a list, a room without a polygon of at least three finite points,
-        or one that lies wholly off the map (rooms drawn on another map or frame).
+        Rooms that are not a list of objects, a room without a polygon of at least three
+        finite points, or one that lies wholly off the map (rooms drawn on another map or
+        frame); a far vertex is drawn as the polygon's part on the map.
 
     Examples
     --------
@@ -49,59 +51,17 @@ def drawn_rooms(grid: OccupancyGrid, rooms: list[dict[str, Any]]) -> NDArray[np.
     (np.int32(1), np.int32(2), [1, 2])
     """
     labels = np.zeros(grid.shape, np.int32)
-    if not isinstance(rooms, list):
-        raise MapFormatError(f"the rooms are a list of {{name, polygon}}, got {rooms!r:.80}")
     x0, y0, x1, y1 = grid.bounds()
-    for number, room in enumerate(rooms, 1):
-        polygon = room.get("polygon") if isinstance(room, dict) else None
-        try:
-            xy = np.asarray(polygon if polygon is not None else [], float)
-        except (TypeError, ValueError, OverflowError):  # ragged, text, 400-digit numbers
-            xy = np.zeros(0)
-        name = room.get("name", "?") if isinstance(room, dict) else "?"
-        if xy.ndim != 2 or xy.shape[1] != 2 or len(xy) < 3 or not np.isfinite(xy).all():
-            raise MapFormatError(
-                f"room {number} ({name!r:.40}): a polygon needs at least three [x, y] points "
-                f"in metres, got {polygon!r:.80}"
-            )
+    for number, room in enumerate(drawn_list(rooms, "room", "name, polygon"), 1):
+        name = room.get("name", "?")
+        xy = drawn_points(room.get("polygon"), 3, f"room {number} ({name!r:.40}): a polygon")
         if xy[:, 0].max() < x0 or xy[:, 0].min() > x1 or xy[:, 1].max() < y0 or xy[:, 1].min() > y1:
             raise MapFormatError(
                 f"room {number} ({name!r:.40}) lies off the map (x {x0:g}..{x1:g}, "
                 f"y {y0:g}..{y1:g} m): the rooms are of another map or frame"
             )
-        for part in _on_map(xy, (x0, y0, x1, y1)):
-            rows, cols = grid.world_to_cell(part[:, 0], part[:, 1])
-            cv2.fillPoly(labels, [np.column_stack([cols, rows]).astype(np.int32)], number)
+        cv2.fillPoly(labels, drawn_cells(grid, xy), number)
     return np.where(grid.free, labels, 0)
-
-
-def _on_map(xy: NDArray[np.float64], box: tuple[float, float, float, float]) -> list:
-    """The polygon ``xy`` (metres) as it is drawn on a map of bounds ``box``: itself when it
-    lies within a metre of them (the rooms people draw, slits and all), else its part within
-    them (a vertex a million kilometres off would be rasterised across the whole plane).
-
-    Examples
-    --------
-    >>> square = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
-    >>> _on_map(square, (0, 0, 10, 10))[0] is square
-    True
-    >>> far = np.array([[0.0, 0.0], [1e12, 0.0], [0.0, 2.0]])
-    >>> float(np.abs(_on_map(far, (0, 0, 10, 10))[0]).max()) <= 11
-    True
-    """
-    x0, y0, x1, y1 = box
-    low, high = xy.min(axis=0), xy.max(axis=0)
-    if low[0] >= x0 - 1 and low[1] >= y0 - 1 and high[0] <= x1 + 1 and high[1] <= y1 + 1:
-        return [xy]
-    import shapely
-
-    inside = shapely.Polygon(xy).buffer(0).intersection(shapely.box(x0 - 1, y0 - 1, x1 + 1, y1 + 1))
-    parts = getattr(inside, "geoms", [inside])
-    return [
-        np.asarray(p.exterior.coords)
-        for p in parts
-        if isinstance(p, shapely.Polygon) and not p.is_empty
-    ]
 
 
 def evaluate_logs(
@@ -115,7 +75,8 @@ def evaluate_logs(
         if not (isinstance(drawn.get("rooms"), list) and drawn["rooms"]):
             raise MapFormatError(f"{rooms_json}: {name!r} has no list of 'rooms' drawn")
         keyframes, grid = carmen_map(Path(log_dir) / drawn["log"])
-        rooms = drawn_rooms(grid, drawn["rooms"])
+        with drawn_for(rooms_json, name):
+            rooms = drawn_rooms(grid, drawn["rooms"])
         poses = poses_array(keyframes)
         rows, cols = grid.world_to_cell(poses[:, 0], poses[:, 1])
         standing = np.zeros(len(poses), np.int32)

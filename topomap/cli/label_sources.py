@@ -23,7 +23,6 @@ region with a fan of rays into the rooms it passes is a corridor. A region witho
 from __future__ import annotations
 
 import csv
-import json
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,6 +35,7 @@ from numpy.typing import NDArray
 
 from maps.errors import MapFileNotFoundError, MapFormatError
 from maps.grid import OccupancyGrid
+from maps.limits import MAX_LENGTH, finite_in
 from maps.map_server import grid_from_image
 from maps.scan import Keyframe
 from maps.sim.floorplan import generate_floor_plan
@@ -43,6 +43,7 @@ from segmentation.graph import region_graph
 from segmentation.regions import Regions
 from segmentation.working import grow
 from topomap.classifiers import PLACE_TYPES
+from topomap.cli.drawn import drawn_cells, drawn_for, drawn_list, drawn_points, read_drawn
 from topomap.cli.evaluate import ROSE2_MAP
 from topomap.features import FLOOR_RADIUS_M, region_features
 from topomap.topomap import TopoMap
@@ -54,6 +55,8 @@ DOOR_LINE_M = 0.1
 PLACE_GREYS = {77: "room", 115: "corridor", 179: "doorway"}
 #: Cell size of the ipa_places images, metres.
 PLACES_RESOLUTION = 0.05
+#: The thickest line OpenCV draws, cells: a wider corridor band is drawn this wide.
+CV_MAX_THICKNESS = 32767
 #: Progress wrapper of the loaders (``iter``: none).
 Progress = Callable[[Any], Iterable[Any]]
 
@@ -247,29 +250,10 @@ def carmen(
     found = []
     for name, shapes in progress(sorted(read_drawn(drawn_json).items())):
         _, grid = carmen_map(Path(log_dir) / shapes["log"])
-        truth = drawn_truth(grid, shapes)
+        with drawn_for(drawn_json, name):
+            truth = drawn_truth(grid, shapes)
         found.append(_segmented(grid, truth, source="carmen", building=name, name=name))
     return found
-
-
-def read_drawn(
-    drawn_json: str | Path, what: str = "drawn corridors JSON"
-) -> dict[str, dict[str, Any]]:
-    """The shapes drawn by hand per log (``carmen.json``: see :func:`drawn_truth`;
-    ``carmen_rooms.json``: :func:`~topomap.cli.evaluate_logs.drawn_rooms`), ``what`` naming
-    the file in errors."""
-    path = Path(drawn_json)
-    if not path.exists():
-        raise MapFileNotFoundError(path, what)
-    try:
-        drawn = json.loads(path.read_text())
-    except (UnicodeDecodeError, ValueError, RecursionError) as error:  # 5000-digit numbers too
-        raise MapFormatError(f"{path}: not a {what}: {str(error)[:200]}") from None
-    if not isinstance(drawn, dict) or not all(
-        isinstance(shapes, dict) and isinstance(shapes.get("log"), str) for shapes in drawn.values()
-    ):
-        raise MapFormatError(f"{path}: a {what} maps each log's name to its shapes and 'log'")
-    return drawn
 
 
 def carmen_map(log: Path) -> tuple[list[Keyframe], OccupancyGrid]:
@@ -287,7 +271,15 @@ def drawn_truth(grid: OccupancyGrid, shapes: dict[str, Any]) -> NDArray[np.int8]
     """Type per cell of ``grid`` from drawn shapes: ``corridors`` (``{"width": m, "line":
     [[x, y], ...]}``: the cells within half the width of the centreline), ``halls``
     (``{"polygon": [[x, y], ...]}``), every other free cell a room, others -1. The band is
-    drawn by OpenCV and may be a cell wider than the width.
+    drawn by OpenCV and may be a cell wider than the width; a far vertex is drawn as the
+    shape's part on the map.
+
+    Raises
+    ------
+    MapFormatError
+        Corridors or halls that are not a list of objects, a width that is no number in
+        (0, :data:`~maps.limits.MAX_LENGTH`] m, a centreline of fewer than two finite
+        ``[x, y]`` points, a hall of fewer than three (the corridor or hall named).
 
     Examples
     --------
@@ -298,19 +290,23 @@ def drawn_truth(grid: OccupancyGrid, shapes: dict[str, Any]) -> NDArray[np.int8]
     (200, 600)
     """
     truth = np.where(grid.free, PLACE_TYPES.index("room"), -1).astype(np.int8)
-
-    def cells(points: list[list[float]]) -> NDArray[np.int32]:
-        xy = np.asarray(points, float)
-        rows, cols = grid.world_to_cell(xy[:, 0], xy[:, 1])
-        return np.column_stack([cols, rows]).astype(np.int32)
-
     corridor = np.zeros(grid.shape, np.uint8)
-    for line in shapes.get("corridors", []):
-        thickness = max(1, round(float(line["width"]) / grid.resolution))
-        cv2.polylines(corridor, [cells(line["line"])], False, 1, thickness)
+    corridors = drawn_list(shapes.get("corridors", []), "corridor", "width, line")
+    for number, line in enumerate(corridors, 1):
+        name = f"corridor {number}"
+        problem = finite_in(
+            line.get("width"), f"{name}: width", 0, MAX_LENGTH, unit="m", low_open=True
+        )
+        if problem is not None:
+            raise MapFormatError(problem)
+        xy = drawn_points(line.get("line"), 2, f"{name}: its line")
+        thickness = min(max(1, round(float(line["width"]) / grid.resolution)), CV_MAX_THICKNESS)
+        cv2.polylines(corridor, drawn_cells(grid, xy, closed=False), False, 1, thickness)
     hall = np.zeros(grid.shape, np.uint8)
-    for polygon in shapes.get("halls", []):
-        cv2.fillPoly(hall, [cells(polygon["polygon"])], 1)
+    halls = drawn_list(shapes.get("halls", []), "hall", "polygon")
+    for number, polygon in enumerate(halls, 1):
+        xy = drawn_points(polygon.get("polygon"), 3, f"hall {number}: its polygon")
+        cv2.fillPoly(hall, drawn_cells(grid, xy), 1)
     truth[grid.free & (corridor > 0)] = PLACE_TYPES.index("corridor")
     truth[grid.free & (hall > 0)] = PLACE_TYPES.index("hall")
     return truth

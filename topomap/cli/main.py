@@ -12,6 +12,7 @@ import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import NoReturn
 
 from maps.errors import TopomapError
 from topomap.cli.commands import (
@@ -62,9 +63,19 @@ def _sigterm_stops() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
-def build_parser() -> argparse.ArgumentParser:
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line, as every other error of the
+    command line: the (sub)command, the problem and where the help is, status 2 (``--help``
+    prints the usage). argparse makes a parser's subcommands' parsers of its own class."""
+
+    def error(self, message: str) -> NoReturn:
+        """Exit with status 2 and ``message`` on one line of stderr."""
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see {self.prog} --help)\n")
+
+
+def build_parser() -> Parser:
     """The argument parser of every subcommand."""
-    parser = argparse.ArgumentParser(prog="topomap", description="The ``topomap`` command line.")
+    parser = Parser(prog="topomap", description="The ``topomap`` command line.")
     sub = parser.add_subparsers(dest="command", required=True)
     for command in COMMANDS:
         command.add_parser(sub)
@@ -92,6 +103,16 @@ def _add_output_options(parser: argparse.ArgumentParser) -> None:
                 _add_output_options(subcommand)
 
 
+def _chosen(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:
+    """The parser of the (sub)command ``args`` were parsed for (``topomap eval segment``'s)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            chosen = action.choices.get(getattr(args, action.dest, ""))
+            if chosen is not None:
+                return _chosen(chosen, args)
+    return parser
+
+
 def run() -> None:
     """The console script: :func:`main`'s status is the exit status.
 
@@ -116,8 +137,11 @@ def main(argv: list[str] | None = None) -> int:
     2, as do usage errors; Ctrl-C (SIGINT) with status 130 and SIGTERM with 143, the outputs
     being written removed; anything else is a bug and keeps its traceback.
     """
+    parser = build_parser()
     try:
-        args = build_parser().parse_args(argv)
+        args, unknown = parser.parse_known_args(argv)
+        if unknown:  # named by the (sub)command that does not know them
+            _chosen(parser, args).error(f"unrecognized arguments: {' '.join(unknown)}")
     except SystemExit as done:  # a usage error (2) or --help (0), already printed
         return int(done.code or 0)
     logging.basicConfig(format="%(levelname)s %(name)s: %(message)s")

@@ -69,7 +69,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     online_bench.add_argument("--building", default="campus", choices=["flat", "office", "campus"])
     online_bench.add_argument(
-        "--offline-up-to", type=int, default=2_000, help="re-run offline every 100 up to this"
+        "--offline-up-to",
+        type=count_type(0, 1_000_000),
+        default=2_000,
+        help="re-run offline every 100 up to this",
     )
     online_bench.add_argument(
         "--online-method", default="windows", choices=ONLINE_METHODS, help="long run's"
@@ -80,7 +83,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     online_bench.add_argument(
         "--seed-fraction",
-        type=float,
+        type=SHARE,
         help="quality runs: share of keyframes seeded (default 10 %%, at least 40)",
     )
     online_bench.add_argument("--theta", type=SHARE, default=0.5, help="in [0, 1]")
@@ -200,7 +203,13 @@ def cmd_bench_maps(args: argparse.Namespace) -> int:
 
 def cmd_bench_online(args: argparse.Namespace) -> int:
     from topomap.cli.bench_online import bench_online
+    from topomap.errors import UsageError
 
+    if "latency" in args.parts and args.keyframes <= args.seed_keyframes:
+        raise UsageError(
+            f"--keyframes must be more than --seed-keyframes ({args.seed_keyframes}): the "
+            f"latency is of the keyframes after the seed, got {args.keyframes}"
+        )
     drawn = ["latency.png"] if "latency" in args.parts else []
     refuse_existing(Path(args.out), ["results.json", *drawn], args.force)
     results = bench_online(
