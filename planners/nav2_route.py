@@ -19,12 +19,17 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeGuard
 
 import networkx as nx
 
+from maps.errors import MapFileNotFoundError
 from maps.files import check_output_file, write_text
+from maps.limits import MAX_COORDINATE, finite_in
 from planners.errors import PlanningError
+
+#: Bytes a route graph file may have: a building's graph of thousands of doors holds a few MB.
+MAX_ROUTE_BYTES = 64 << 20
 
 
 class RouteGraphError(PlanningError, ValueError):
@@ -81,51 +86,109 @@ def read_nav2_route(path: str | Path) -> nx.DiGraph:
 
     Raises
     ------
+    MapFileNotFoundError
+        If the file does not exist.
     RouteGraphError
-        A file that is not JSON, a feature without its ids, a repeated id, a geometry that
-        is neither a point nor lines, or an edge naming a missing node.
+        A file that cannot be read, is larger than :data:`MAX_ROUTE_BYTES` or is not JSON, a
+        feature without its ids, a repeated id, a geometry that is neither a point nor lines,
+        a coordinate or cost that is not a finite number (a cost below 0, a point farther than
+        :data:`~maps.limits.MAX_COORDINATE`), an edge naming a missing node or repeating
+        another's nodes; the message names the file and the feature.
     """
+    path = Path(path)
     try:
-        data = json.loads(Path(path).read_text())
-        features = list(data["features"])
-    except (ValueError, TypeError, KeyError, RecursionError) as err:
-        raise RouteGraphError(f"{path}: not a GeoJSON FeatureCollection: {err!r}") from None
-    route = nx.DiGraph(frame=data.get("properties", {}).get("frame", "map"))
-    seen: set[int] = set()
-    edges = []
-    for k, feature in enumerate(features):
-        kind = (feature.get("geometry") or {}).get("type")
-        props = feature.get("properties") or {}
-        if not isinstance(props.get("id"), int) or props["id"] in seen:
-            raise RouteGraphError(f"{path}: feature {k} has a missing or repeated id")
-        seen.add(props["id"])
-        if kind == "Point":
-            x, y = (float(v) for v in feature["geometry"]["coordinates"][:2])
-            extra = {"operations": props["operations"]} if "operations" in props else {}
-            route.add_node(
-                props["id"], x=x, y=y, frame=props.get("frame"), metadata=props.get("metadata", {})
+        if path.stat().st_size > MAX_ROUTE_BYTES:
+            raise RouteGraphError(
+                f"{path}: {path.stat().st_size} bytes, more than a route graph's "
+                f"{MAX_ROUTE_BYTES} bytes"
             )
-            route.nodes[props["id"]].update(extra)
-        elif kind in ("MultiLineString", "LineString"):
-            edges.append(feature)
-        else:
-            raise RouteGraphError(f"{path}: feature {k} has geometry {kind!r}")
-    for feature in edges:
-        props = feature["properties"]
-        for end in ("startid", "endid"):
-            if props.get(end) not in route:
-                raise RouteGraphError(f"{path}: edge {props['id']} {end} names no node")
-        coordinates = feature["geometry"].get("coordinates") or []
-        lines = coordinates if feature["geometry"]["type"] == "MultiLineString" else [coordinates]
-        line = tuple((float(p[0]), float(p[1])) for part in lines for p in part)
-        attributes = {
-            "id": props["id"],
-            "cost": float(props.get("cost", 0.0)),
-            "overridable": bool(props.get("overridable", True)),
-            "line": line,
-            "metadata": props.get("metadata", {}),
-        }
-        if "operations" in props:
-            attributes["operations"] = props["operations"]
-        route.add_edge(props["startid"], props["endid"], **attributes)
+        data = json.loads(path.read_bytes())
+        features = data["features"]
+        frame = (data.get("properties") or {}).get("frame", "map")
+    except FileNotFoundError:
+        raise MapFileNotFoundError(path, "route graph") from None
+    except OSError as err:
+        raise RouteGraphError(f"{path}: cannot be read ({err.strerror})") from None
+    except (ValueError, TypeError, KeyError, AttributeError, RecursionError) as err:
+        raise RouteGraphError(f"{path}: not a GeoJSON FeatureCollection: {err!r}") from None
+    if not isinstance(features, list):
+        raise RouteGraphError(f"{path}: 'features' is not a list")
+    route = nx.DiGraph(frame=frame)
+    edges = []
+    seen: set[int] = set()
+    for k, feature in enumerate(features):
+        try:
+            edge = _read_feature(route, feature, seen)
+        except (ValueError, TypeError, KeyError, AttributeError, IndexError) as err:
+            reason = f"no {err}" if isinstance(err, KeyError) else str(err)
+            raise RouteGraphError(f"{path}: feature {k}: {reason}") from None
+        if edge is not None:
+            edges.append((k, edge))
+    for k, (start, end, attributes) in edges:
+        for name, node in (("startid", start), ("endid", end)):
+            if node not in route:
+                raise RouteGraphError(
+                    f"{path}: feature {k}: edge {attributes['id']} {name} names no node"
+                )
+        if route.has_edge(start, end):
+            raise RouteGraphError(
+                f"{path}: feature {k}: edge {attributes['id']} repeats edge "
+                f"{route.edges[start, end]['id']} from node {start} to {end}"
+            )
+        route.add_edge(start, end, **attributes)
     return route
+
+
+def _read_feature(
+    route: nx.DiGraph, feature: dict[str, Any], seen: set[int]
+) -> tuple[int, int, dict[str, Any]] | None:
+    """Add a ``Point`` feature to ``route`` as a node, or return a line feature's
+    ``(startid, endid, attributes)``; what is malformed raises ValueError (or the error
+    indexing it raises)."""
+    kind = (feature.get("geometry") or {}).get("type")
+    props = feature.get("properties") or {}
+    key = props.get("id")
+    if not _is_id(key) or key in seen:
+        raise ValueError("a missing or repeated id")
+    seen.add(key)
+    metadata = props.get("metadata", {})
+    if not isinstance(metadata, dict):
+        raise ValueError(f"metadata must be an object, got {metadata!r:.80}")
+    extra = {"operations": props["operations"]} if "operations" in props else {}
+    if kind == "Point":
+        frame = props.get("frame")
+        if frame is not None and not isinstance(frame, str):
+            raise ValueError(f"frame must be a string, got {frame!r:.80}")
+        point = feature["geometry"]["coordinates"]
+        x, y = _number(point[0], "x"), _number(point[1], "y")
+        route.add_node(key, x=x, y=y, frame=frame, metadata=metadata, **extra)
+        return None
+    if kind not in ("MultiLineString", "LineString"):
+        raise ValueError(f"geometry {kind!r}")
+    start, end = props.get("startid"), props.get("endid")
+    if not (_is_id(start) and _is_id(end)):
+        raise ValueError(f"edge {key}: startid and endid must be node ids, got {start!r}, {end!r}")
+    coordinates = feature["geometry"].get("coordinates") or []
+    lines = coordinates if kind == "MultiLineString" else [coordinates]
+    line = tuple((_number(p[0], "x"), _number(p[1], "y")) for part in lines for p in part)
+    cost = _number(props.get("cost", 0.0), "the cost")
+    if cost < 0:
+        raise ValueError(f"edge {key}: the cost must be 0 or more, got {cost}")
+    overridable = props.get("overridable", True)
+    if not isinstance(overridable, bool):
+        raise ValueError(f"edge {key}: overridable must be true or false, got {overridable!r:.80}")
+    attributes = {"id": key, "cost": cost, "overridable": overridable, "line": line}
+    return start, end, attributes | {"metadata": metadata} | extra
+
+
+def _is_id(value: object) -> TypeGuard[int]:
+    """Whether ``value`` is a feature id: a whole number (not a boolean)."""
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _number(value: object, what: str) -> float:
+    """``value`` as a float: a finite number within :data:`~maps.limits.MAX_COORDINATE`."""
+    problem = finite_in(value, what, -MAX_COORDINATE, MAX_COORDINATE)
+    if problem is not None:
+        raise ValueError(problem)
+    return float(value)  # type: ignore[arg-type]

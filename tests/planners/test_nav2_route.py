@@ -184,3 +184,69 @@ def test_real_slam_map_has_about_one_door_node_per_real_door(data_dir):
         assert planner.space.segment_free(
             (route.nodes[a]["x"], route.nodes[a]["y"]), (route.nodes[b]["x"], route.nodes[b]["y"])
         )
+
+
+def _collection(*features):
+    point = {"type": "Point", "coordinates": [0.0, 0.0]}
+    nodes = [
+        {"type": "Feature", "geometry": point, "properties": {"id": 0, "frame": "map"}},
+        {"type": "Feature", "geometry": point, "properties": {"id": 1, "frame": "map"}},
+    ]
+    return {"type": "FeatureCollection", "features": [*nodes, *features]}
+
+
+ONE_COORDINATE = {"geometry": {"type": "Point", "coordinates": [1]}, "properties": {"id": 3}}
+
+
+def _edge(key=2, start=0, end=1, coordinates=((0, 0), (1, 0)), **properties):
+    line = {"type": "MultiLineString", "coordinates": [[list(p) for p in coordinates]]}
+    properties = {"id": key, "startid": start, "endid": end, **properties}
+    return {"type": "Feature", "geometry": line, "properties": properties}
+
+
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        ({"features": {"a": 1}}, "'features' is not a list"),
+        ({"features": [], "properties": [1]}, "not a GeoJSON FeatureCollection"),
+        (_collection(5), "feature 2: 'int' object has no attribute"),
+        (_collection({"properties": [1]}), "feature 2:"),
+        (_collection({"geometry": {"type": "Point"}, "properties": {"id": 3}}), "no 'coordinates'"),
+        (
+            _collection(ONE_COORDINATE),
+            "feature 2: list index out of range",
+        ),
+        (_collection(_edge(coordinates=[(math.nan, 0)])), "x must be a finite number"),
+        (_collection(_edge(coordinates=[("a", 0)])), "x must be a number, got 'a'"),
+        (_collection(_edge(coordinates=[(1e300, 0)])), r"x must lie in"),
+        (_collection(_edge(cost="abc")), "cost must be a number"),
+        (_collection(_edge(cost=math.nan)), "cost must be a finite number"),
+        (_collection(_edge(cost=-5)), "cost must be 0 or more"),
+        (_collection(_edge(overridable="false")), "overridable must be true or false"),
+        (_collection(_edge(metadata=None)), "metadata must be an object"),
+        (_collection(_edge(end=[1])), "startid and endid must be node ids"),
+        (_collection(_edge(key=True)), "feature 2: a missing or repeated id"),
+        (_collection(_edge(), _edge(key=3)), "feature 3: edge 3 repeats edge 2 from node 0 to 1"),
+    ],
+)
+def test_a_damaged_route_graph_is_refused_naming_the_feature(tmp_path, data, message):
+    path = tmp_path / "route.geojson"
+    path.write_text(json.dumps(data))  # NaN written as JSON's NaN, as Python's json reads it
+    with pytest.raises(RouteGraphError, match=message) as info:
+        read_nav2_route(path)
+    assert str(path) in str(info.value)
+
+
+def test_a_missing_unreadable_or_huge_route_graph_is_refused(tmp_path, monkeypatch):
+    from maps.errors import MapFileNotFoundError
+    from planners import nav2_route
+
+    with pytest.raises(MapFileNotFoundError, match="route graph not found"):
+        read_nav2_route(tmp_path / "missing.geojson")
+    with pytest.raises(RouteGraphError, match="cannot be read"):
+        read_nav2_route(tmp_path)
+    path = tmp_path / "route.geojson"
+    path.write_text(json.dumps(_collection(_edge())))
+    monkeypatch.setattr(nav2_route, "MAX_ROUTE_BYTES", 100)
+    with pytest.raises(RouteGraphError, match="more than a route graph's 100 bytes"):
+        read_nav2_route(path)
