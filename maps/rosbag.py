@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import sqlite3
 import struct
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -115,16 +116,23 @@ class BagScans:
 
 
 #: What rosbags and its deserialisers raise on a corrupt or truncated bag (besides their own
-#: ReaderError, AnyReaderError and SerdeError), found by cutting and flipping bytes of bags.
+#: ReaderError, AnyReaderError and SerdeError), found by cutting and flipping bytes of bags and
+#: their metadata.yaml: a ROS 2 bag's SQLite database raises sqlite3's (or apsw's) errors, a
+#: metadata field of the wrong type a TypeError, and a ROS 1 record whose length field is
+#: corrupt makes rosbags read (allocate) up to 4 GiB at once, a MemoryError when that is more
+#: than this process may have.
 _CORRUPT = (
     AssertionError,
     EOFError,
     IndexError,
     KeyError,
+    MemoryError,
     OSError,
     OverflowError,
+    TypeError,
     UnicodeDecodeError,
     ValueError,
+    sqlite3.Error,
     struct.error,
 )
 
@@ -135,7 +143,12 @@ def _bag_errors() -> tuple[type[Exception], ...]:
     from rosbags.rosbag2 import ReaderError as Ros2ReaderError
     from rosbags.serde import SerdeError
 
-    return (AnyReaderError, Ros1ReaderError, Ros2ReaderError, SerdeError, *_CORRUPT)
+    errors = (AnyReaderError, Ros1ReaderError, Ros2ReaderError, SerdeError, *_CORRUPT)
+    try:
+        import apsw  # rosbags 0.11 reads SQLite bags through it
+    except ImportError:
+        return errors
+    return (*errors, apsw.Error)
 
 
 def _corrupt(path: Path, err: Exception) -> LogFormatError:

@@ -1,4 +1,9 @@
 import math
+import re
+import struct
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -224,3 +229,68 @@ def test_partial_map_chain(tmp_path, until, frame):
     last = max(t for t in robot.times[::2] if t <= robot.map_tf_until)  # its last message
     placed = sum(t <= last + 0.2 for t in robot.scan_times)  # held 0.2 s past it
     assert len(found.keyframes) == (placed if frame == "map" else len(robot.scans))
+
+
+def _ros2_bag(tmp_path):
+    store, path = get_typestore(Stores.ROS2_HUMBLE), tmp_path / "run"
+    with Writer2(path, version=9) as writer:
+        _write(writer, store, False)
+    return path
+
+
+def test_a_damaged_sqlite_bag_is_refused_naming_it(tmp_path):
+    path = _ros2_bag(tmp_path)
+    database = next(path.glob("*.db3"))
+    data = database.read_bytes()
+    page = len(data) - 4096  # the messages' page: SQLite's own errors came out of rosbags
+    refused = 0
+    for offset in range(page, len(data), 64):
+        database.write_bytes(data[:offset] + b"\xff" * 8 + data[offset + 8 :])
+        try:
+            read_rosbag(path)
+        except LogFormatError as err:
+            assert "run: cannot read the bag" in str(err)
+            refused += 1
+    assert refused > 0
+
+
+@pytest.mark.parametrize("field", ["nanoseconds", "nanoseconds_since_epoch"])
+def test_a_bag_whose_metadata_has_a_field_of_the_wrong_type_is_refused(tmp_path, field):
+    path = _ros2_bag(tmp_path)
+    metadata = path / "metadata.yaml"
+    text = metadata.read_text()
+    metadata.write_text(re.sub(rf"\b{field}: \d+", f"{field}: 'x'", text))
+    with pytest.raises(LogFormatError, match=r"run: cannot read the bag.*concatenate"):
+        read_rosbag(path)
+
+
+def test_a_ros1_record_claiming_4_gib_is_refused_where_memory_is_short(tmp_path):
+    """A corrupt length field makes rosbags allocate it whole: a MemoryError under a limit."""
+    store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "run.bag"
+    with Writer1(path) as writer:
+        _write(writer, store, True)
+    data = bytearray(path.read_bytes())
+    header = bytes(data[17 : 17 + struct.unpack_from("<I", data, 13)[0]])
+    index = struct.unpack("<Q", header[header.index(b"index_pos=") + 10 :][:8])[0]
+    struct.pack_into("<I", data, index, 0xFFFFFFF0)  # the first connection record's header
+    path.write_bytes(bytes(data))
+    code = (
+        "import resource, sys\n"
+        "from maps.errors import LogFormatError\n"
+        "from maps.rosbag import read_rosbag\n"
+        "size = int(open('/proc/self/statm').read().split()[0]) * resource.getpagesize()\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (size + 2**31, size + 2**31))\n"
+        "try:\n"
+        "    read_rosbag(sys.argv[1])\n"
+        "except LogFormatError as err:\n"
+        "    print(err)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code, str(path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=Path(__file__).parents[2],
+    )
+    assert done.returncode == 0, done.stderr[-300:]
+    assert "run.bag: cannot read the bag" in done.stdout
