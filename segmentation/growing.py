@@ -25,12 +25,15 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 
 from maps.grid import OccupancyGrid
 from segmentation.errors import SegmentationError
 
 #: More than this share of the cells makes "most of" a region.
 MOST = 0.5
+#: Cells a wall may move between two maps of one building (a SLAM node re-aligning it).
+WALL_SLACK = 2
 
 
 class MapMismatchError(SegmentationError):
@@ -94,6 +97,46 @@ def align(
     out = np.zeros(grid.shape, np.int32)
     out[inside] = labels[r[inside], c[inside]]
     return out
+
+
+def check_same_building(previous: OccupancyGrid, grid: OccupancyGrid) -> None:
+    """Refuse ``grid`` as a later map of ``previous``'s building in its frame (:func:`align`'s
+    checks, then two more): less than half of the previous map's free cells free in it, or
+    more than half of the previous map's walls on it lying in its free space, farther than
+    :data:`WALL_SLACK` cells from its walls (a map in another frame: an office's rooms overlap
+    their shifted selves, their walls do not).
+
+    Raises
+    ------
+    MapMismatchError
+        Saying which.
+
+    Examples
+    --------
+    >>> cells = np.zeros((9, 9), np.int8)
+    >>> cells[:, 4] = 100  # a wall down the middle
+    >>> check_same_building(OccupancyGrid(cells, 1.0), OccupancyGrid(cells, 1.0))
+    >>> check_same_building(OccupancyGrid(cells, 1.0), OccupancyGrid(cells, 1.0, (3.0, 0, 0)))
+    Traceback (most recent call last):
+    ...
+    segmentation.growing.MapMismatchError: 100% of the previous map's walls lie in this one's \
+free space: a map in another frame, or another building
+    """
+    free = align(previous, previous.free, grid).astype(bool)
+    kept = int(np.count_nonzero(free & grid.free)) / max(1, int(np.count_nonzero(previous.free)))
+    if kept < MOST:
+        raise MapMismatchError(
+            f"only {kept:.0%} of the previous map's free cells are free in this one: another "
+            "building, or a map in another frame"
+        )
+    walls = align(previous, previous.occupied, grid).astype(bool)
+    near = ndimage.maximum_filter(grid.occupied, size=2 * WALL_SLACK + 1)
+    lost = int(np.count_nonzero(walls & grid.free & ~near)) / max(1, int(np.count_nonzero(walls)))
+    if lost > MOST:
+        raise MapMismatchError(
+            f"{lost:.0%} of the previous map's walls lie in this one's free space: a map in "
+            "another frame, or another building"
+        )
 
 
 def carry_ids(

@@ -21,7 +21,7 @@ from segmentation.blocks import BlockSpectralSegmenter
 from segmentation.conditioning import ConditionedMap
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.graph import region_graph
-from segmentation.growing import MapMismatchError, align, carry_ids
+from segmentation.growing import align, carry_ids, check_same_building
 from segmentation.pipeline import MAP_CRITERION, MapSegmenter, Segmentation
 from segmentation.regions import Regions
 from segmentation.spectral import SpectralSegmenter
@@ -189,23 +189,16 @@ class TopoMap:
         Raises
         ------
         MapMismatchError
-            ``grid`` has another resolution or frame, or is not a map of this building (less
-            than half of this map's free cells are free in it).
+            ``grid`` has another resolution or frame, or is not a map of this building
+            (:func:`segmentation.growing.check_same_building`: less than half of this map's
+            free cells free in it, or more than half of its walls in its free space).
         """
         if not isinstance(grid, OccupancyGrid):
             raise ParameterError(
                 f"update takes the new map as an OccupancyGrid, got a {type(grid).__name__}"
             )
+        check_same_building(self.grid, grid)
         previous = align(self.grid, self.regions.labels, grid)
-        free = align(self.grid, self.grid.free, grid).astype(bool)
-        kept = int(np.count_nonzero(free & grid.free)) / max(
-            1, int(np.count_nonzero(self.grid.free))
-        )
-        if kept < 0.5:
-            raise MapMismatchError(
-                f"only {kept:.0%} of the previous map's free cells are free in this one: another "
-                "building, or a map in another frame"
-            )
         pipeline = _pipeline(pipeline, options)
         found = pipeline.segment(grid, keyframes, random_state=random_state)
         carried = carry_ids(previous, found.regions.labels, self.next_id or None)

@@ -112,3 +112,20 @@ def test_segment_previous_writes_changes_and_refuses_an_incomplete_folder(
     assert main([*argv, "--previous", str(tmp_path / "a"), "--force"]) == 2
     assert "graph.graphml" in capsys.readouterr().err
     assert json.loads((tmp_path / "b" / "changes.json").read_text()) == changes  # untouched
+
+
+def test_the_same_building_in_another_frame_is_refused(explored, tmp_path, capsys):
+    """Shifted 3.3 m and -1.7 m, the office's rooms still overlap themselves (88 % of the free
+    cells stay free) but its walls lie in its rooms: ids carried over it would be wrong."""
+    before, _ = explored
+    grid = before.grid
+    x, y, yaw = grid.origin
+    shifted = OccupancyGrid(grid.cells, grid.resolution, (x + 3.3, y - 1.7, yaw))
+    with pytest.raises(MapMismatchError, match="walls lie in this one's free space"):
+        before.update(shifted)
+    before.save(tmp_path / "before")
+    shifted.save(tmp_path / "shifted.yaml")
+    argv = ["segment", str(tmp_path / "shifted.yaml"), "--out", str(tmp_path / "after")]
+    assert main([*argv, "--previous", str(tmp_path / "before")]) == 2
+    assert f"--previous {tmp_path / 'before'}: 9" in capsys.readouterr().err
+    assert not (tmp_path / "after").exists()
