@@ -207,7 +207,7 @@ class OccupancyGrid:
             raise InvalidMapError(
                 f"OccupancyGrid message is empty: info.width {width}, info.height {height}"
             )
-        check_map_size(height, width, what="OccupancyGrid message", field="info")
+        check_map_size(height, width, what="OccupancyGrid message")
         if data.ndim != 1 or data.size != width * height:
             raise InvalidMapError(
                 f"OccupancyGrid field 'data' holds {data.size} values, expected "

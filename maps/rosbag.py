@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import math
 import sqlite3
 import struct
 from collections.abc import Iterator, Sequence
@@ -20,6 +21,7 @@ from maps.errors import (
     InvalidScanError,
     LogFormatError,
     MapFileNotFoundError,
+    MapTooLargeError,
     TopomapError,
     TransformError,
 )
@@ -74,8 +76,10 @@ def _pose_of(message: Any) -> tuple[float, float, float]:
     if hasattr(pose, "pose"):  # Odometry and PoseWithCovarianceStamped wrap a covariance
         pose = pose.pose
     q = pose.orientation
-    yaw = yaw_from_quaternion(float(q.x), float(q.y), float(q.z), float(q.w))
-    return float(pose.position.x), float(pose.position.y), yaw
+    quaternion = (float(q.x), float(q.y), float(q.z), float(q.w))
+    if not math.hypot(*quaternion) > 1e-9:  # NaN fails too
+        raise InvalidScanError(f"orientation {quaternion} is no rotation")
+    return float(pose.position.x), float(pose.position.y), yaw_from_quaternion(*quaternion)
 
 
 @dataclass(frozen=True)
@@ -303,7 +307,11 @@ def read_bag_scans(
                     raise LogFormatError(str(err), path=path, field=field) from err
                 scans.append((_stamp(message), message.header.frame_id, scan))
             elif connection.topic == pose_name:
-                poses.append((_stamp(message), _pose_of(message)))
+                try:
+                    poses.append((_stamp(message), _pose_of(message)))
+                except InvalidScanError as err:
+                    field = f"{pose_name} message {len(poses)}"
+                    raise LogFormatError(str(err), path=path, field=field) from err
             else:
                 try:
                     _add_transforms(tree, message, static=connection.topic.endswith("tf_static"))
@@ -477,5 +485,6 @@ def read_rosbag_map(
         message = _deserialize(reader, chosen[1], chosen[0], path)
     try:
         return OccupancyGrid.from_msg_fields(message)
-    except InvalidMapError as err:
-        raise LogFormatError(str(err), path=path, field=f"{name} message {count - 1}") from err
+    except (InvalidMapError, MapTooLargeError) as err:
+        kind = MapTooLargeError if isinstance(err, MapTooLargeError) else LogFormatError
+        raise kind(str(err), path=path, field=f"{name} message {count - 1}") from err

@@ -118,8 +118,12 @@ def region_routes(
     problem = finite_in(min_width, "the robot's width (twice its radius)", 0, MAX_LENGTH, unit="m")
     if problem is not None:
         raise InvalidQueryError(problem)
+    try:
+        pairs = list(closed)
+    except TypeError:  # None, a number
+        raise InvalidQueryError(f"closed is a list of region pairs, got {closed!r:.80}") from None
     shut = set()
-    for pair in closed:
+    for pair in pairs:
         try:
             u, v = pair
             shared = graph.has_edge(u, v)

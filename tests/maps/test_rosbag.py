@@ -59,8 +59,10 @@ def _messages(store, increment=0.5, far=False, blind=False):
     return scans, poses
 
 
-def _write(writer, store, ros1, increment=0.5, far=False, blind=False):
+def _write(writer, store, ros1, increment=0.5, far=False, blind=False, edit=None):
     scans, poses = _messages(store, increment, far, blind)
+    if edit is not None:  # a test's damage to the messages
+        edit(scans, poses)
     kwargs = {"typestore": store}
     scan_c = writer.add_connection("/scan", "sensor_msgs/msg/LaserScan", **kwargs)
     pose_c = writer.add_connection("/pose", "geometry_msgs/msg/PoseStamped", **kwargs)
@@ -294,3 +296,26 @@ def test_a_ros1_record_claiming_4_gib_is_refused_where_memory_is_short(tmp_path)
     )
     assert done.returncode == 0, done.stderr[-300:]
     assert "run.bag: cannot read the bag" in done.stdout
+
+
+def test_a_pose_without_a_rotation_is_refused_naming_its_message(tmp_path):
+    def unturned(scans, poses):
+        orientation = poses[3].pose.orientation
+        orientation.x = orientation.y = orientation.z = orientation.w = 0.0
+
+    store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "still.bag"
+    with Writer1(path) as writer:
+        _write(writer, store, True, edit=unturned)
+    with pytest.raises(LogFormatError, match=r"still\.bag, field '/pose message 3'.*no rotation"):
+        read_rosbag(path)
+
+
+def test_a_bag_map_larger_than_memory_names_the_bag_and_message(tmp_path, monkeypatch):
+    from maps import OccupancyGrid, limits
+    from maps.errors import MapTooLargeError
+    from maps.rosbag import read_rosbag_map
+
+    path = map_bag(tmp_path, False, [OccupancyGrid(np.zeros((30, 40), np.int8), 0.05)])
+    monkeypatch.setattr(limits, "max_cells", lambda: 1000)
+    with pytest.raises(MapTooLargeError, match=r"maps, field '/map message 0'.*40 x 30 cells"):
+        read_rosbag_map(path)

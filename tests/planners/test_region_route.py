@@ -49,3 +49,11 @@ def test_closed_doors_reroute_or_fail():
 def test_unknown_region_lists_the_names():
     with pytest.raises(RegionNotFoundError, match="corridor 1, room 1, room 2, room 3"):
         region_route(_corridor_with_rooms(), "kitchen", 1)
+
+
+@pytest.mark.parametrize("closed", [None, 5, 1.5])
+def test_closed_that_is_no_list_of_pairs_is_refused(closed):
+    from planners.errors import InvalidQueryError
+
+    with pytest.raises(InvalidQueryError, match="closed is a list of region pairs"):
+        region_route(_corridor_with_rooms(), 1, 3, closed=closed)
