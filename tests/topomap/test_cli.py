@@ -208,13 +208,16 @@ def _eval_one_plan(tmp_path: Path, data_dir: Path, plan: str, option: str) -> di
 
 def test_eval_segment_turns_each_map_and_its_rooms_alike(tmp_path, data_dir):
     results = _eval_one_plan(tmp_path, data_dir, "lab_ipa", "--rotations")
-    spectral = {r["rotation"]: r for r in results["maps"] if r["variant"] == "spectral"}
-    assert sorted(spectral) == [0.0, 3.0, 17.0, 30.0, 45.0]
+    spectral = {
+        (r["rotation"], r["turned_back"]): r for r in results["maps"] if r["variant"] == "spectral"
+    }
+    turns = [3.0, 17.0, 30.0, 45.0]
+    assert sorted(spectral) == [(0.0, False)] + [(d, b) for d in turns for b in (False, True)]
     for found in spectral.values():
         # the rooms turned with the map: all ten found again, the regions on them
         assert found["rooms"] == 10 and found["mcc"] > 0.6
-    means = {(m["method"], m["rotation"]) for m in results["means"]}
-    assert {("spectral", 30.0), ("doors", 45.0)} <= means
+    means = {(m["method"], m["rotation"], m["turned_back"]) for m in results["means"]}
+    assert {("spectral", 30.0, False), ("doors", 45.0, True)} <= means
 
 
 def test_eval_segment_resamples_each_map_and_its_rooms_alike(tmp_path, data_dir):

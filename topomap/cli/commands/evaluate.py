@@ -42,7 +42,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "--rotations",
         action="store_true",
         help="also segment every map turned 3, 17, 30 and 45 degrees against the cell grid (its "
-        "people's rooms turned alike); each turn is scored apart",
+        "people's rooms turned alike), and turned and turned back (turned_back: what the "
+        "turning's resampling costs alone); each scored apart",
     )
     eval_seg.add_argument(
         "--resolutions",
@@ -207,7 +208,7 @@ def cmd_eval_segment(args: argparse.Namespace) -> int:
         **options,
     )
     turns = (
-        (["rotation"] if args.rotations else [])
+        (["rotation", "turned_back"] if args.rotations else [])
         + (["cell_factor"] if args.resolutions else [])
         + (["grown_walls"] if args.thicker else [])
         + (["half_cell_over"] if args.half_cell else [])
