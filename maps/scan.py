@@ -52,6 +52,16 @@ class LaserScan:
             raise InvalidScanError(f"range_max must be a number, got {self.range_max!r}")
         if self.angle_increment == 0:
             raise InvalidScanError("angle_increment must not be 0")
+        if abs(self.angle_min) > MAX_HEADING:
+            raise InvalidScanError(
+                f"angle_min is {self.angle_min:g} rad: no angle (at most {MAX_HEADING:g} rad)"
+            )
+        span = abs(self.angle_increment) * (ranges.size - 1)
+        if span > 2 * math.pi + abs(self.angle_increment):  # a 360 degree scan may close
+            raise InvalidScanError(
+                f"{ranges.size} beams {self.angle_increment:g} rad apart span {span:g} rad: a "
+                "scan turns once at most"
+            )
         if self.range_min < 0 or not self.range_max > self.range_min:
             raise InvalidScanError(
                 f"need 0 <= range_min < range_max, got {self.range_min}, {self.range_max}"

@@ -48,6 +48,29 @@ def test_bad_scans_are_rejected(kwargs):
         LaserScan(**kwargs)
 
 
+@pytest.mark.parametrize(
+    ("ranges", "angle_min", "increment", "shown"),
+    [
+        (np.ones(3), 1e30, 0.1, "angle_min is 1e\\+30 rad: no angle"),
+        (np.ones(3), 0.0, 1e30, "span 2e\\+30 rad: a scan turns once at most"),
+        (np.ones(10**6), -math.pi, 0.01, "1000000 beams 0.01 rad apart"),
+    ],
+)
+def test_a_scan_turning_more_than_once_or_at_no_angle_is_refused(
+    ranges, angle_min, increment, shown
+):
+    with pytest.raises(InvalidScanError, match=shown):
+        LaserScan(ranges, angle_min, increment)
+
+
+@pytest.mark.parametrize("beams", [360, 361])
+def test_a_full_turn_scan_is_a_scan(beams):
+    """360 beams a degree apart, or 361 closing the circle, as 360 degree lidars' drivers
+    publish them."""
+    scan = LaserScan(np.ones(beams), -math.pi, math.radians(1.0))
+    assert len(scan.points()) == beams
+
+
 def test_keyframe_rule_turning_in_place():
     scan = LaserScan(np.ones(2), 0.0, 0.1)
     frames = [Keyframe((0.0, 0.0, math.radians(10 * i)), scan, i) for i in range(37)]
