@@ -11,6 +11,7 @@ from PIL import Image
 
 from maps.errors import MapTooLargeError
 from topomap.cli.main import main
+from topomap.topomap import TopoMap
 
 
 @pytest.fixture(scope="module")
@@ -29,6 +30,10 @@ def test_segment_online_writes_the_offline_files_events_and_a_gif(intel_online):
     for name in ("regions.png", "graph.graphml", "graph.json", "regions.geojson", "map.yaml"):
         assert (out / name).is_file(), name
     summary = json.loads((out / "summary.json").read_text())
+    # the folder reads back as an offline one's, for view, plan and export
+    topo = TopoMap.load(out)
+    assert len(topo.regions.ids) == summary["regions"]
+    assert {n: topo.graph.nodes[int(n)]["name"] for n in summary["names"]} == summary["names"]
     assert summary["seed_keyframes"] == 250
     with Image.open(out / "regions.gif") as gif:
         # a frame at the seed and one every 150 keyframes after it
@@ -116,7 +121,7 @@ def test_online_writes_its_folder_at_once_and_honours_no_picture(short_log, tmp_
     names = sorted(p.name for p in out.iterdir())
     assert "segmentation.png" not in names and "summary.json" in names
     summary = json.loads((out / "summary.json").read_text())
-    assert sorted([*summary["written"], "map.pgm", "summary.json"]) == names
+    assert sorted([*summary["written"], "summary.json"]) == names
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "short.log"]
 
 

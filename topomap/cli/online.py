@@ -42,6 +42,7 @@ from topomap.cli.commands.common import ONLINE_METHODS
 from topomap.cli.drawing import region_colours, write_png
 from topomap.errors import UsageError
 from topomap.labels import label_graph
+from topomap.saving import SAVED
 
 log = logging.getLogger(__name__)
 
@@ -324,11 +325,10 @@ def online_outputs(*, picture: bool = True, frames: bool = False) -> list[str]:
     Examples
     --------
     >>> online_outputs(picture=False)  # doctest: +NORMALIZE_WHITESPACE
-    ['regions.png', 'graph.graphml', 'graph.json', 'regions.geojson', 'map.yaml', 'map.pgm',
-     'keyframes.csv', 'events.jsonl', 'summary.json']
+    ['regions.png', 'regions_colour.png', 'graph.graphml', 'graph.json', 'regions.geojson',
+     'topomap.json', 'map.yaml', 'map.pgm', 'keyframes.csv', 'events.jsonl', 'summary.json']
     """
-    names = ["regions.png", "graph.graphml", "graph.json", "regions.geojson", "map.yaml"]
-    names += ["map.pgm", "keyframes.csv", "events.jsonl"]
+    names = [*SAVED, "map.yaml", "map.pgm", "keyframes.csv", "events.jsonl"]
     names += ["segmentation.png"] if picture else []
     names += ["regions.gif"] if frames else []
     return [*names, "summary.json"]
@@ -349,9 +349,9 @@ def segment_online(
     **options: Any,
 ) -> dict[str, Any]:
     """``topomap segment --scans LOG --online``: the online pass, then the files of the
-    offline command (``regions.png``, ``graph.graphml``, ``graph.json``, ``regions.geojson``,
-    ``map.yaml``, ``keyframes.csv``, ``segmentation.png`` unless not ``picture``,
-    ``summary.json``) for its final partition, plus ``events.jsonl`` and, with
+    offline command for its final partition (the folder of :meth:`TopoMap.save`, which
+    ``view``, ``plan``, ``export`` and :meth:`TopoMap.load` read; ``keyframes.csv``,
+    ``segmentation.png`` unless not ``picture``, ``summary.json``), plus ``events.jsonl`` and, with
     ``frames_every``, ``frames/*.png`` and ``regions.gif``. Returns the summary. Keyframes with
     no valid beam are left out, as offline (:func:`~maps.scan.seeing`), and counted in the
     summary.
@@ -370,13 +370,8 @@ def segment_online(
     SegmentationError
         No region was found (the keyframes saw no free space).
     """
-    from segmentation.export import (
-        write_geojson,
-        write_graphml,
-        write_label_image,
-        write_node_link,
-    )
     from topomap.cli.drawing import draw_regions
+    from topomap.topomap import TopoMap
 
     names = online_outputs(picture=picture, frames=bool(frames_every))
     if frames_every and not overwrite and (out / "frames").exists():
@@ -408,12 +403,11 @@ def segment_online(
                 f"{source}: no region: the {len(seen)} keyframes saw no free space a "
                 f"robot fits in ({int(grid.free.sum())} free cells on the map)"
             )
+        topo = TopoMap(
+            grid, regions, graph, seconds={"dense": dense_seconds}, next_id=max(regions.ids) + 1
+        )
         written = [
-            write_label_image(regions.labels, work / "regions.png"),
-            write_graphml(graph, work / "graph.graphml"),
-            write_node_link(graph, work / "graph.json"),
-            write_geojson(graph, work / "regions.geojson"),
-            grid.save(work / "map.yaml"),
+            *topo.save(work),
             write_keyframes(work / "keyframes.csv", seen, keyframe_regions, online),
             write_events(work / "events.jsonl", online.events_),
         ]
