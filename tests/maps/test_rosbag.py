@@ -108,27 +108,27 @@ def test_bad_bags(tmp_path):
         read_rosbag(tmp_path / "junk.bag")
 
 
-def test_bad_scan_message_names_bag_and_message(tmp_path):
-    store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "zero.bag"
+def _unturned(scans, poses):
+    """The fourth pose's orientation all zeros: no rotation."""
+    orientation = poses[3].pose.orientation
+    orientation.x = orientation.y = orientation.z = orientation.w = 0.0
+
+
+@pytest.mark.parametrize(
+    ("name", "damage", "shown"),
+    [
+        ("zero.bag", {"increment": 0.0}, r"zero\.bag.*/scan message 0.*angle_increment"),
+        # the pose at 13 s is 5 km off: scan 2 jumps
+        ("far.bag", {"far": True}, r"far\.bag.*/scan message 2.*jumps.*message 1"),
+        ("blind.bag", {"blind": True}, r"blind\.bag.*5 scans of 15 beams.*no beam"),
+        ("still.bag", {"edit": _unturned}, r"still\.bag, field '/pose message 3'.*no rotation"),
+    ],
+)
+def test_a_damaged_message_is_refused_naming_bag_and_message(tmp_path, name, damage, shown):
+    store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / name
     with Writer1(path) as writer:
-        _write(writer, store, True, increment=0.0)
-    with pytest.raises(LogFormatError, match=r"zero\.bag.*/scan message 0.*angle_increment"):
-        read_rosbag(path)
-
-
-def test_a_laser_jumping_far_between_scans_names_bag_and_messages(tmp_path):
-    store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "far.bag"
-    with Writer1(path) as writer:
-        _write(writer, store, True, far=True)  # the pose at 13 s is 5 km off: scan 2 jumps
-    with pytest.raises(LogFormatError, match=r"far\.bag.*/scan message 2.*jumps.*message 1"):
-        read_rosbag(path)
-
-
-def test_a_bag_without_one_valid_beam_is_refused(tmp_path):
-    store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "blind.bag"
-    with Writer1(path) as writer:
-        _write(writer, store, True, blind=True)
-    with pytest.raises(LogFormatError, match=r"blind\.bag.*5 scans of 15 beams.*no beam"):
+        _write(writer, store, True, **damage)
+    with pytest.raises(LogFormatError, match=shown):
         read_rosbag(path)
 
 
@@ -296,18 +296,6 @@ def test_a_ros1_record_claiming_4_gib_is_refused_where_memory_is_short(tmp_path)
     )
     assert done.returncode == 0, done.stderr[-300:]
     assert "run.bag: cannot read the bag" in done.stdout
-
-
-def test_a_pose_without_a_rotation_is_refused_naming_its_message(tmp_path):
-    def unturned(scans, poses):
-        orientation = poses[3].pose.orientation
-        orientation.x = orientation.y = orientation.z = orientation.w = 0.0
-
-    store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "still.bag"
-    with Writer1(path) as writer:
-        _write(writer, store, True, edit=unturned)
-    with pytest.raises(LogFormatError, match=r"still\.bag, field '/pose message 3'.*no rotation"):
-        read_rosbag(path)
 
 
 def test_a_bag_map_larger_than_memory_names_the_bag_and_message(tmp_path, monkeypatch):
