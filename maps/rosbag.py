@@ -436,6 +436,14 @@ def _place_by_poses(
             continue
         pose = tuple(float(np.interp(stamp, times, xyz[:, k])) for k in range(3))
         frames.append(Keyframe(pose, scan, scan_index=index, stamp=stamp))  # type: ignore[arg-type]
+    if scans and not frames:
+        raise LogFormatError(
+            f"none of the {len(scans)} scans (stamped {min(s[0] for s in scans):.6g}.."
+            f"{max(s[0] for s in scans):.6g} s) falls within the poses' {times[0]:.6g}.."
+            f"{times[-1]:.6g} s: no scan can be placed",
+            path=path,
+            field=pose_name,
+        )
     if len(frames) < len(scans):
         log.info("%s: dropped %d scans stamped outside the poses", path, len(scans) - len(frames))
     return BagScans(frames, "pose topic", [pose_name], len(scans))

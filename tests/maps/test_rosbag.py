@@ -114,6 +114,12 @@ def _unturned(scans, poses):
     orientation.x = orientation.y = orientation.z = orientation.w = 0.0
 
 
+def _later(scans, poses):
+    """The poses stamped 1,000 s after the scans."""
+    for pose in poses:
+        pose.header.stamp.sec += 1000
+
+
 @pytest.mark.parametrize(
     ("name", "damage", "shown"),
     [
@@ -122,6 +128,11 @@ def _unturned(scans, poses):
         ("far.bag", {"far": True}, r"far\.bag.*/scan message 2.*jumps.*message 1"),
         ("blind.bag", {"blind": True}, r"blind\.bag.*5 scans of 15 beams.*no beam"),
         ("still.bag", {"edit": _unturned}, r"still\.bag, field '/pose message 3'.*no rotation"),
+        (
+            "late.bag",
+            {"edit": _later},
+            r"late\.bag.*none of the 5 scans \(stamped 10\.5\.\.14\.5 s\)",
+        ),
     ],
 )
 def test_a_damaged_message_is_refused_naming_bag_and_message(tmp_path, name, damage, shown):
