@@ -57,7 +57,7 @@ from segmentation.regions import Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter, at_most
 from segmentation.virtual import VIRTUAL_LASER, virtual_keyframes
 from segmentation.walls import seen_walls, wall_gaps
-from segmentation.working import pool, pool_factor, unpool
+from segmentation.working import block_phase, pool, pool_factor, unpool
 
 log = logging.getLogger(__name__)
 
@@ -260,6 +260,7 @@ class MapSegmenter(Estimator):
         stage("condition")
         conditioned = self.condition(grid)
         factor = pool_factor(grid.resolution, self.cell_size)
+        phase = block_phase(conditioned.space, factor)  # as places() lays the blocks
         lap("condition")
         stage("places")
         conditioned, space, places = self.places(conditioned)
@@ -312,10 +313,10 @@ class MapSegmenter(Estimator):
             doors = pieces(space, merge_open_boundaries(space, places, places), self.min_area)
         lap("regions")
         stage("cover")
-        covered = self._cover(conditioned, unpool(dense, factor, conditioned.free), grid)
+        covered = self._cover(conditioned, unpool(dense, factor, conditioned.free, phase), grid)
         spectral_regions = regions = Regions(grid, covered.labels)
         if self.method == "doors":
-            covered = self._cover(conditioned, unpool(doors, factor, conditioned.free), grid)
+            covered = self._cover(conditioned, unpool(doors, factor, conditioned.free, phase), grid)
             regions = Regions(grid, covered.labels)
         lap("cover")
         conditioned = replace(conditioned, free=conditioned.free & grid.free)
@@ -366,21 +367,26 @@ class MapSegmenter(Estimator):
         places, keyframes and passages end at them like at a wall with a door; when places
         bounded by unknown space are dropped (fans of rays), the walls between what is left
         are found again. The cover gives their cells a region. Basins that meet at a cut
-        across a corridor are one place (:func:`~segmentation.corridors.join_corridor_cuts`)."""
+        across a corridor are one place (:func:`~segmentation.corridors.join_corridor_cuts`).
+        The working grid's blocks fall where the building's space keeps the most of them whole
+        (:func:`~segmentation.working.block_phase`), so a map one cell over gives the same."""
         grid = conditioned.grid
         factor = pool_factor(grid.resolution, self.cell_size)
+        phase = block_phase(conditioned.space, factor)
         walls = seen_walls(grid, conditioned.space, conditioned.clutter)
         closed = wall_gaps(walls, conditioned.space, grid.resolution)  # on the map's cells
-        space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
+        space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True, phase=phase)
         places = basins(space, self.place_depth)
-        outside = drop_outside(conditioned, unpool(places, factor, conditioned.space))
+        outside = drop_outside(conditioned, unpool(places, factor, conditioned.space, phase))
         if outside is not conditioned:
             conditioned = outside
             kept = seen_walls(grid, conditioned.space, conditioned.clutter)
             refound = bool((kept != walls).any())  # strips between fans of rays: no walls
             if refound:
                 closed = wall_gaps(kept, conditioned.space, grid.resolution)
-            space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True)
+            space = pool(
+                conditioned.space & ~closed, grid, factor, fine_clearance=True, phase=phase
+            )
             if refound:
                 places = basins(space, self.place_depth)
             else:

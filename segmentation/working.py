@@ -30,11 +30,48 @@ def pool_factor(resolution: float, cell_size: float) -> int:
     return max(1, math.floor(cell_size / resolution + 1e-9))
 
 
+def block_phase(space: NDArray[np.bool_], factor: int) -> tuple[int, int]:
+    """Where the working grid's ``factor x factor`` blocks fall on the map: the rows and
+    columns of padding above and left of it (:func:`pool`'s ``phase``) that keep the most
+    blocks whole in ``space``, the first of them on a tie. Chosen by what the map shows, the
+    blocks fall alike on the building however its cells are laid: a map one cell over pools
+    to the same working grid.
+
+    Examples
+    --------
+    >>> space = np.zeros((8, 8), bool)
+    >>> space[1:7, 1:5] = True  # 6 x 4 cells: three rows of two blocks, or fewer
+    >>> block_phase(space, 2), block_phase(np.pad(space, ((0, 0), (1, 0))), 2)
+    ((1, 1), (1, 0))
+    """
+    if factor == 1:
+        return 0, 0
+    whole = cv2.erode(
+        space.astype(np.uint8),
+        np.ones((factor, factor), np.uint8),
+        anchor=(0, 0),
+        borderType=cv2.BORDER_CONSTANT,
+        borderValue=0,
+    )  # 1 where the block from this cell down and right is all space
+    counts = {
+        (top, left): int(np.count_nonzero(whole[-top % factor :: factor, -left % factor :: factor]))
+        for top in range(factor)
+        for left in range(factor)
+    }
+    return max(counts, key=lambda phase: counts[phase])
+
+
 def pool(
-    space: NDArray[np.bool_], grid: OccupancyGrid, factor: int, *, fine_clearance: bool = False
+    space: NDArray[np.bool_],
+    grid: OccupancyGrid,
+    factor: int,
+    *,
+    fine_clearance: bool = False,
+    phase: tuple[int, int] = (0, 0),
 ) -> OccupancyGrid:
     """The working grid: ``space`` pooled by ``factor`` (free where every cell is), with the
-    map's frame (the padding to whole blocks goes below and right of the map).
+    map's frame; ``phase`` rows and columns of padding above and left of the map
+    (:func:`block_phase`), the rest to whole blocks below and right of it.
 
     With ``fine_clearance``, the working grid's clearance
     (:meth:`~maps.grid.OccupancyGrid.free_clearance`) is measured on ``space`` itself, each
@@ -55,13 +92,16 @@ def pool(
     if factor == 1:
         return OccupancyGrid.from_masks(space, grid.resolution, grid.origin)
     height, width = space.shape
-    rows, cols = math.ceil(height / factor), math.ceil(width / factor)
+    top, left = phase
+    rows, cols = math.ceil((top + height) / factor), math.ceil((left + width) / factor)
     padded = np.zeros((rows * factor, cols * factor), bool)
-    padded[:height, :width] = space
+    padded[top : top + height, left : left + width] = space
     coarse = _block_min(padded.view(np.uint8), factor) > 0
-    drop = (rows * factor - height) * grid.resolution
+    # the working grid's lower left corner: below the map and left of it
+    drop, back = (rows * factor - height - top) * grid.resolution, left * grid.resolution
     ox, oy, yaw = grid.origin
-    origin = (ox + math.sin(yaw) * drop, oy - math.cos(yaw) * drop, yaw)
+    cos, sin = math.cos(yaw), math.sin(yaw)
+    origin = (ox + sin * drop - cos * back, oy - cos * drop - sin * back, yaw)
     pooled = OccupancyGrid.from_masks(coarse, grid.resolution * factor, origin)
     if not fine_clearance:
         return pooled
@@ -125,8 +165,14 @@ def grow(
     return labels
 
 
-def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) -> NDArray[np.int32]:
-    """Fine labels for the cells of ``keep`` from coarse ``labels`` (see the module docstring).
+def unpool(
+    labels: NDArray[np.integer],
+    factor: int,
+    keep: NDArray[np.bool_],
+    phase: tuple[int, int] = (0, 0),
+) -> NDArray[np.int32]:
+    """Fine labels for the cells of ``keep`` from coarse ``labels`` (see the module docstring),
+    pooled with ``phase`` (:func:`pool`).
 
     The kept cells whose coarse cell has no label take one from a labelled cell nearby through
     the kept cells (never across a wall, :func:`grow`); cells no label reaches stay 0.
@@ -144,6 +190,7 @@ def unpool(labels: NDArray[np.integer], factor: int, keep: NDArray[np.bool_]) ->
     coarse = np.ascontiguousarray(labels, np.int32)
     size = (coarse.shape[1] * factor, coarse.shape[0] * factor)
     fine = np.asarray(cv2.resize(coarse, size, interpolation=cv2.INTER_NEAREST), np.int32)
-    fine = fine[:height, :width]
+    top, left = phase
+    fine = fine[top : top + height, left : left + width]
     fine[~keep] = 0
     return grow(fine, keep)

@@ -3,12 +3,12 @@
 from collections import deque
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from maps.grid import OccupancyGrid, clearance_of
-from segmentation.working import ALL_AROUND, AROUND, grow, pool
+from segmentation.working import ALL_AROUND, AROUND, block_phase, grow, pool, unpool
 
 
 def _nearest_labels(labels, keep, around):
@@ -88,3 +88,61 @@ def test_the_working_clearance_is_a_map_cells_not_a_working_cells(width, top):
     coarse = float(pool(free, grid, 2).free_clearance().max())
     assert true - 0.05 - 1e-6 <= fine <= true  # off by at most a map cell, whatever the phase
     assert abs(coarse - true) <= 0.1 + 1e-6  # a working cell: twice the error
+
+
+@st.composite
+def _rooms(draw):
+    """A space of a few overlapping rectangles (rooms and corridors), with a few cells off."""
+    height, width = draw(st.integers(6, 30)), draw(st.integers(6, 30))
+    space = np.zeros((height, width), bool)
+    for _ in range(draw(st.integers(1, 4))):
+        top, left = draw(st.integers(0, height - 2)), draw(st.integers(0, width - 2))
+        rows, cols = draw(st.integers(2, height - top)), draw(st.integers(2, width - left))
+        space[top : top + rows, left : left + cols] = True
+    for _ in range(draw(st.integers(0, 5))):
+        space[draw(st.integers(0, height - 1)), draw(st.integers(0, width - 1))] = False
+    return space
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    space=_rooms(),
+    factor=st.integers(2, 3),
+    down=st.integers(0, 2),
+    right=st.integers(0, 2),
+)
+def test_a_map_one_cell_over_pools_to_the_same_working_grid(space, factor, down, right):
+    """The blocks fall where the space keeps the most of them whole (block_phase), so the
+    same space padded above and left pools to the same working grid and labels come back to
+    the same cells; only where two ways of laying the blocks tie may it differ."""
+    counts = []
+    for top in range(factor):
+        for left in range(factor):
+            padded = np.pad(space, ((top, factor), (left, factor)))
+            counts.append(int(pool(padded, _grid(padded), factor).free.sum()))
+    assume(counts.count(max(counts)) == 1)  # one best way: no tie to break
+    moved = np.pad(space, ((down, 0), (right, 0)))
+    pooled = [
+        pool(cells, _grid(cells), factor, phase=block_phase(cells, factor))
+        for cells in (space, moved)
+    ]
+    first, second = (_trimmed(p.free) for p in pooled)
+    assert first.shape == second.shape and (first == second).all()
+    labels = [np.arange(p.free.size, dtype=np.int32).reshape(p.free.shape) * p.free for p in pooled]
+    back = [
+        unpool(found, factor, cells, block_phase(cells, factor))
+        for found, cells in zip(labels, (space, moved), strict=True)
+    ]
+    assert ((back[0] > 0) == (back[1][down:, right:] > 0)).all()
+
+
+def _grid(cells):
+    return OccupancyGrid.from_masks(cells, 0.05)
+
+
+def _trimmed(free):
+    """``free`` without its all-False border rows and columns."""
+    rows, cols = np.flatnonzero(free.any(axis=1)), np.flatnonzero(free.any(axis=0))
+    if not len(rows):
+        return free[:0, :0]
+    return free[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
