@@ -31,7 +31,12 @@ def pool_factor(resolution: float, cell_size: float) -> int:
 
 
 def pool(
-    space: NDArray[np.bool_], grid: OccupancyGrid, factor: int, *, fine_clearance: bool = False
+    space: NDArray[np.bool_],
+    grid: OccupancyGrid,
+    factor: int,
+    *,
+    fine_clearance: bool = False,
+    open_cells: NDArray[np.bool_] | None = None,
 ) -> OccupancyGrid:
     """The working grid: ``space`` pooled by ``factor`` (free where every cell is), with the
     map's frame (the padding to whole blocks goes below and right of the map).
@@ -41,6 +46,8 @@ def pool(
     working cell taking the least of its cells': to a map cell, not to a working cell, so
     the places and passages measured on it do not move with the way the blocks fall on the
     building (measured with ``topomap eval segment --shifts``: docs/segmentation.md).
+    ``open_cells`` (of the map's shape), if given, is what that clearance measures the distance
+    out of instead of ``space`` (:func:`segmentation.fans.seen_fans`: to the walls alone).
 
     Examples
     --------
@@ -52,7 +59,7 @@ def pool(
     >>> (clearance * 100).round().astype(int).tolist()  # centimetres: a map cell's, not 0.1 m
     [[5, 5], [0, 0]]
     """
-    if factor == 1:
+    if factor == 1 and (open_cells is None or not fine_clearance):
         return OccupancyGrid.from_masks(space, grid.resolution, grid.origin)
     height, width = space.shape
     rows, cols = math.ceil(height / factor), math.ceil(width / factor)
@@ -65,6 +72,9 @@ def pool(
     pooled = OccupancyGrid.from_masks(coarse, grid.resolution * factor, origin)
     if not fine_clearance:
         return pooled
+    if open_cells is not None:
+        padded = np.zeros_like(padded)
+        padded[:height, :width] = open_cells
     fine = _block_min(clearance_of(padded, grid.resolution), factor)
     return pooled.with_free_clearance(np.where(coarse, fine, 0.0))
 
