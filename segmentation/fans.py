@@ -38,7 +38,7 @@ from segmentation.refine import PLACE_DEPTH, basins
 from segmentation.working import pool, unpool
 
 #: A basin of the walls' clearance whose edge is less than this share wall (the rest unknown
-#: space) is part of a fan of rays. Measured with the cover's test after it (2026-12-06, ninth session):
+#: space) is part of a fan of rays. Measured with the cover's test after it (2026-12-07):
 #: 0.5 / 0.6 gave the maps built from the CARMEN logs MCC 0.455 / 0.450 (0.429 without),
 #: ROSE²'s maps as given 0.801 / 0.801 (0.802), on 0.1 m cells 0.647 / 0.677 (0.631).
 FAN_WALL_SHARE = 0.6
