@@ -210,11 +210,6 @@ def condition(
     return ConditionedMap(grid, space, kept, clutter & space, dropped, blur)
 
 
-#: A map draws its walls as occupied cells when at least this share of its places' edges is
-#: wall (the rest unknown): only there does an edge on unknown space say "outside".
-WALLS_DRAWN = 0.6
-
-
 def wall_share(grid: OccupancyGrid, labels: NDArray[np.integer]) -> NDArray[np.float64]:
     """For each label of ``labels`` (index = label), the share of its edge that is wall
     (occupied cells) rather than unknown space; edges with other labels do not count.
@@ -260,7 +255,7 @@ def drop_outside(
     them so), an unknown edge says nothing about the outside, and nothing is dropped.
     """
     share = wall_share(conditioned.grid, places)
-    if share[0] < WALLS_DRAWN:
+    if share[0] < 0.6:
         return conditioned
     low = share < min_wall_share
     low[0] = False

@@ -95,7 +95,18 @@ def cover(
     seen = 0
     if left.any():
         pieces, count = ndimage.label(left, structure=np.ones((3, 3)))
-        rooms, _ = seen_rooms(grid, pieces, count, labels > 0, clutter, min_area, door_width)
+        area = label_counts(pieces, count + 1) * grid.resolution**2
+        touching = cv2.dilate((labels > 0).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        contact = np.bincount(pieces[touching & left], minlength=count + 1) * grid.resolution
+        large = area >= min_area
+        span = opening_spans(pieces, touching & left & large[pieces], count) * grid.resolution
+        fixed = grid.occupied & ~clutter  # furniture is no wall: a pocket round it is no room
+        walls = cv2.dilate(fixed.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        beside = pieces[walls & left & ~clutter]
+        shown = np.bincount(beside, minlength=count + 1) * grid.resolution
+        rooms = large & (span <= door_width) & (shown >= WALLS_SHOWN * contact)
+        rooms[0] = False
+        rooms[rooms] = aspects(pieces, np.flatnonzero(rooms)) <= ROOM_ASPECT
         seen = int(rooms.sum())
         if seen:
             new_id = np.zeros(count + 1, np.int32)
@@ -103,45 +114,6 @@ def cover(
             seeds = np.where(rooms[pieces], new_id[pieces], seeds)
     grown = consecutive(grow(seeds, building, ALL_AROUND))  # the cost follows the cells filled
     return Coverage(grown, int(((grown > 0) & (labels == 0)).sum()), seen)
-
-
-def seen_rooms(
-    grid: OccupancyGrid,
-    pieces: NDArray[np.integer],
-    count: int,
-    regions: NDArray[np.bool_],
-    clutter: NDArray[np.bool_],
-    min_area: float = 1.0,
-    door_width: float = DOOR_WIDTH,
-) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
-    """Which of the ``count`` labelled ``pieces`` (outside ``regions``) are rooms seen through
-    their doors by the rules of :func:`cover` (index = label, 0 never), and how wide each opens
-    onto ``regions`` (metres, :func:`opening_spans`; 0 for pieces under ``min_area``).
-
-    Examples
-    --------
-    >>> free = np.zeros((12, 30), bool)
-    >>> free[1:11, 1:12] = free[5:7, 12:15] = free[1:11, 15:29] = True  # room, door, room
-    >>> pieces = np.zeros((12, 30), np.int32)
-    >>> pieces[1:11, 15:29] = 1
-    >>> grid = OccupancyGrid.from_masks(free, 0.1)
-    >>> rooms, span = seen_rooms(grid, pieces, 1, free & (pieces == 0), np.zeros_like(free))
-    >>> rooms.tolist(), span.round(1).tolist()
-    ([False, True], [0.0, 0.4])
-    """
-    left = pieces > 0
-    area = label_counts(pieces, count + 1) * grid.resolution**2
-    touching = cv2.dilate(regions.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-    contact = np.bincount(pieces[touching & left], minlength=count + 1) * grid.resolution
-    large = area >= min_area
-    span = opening_spans(pieces, touching & left & large[pieces], count) * grid.resolution
-    fixed = grid.occupied & ~clutter  # furniture is no wall: a pocket round it is no room
-    walls = cv2.dilate(fixed.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-    shown = np.bincount(pieces[walls & left & ~clutter], minlength=count + 1) * grid.resolution
-    rooms = large & (span <= door_width) & (shown >= WALLS_SHOWN * contact)
-    rooms[0] = False
-    rooms[rooms] = aspects(pieces, np.flatnonzero(rooms)) <= ROOM_ASPECT
-    return rooms, span
 
 
 def opening_spans(

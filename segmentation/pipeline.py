@@ -22,9 +22,8 @@ Stages, each timed in :attr:`Segmentation.seconds`:
    opening between them is not a door (:func:`~segmentation.refine.merge_open_boundaries`)
    instead.
 6. ``cover``: every building cell gets a region (:func:`~segmentation.coverage.cover`):
-   furniture, thin rays, rooms seen only through their doors (fans of rays dense enough to be
-   robot space too, :mod:`segmentation.fans`, cut out of the regions they joined); regions
-   open to the others only through gaps narrower than a door join the space they open onto
+   furniture, thin rays, rooms seen only through their doors; regions open to the others only
+   through gaps narrower than a door join the space they open onto
    (:func:`~segmentation.pockets.join_pockets`).
 """
 
@@ -51,7 +50,6 @@ from segmentation.conditioning import ConditionedMap, condition, drop_outside
 from segmentation.corridors import join_corridor_cuts
 from segmentation.coverage import Coverage, cover
 from segmentation.errors import ParameterError, SegmentationError
-from segmentation.fans import cut_fans, seen_fans
 from segmentation.passages import boundary_openness
 from segmentation.pockets import join_pockets
 from segmentation.refine import PLACE_DEPTH, basins, count_basins, merge_open_boundaries
@@ -265,10 +263,7 @@ class MapSegmenter(Estimator):
         phase = block_phase(conditioned.space, factor)  # as places() lays the blocks
         lap("condition")
         stage("places")
-        conditioned, space, places, closed = self._places(conditioned)
-        fans = seen_fans(
-            conditioned, closed, factor, phase=phase, depth=self.place_depth, min_area=self.min_area
-        )
+        conditioned, space, places = self.places(conditioned)
         lap("places")
         if keyframes is None:
             stage("keyframes")
@@ -318,12 +313,10 @@ class MapSegmenter(Estimator):
             doors = pieces(space, merge_open_boundaries(space, places, places), self.min_area)
         lap("regions")
         stage("cover")
-        dense = unpool(dense, factor, conditioned.free, phase)
-        covered = self._cover(conditioned, dense, fans, grid)
+        covered = self._cover(conditioned, unpool(dense, factor, conditioned.free, phase), grid)
         spectral_regions = regions = Regions(grid, covered.labels)
         if self.method == "doors":
-            doors = unpool(doors, factor, conditioned.free, phase)
-            covered = self._cover(conditioned, doors, fans, grid)
+            covered = self._cover(conditioned, unpool(doors, factor, conditioned.free, phase), grid)
             regions = Regions(grid, covered.labels)
         lap("cover")
         conditioned = replace(conditioned, free=conditioned.free & grid.free)
@@ -377,12 +370,6 @@ class MapSegmenter(Estimator):
         across a corridor are one place (:func:`~segmentation.corridors.join_corridor_cuts`).
         The working grid's blocks fall where the building's space keeps the most of them whole
         (:func:`~segmentation.working.block_phase`), so a map one cell over gives the same."""
-        return self._places(conditioned)[:3]
-
-    def _places(
-        self, conditioned: ConditionedMap
-    ) -> tuple[ConditionedMap, OccupancyGrid, NDArray[np.int32], NDArray[np.bool_]]:
-        """:meth:`places` and the wall gaps closed (on the map's cells)."""
         grid = conditioned.grid
         factor = pool_factor(grid.resolution, self.cell_size)
         phase = block_phase(conditioned.space, factor)
@@ -404,7 +391,7 @@ class MapSegmenter(Estimator):
                 places = basins(space, self.place_depth)
             else:
                 places = consecutive(np.where(space.free, places, 0))
-        return conditioned, space, join_corridor_cuts(places, space), closed
+        return conditioned, space, join_corridor_cuts(places, space)
 
     def partition(
         self,
@@ -427,17 +414,10 @@ class MapSegmenter(Estimator):
         return at_most(spectral, min(len(keyframes), count)).fit(keyframes)
 
     def _cover(
-        self,
-        conditioned: ConditionedMap,
-        labels: NDArray[np.int32],
-        fans: NDArray[np.int32],
-        grid: OccupancyGrid,
+        self, conditioned: ConditionedMap, labels: NDArray[np.int32], grid: OccupancyGrid
     ) -> Coverage:
-        """``labels`` over the building (:func:`cover`), the ``fans`` of rooms seen through
-        their doors cut out of them first (:func:`~segmentation.fans.cut_fans`), pockets
-        joined; the wall cells of ``grid``, the map as given, stay without a region where its
-        blur was taken off."""
-        labels = cut_fans(labels, fans)
+        """``labels`` over the building (:func:`cover`), pockets joined; the wall cells of
+        ``grid``, the map as given, stay without a region where its blur was taken off."""
         covered = cover(conditioned.grid, labels, conditioned.clutter, min_area=self.min_area)
         # the partition's regions, not the rooms the cover saw through doors
         robot_regions = set(np.flatnonzero(np.bincount(covered.labels[labels > 0])).tolist())

@@ -68,7 +68,6 @@ def pool(
     *,
     fine_clearance: bool = False,
     phase: tuple[int, int] = (0, 0),
-    open_cells: NDArray[np.bool_] | None = None,
 ) -> OccupancyGrid:
     """The working grid: ``space`` pooled by ``factor`` (free where every cell is), with the
     map's frame; ``phase`` rows and columns of padding above and left of the map
@@ -79,8 +78,6 @@ def pool(
     working cell taking the least of its cells': to a map cell, not to a working cell, so
     the places and passages measured on it do not move with the way the blocks fall on the
     building (measured with ``topomap eval segment --shifts``: docs/segmentation.md).
-    ``open_cells`` (of the map's shape), if given, is what that clearance measures the distance
-    out of instead of ``space`` (:func:`segmentation.fans.seen_fans`: to the walls alone).
 
     Examples
     --------
@@ -92,7 +89,7 @@ def pool(
     >>> (clearance * 100).round().astype(int).tolist()  # centimetres: a map cell's, not 0.1 m
     [[5, 5], [0, 0]]
     """
-    if factor == 1 and (open_cells is None or not fine_clearance):
+    if factor == 1:
         return OccupancyGrid.from_masks(space, grid.resolution, grid.origin)
     height, width = space.shape
     top, left = phase
@@ -108,9 +105,6 @@ def pool(
     pooled = OccupancyGrid.from_masks(coarse, grid.resolution * factor, origin)
     if not fine_clearance:
         return pooled
-    if open_cells is not None:
-        padded = np.zeros_like(padded)
-        padded[top : top + height, left : left + width] = open_cells
     fine = _block_min(clearance_of(padded, grid.resolution), factor)
     return pooled.with_free_clearance(np.where(coarse, fine, 0.0))
 
