@@ -260,10 +260,10 @@ class MapSegmenter(Estimator):
         stage("condition")
         conditioned = self.condition(grid)
         factor = pool_factor(grid.resolution, self.cell_size)
-        phase = block_phase(conditioned.space, factor)  # as places() lays the blocks
+        phase = block_phase(conditioned.space, factor)
         lap("condition")
         stage("places")
-        conditioned, space, places = self.places(conditioned)
+        conditioned, space, places = self._places(conditioned, phase)
         lap("places")
         if keyframes is None:
             stage("keyframes")
@@ -370,9 +370,15 @@ class MapSegmenter(Estimator):
         across a corridor are one place (:func:`~segmentation.corridors.join_corridor_cuts`).
         The working grid's blocks fall where the building's space keeps the most of them whole
         (:func:`~segmentation.working.block_phase`), so a map one cell over gives the same."""
+        factor = pool_factor(conditioned.grid.resolution, self.cell_size)
+        return self._places(conditioned, block_phase(conditioned.space, factor))
+
+    def _places(
+        self, conditioned: ConditionedMap, phase: tuple[int, int]
+    ) -> tuple[ConditionedMap, OccupancyGrid, NDArray[np.int32]]:
+        """:meth:`places` on working blocks laid with ``phase`` (:func:`pool`)."""
         grid = conditioned.grid
         factor = pool_factor(grid.resolution, self.cell_size)
-        phase = block_phase(conditioned.space, factor)
         walls = seen_walls(grid, conditioned.space, conditioned.clutter)
         closed = wall_gaps(walls, conditioned.space, grid.resolution)  # on the map's cells
         space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True, phase=phase)

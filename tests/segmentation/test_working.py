@@ -1,13 +1,17 @@
-"""Labels grown a ring at a time (segmentation.working.grow) against a breadth-first search."""
+"""The working grid: labels grown a ring at a time (segmentation.working.grow) against a
+breadth-first search, and blocks laid by the map (block_phase): a map one cell over alike."""
 
 from collections import deque
 
 import numpy as np
+import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+import maps
 from maps.grid import OccupancyGrid, clearance_of
+from segmentation.pipeline import MapSegmenter
 from segmentation.working import ALL_AROUND, AROUND, block_phase, grow, pool, unpool
 
 
@@ -146,3 +150,14 @@ def _trimmed(free):
     if not len(rows):
         return free[:0, :0]
     return free[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+
+
+@pytest.mark.parametrize(("left", "top"), [(1, 0), (0, 1), (1, 1)])
+def test_a_plan_one_cell_over_is_segmented_alike(left, top):
+    """MapSegmenter lays its working blocks by the map (block_phase), so the generated flat
+    padded by a cell gives the same regions on the same cells (with the blocks at the array's
+    corner they differ)."""
+    grid = maps.generate_floor_plan("flat", random_state=0).grid
+    found = MapSegmenter().segment(grid, random_state=0).regions.labels
+    moved = MapSegmenter().segment(grid.padded(left, top), random_state=0).regions.labels
+    assert (moved[top:, left:] == found).all()
