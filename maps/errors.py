@@ -189,19 +189,21 @@ class InvalidScanError(MapError, ValueError):
 
 
 class TransformError(LogFormatError):
-    """A transform that a bag's tf tree cannot give: frames not linked, or a link that does
-    not cover a stamp. ``source``, ``target`` and ``stamp`` (seconds) say which, when known."""
+    """A transform that a bag's tf tree cannot give: frames not linked, a link that does
+    not cover a stamp, or a malformed link (``field``: the tf message it came in). ``source``,
+    ``target`` and ``stamp`` (seconds) say which, when known."""
 
     def __init__(
         self,
         message: str,
         *,
         path: str | Path | None = None,
+        field: str = "/tf",
         source: str | None = None,
         target: str | None = None,
         stamp: float | None = None,
     ) -> None:
-        super().__init__(message, path=path, field=None if path is None else "/tf")
+        super().__init__(message, path=path, field=None if path is None else field)
         self.detail = message
         self.source = source
         self.target = target

@@ -28,7 +28,7 @@ from maps.errors import (
 from maps.grid import OccupancyGrid
 from maps.limits import no_valid_beam, pose_jump
 from maps.scan import Keyframe, LaserScan
-from maps.tf import TOLERANCE, TransformTree, yaw_from_quaternion
+from maps.tf import TOLERANCE, TransformTree, frame_problem, yaw_from_quaternion
 
 log = logging.getLogger(__name__)
 
@@ -259,7 +259,7 @@ def read_bag_scans(
     fixed_frame
         The frame to place scans in. By default ``map`` when its chain places at least half
         as many scans as ``odom``'s (the drift-free frame, once a SLAM node publishes it),
-        else ``odom``.
+        else ``odom``. An empty name is refused.
     tolerance
         Seconds a timed transform is held beyond its first and last message.
 
@@ -274,9 +274,12 @@ def read_bag_scans(
     MapFileNotFoundError
         If the bag does not exist.
     TransformError
-        If no scan can be placed by tf: the message names the missing link and its span.
+        If no scan can be placed by tf: the message names the missing link and its span; or
+        a tf message is malformed (a frame name empty, a rotation zero): the message names
+        its topic and index.
     LogFormatError
-        If the bag cannot be read, the topics are missing or ambiguous, the laser jumps
+        If ``fixed_frame`` is empty, the bag cannot be read, the topics are missing or
+        ambiguous, the laser jumps
         farther than :data:`~maps.limits.MAX_POSE_JUMP` between two scans, or no beam of
         the placed scans is valid.
 
@@ -287,6 +290,9 @@ def read_bag_scans(
     '812 of 815 scans placed in map by map -> odom -> base_link -> laser'
     """
     path = Path(path)
+    problem = None if fixed_frame is None else frame_problem(fixed_frame)
+    if problem is not None:
+        raise LogFormatError(problem, path=path, field="fixed_frame")
     scans: list[tuple[float, str, LaserScan]] = []
     poses: list[tuple[float, tuple[float, float, float]]] = []
     tree = TransformTree(tolerance)
@@ -297,6 +303,7 @@ def read_bag_scans(
         by_tf = pose_topic is None and bool(tf_names)
         pose_name = None if by_tf else _pick_topic(topics, POSE_TYPES, pose_topic, path)
         wanted = [c for c in reader.connections if c.topic in {scan_name, pose_name} | tf_names]
+        tf_counts = dict.fromkeys(tf_names, 0)
         for connection, _, raw in _messages(reader, wanted, path):
             message = _deserialize(reader, raw, connection, path)
             if connection.topic == scan_name:
@@ -313,10 +320,13 @@ def read_bag_scans(
                     field = f"{pose_name} message {len(poses)}"
                     raise LogFormatError(str(err), path=path, field=field) from err
             else:
+                topic = connection.topic
                 try:
-                    _add_transforms(tree, message, static=connection.topic.endswith("tf_static"))
+                    _add_transforms(tree, message, static=topic.endswith("tf_static"))
                 except TransformError as err:
-                    raise TransformError(err.detail, path=path) from err
+                    field = f"{topic} message {tf_counts[topic]}"
+                    raise TransformError(err.detail, path=path, field=field) from err
+                tf_counts[topic] += 1
     if not scans:
         raise LogFormatError("the scan topic has no messages", path=path, field=scan_name)
     if pose_name is not None:

@@ -56,6 +56,21 @@ def quaternion_from_yaw(yaw: float) -> tuple[float, float, float, float]:
     return 0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)
 
 
+def frame_problem(name: str) -> str | None:
+    """What is wrong with ``name`` as a tf frame name (empty, or only the ``/`` that tf2 drops
+    in front of a name: it names no frame, and no link can be chained to it), or None when it
+    is fine. Callers raise their own located error with it.
+
+    Examples
+    --------
+    >>> frame_problem("/odom") is None
+    True
+    >>> frame_problem("/")
+    "frame name '/' is empty"
+    """
+    return None if name.lstrip("/") else f"frame name {name!r} is empty"
+
+
 def planar_matrix(
     translation: tuple[float, float, float], rotation: tuple[float, float, float, float]
 ) -> NDArray[np.float64]:
@@ -191,6 +206,9 @@ class TransformTree:
     ) -> None:
         """Add the transform of ``child`` in ``parent`` at ``stamp`` (seconds), or a static one
         when ``stamp`` is None. A static link replaces an earlier static one."""
+        problem = frame_problem(parent) or frame_problem(child)
+        if problem is not None:
+            raise TransformError(f"link {parent!r} -> {child!r}: {problem}")
         parent, child = self._name(parent), self._name(child)
         values = (*translation, *rotation)
         if not all(math.isfinite(v) for v in values) or max(map(abs, translation)) > MAX_COORDINATE:

@@ -64,7 +64,9 @@ class Robot:
         # map -> odom is published over this fraction of the run (SLAM may stop or start late)
         self.map_tf_until = self.times[0] + map_tf_until * (self.times[-1] - self.times[0])
 
-    def write(self, writer, store, ros1):
+    def write(self, writer, store, ros1, edit=None):
+        """Write the run; ``edit(records)`` may damage the ``(stamp, connection, message,
+        type)`` records first."""
         t = store.types
         header_fields = t["std_msgs/msg/Header"].__dataclass_fields__
         serialize = store.serialize_ros1 if ros1 else store.serialize_cdr
@@ -117,24 +119,27 @@ class Robot:
                 intensities=np.zeros(0, np.float32),
             )
             records.append((stamp + 0.001, scan_c, message, scan_type))
+        if edit is not None:
+            edit(records)
         for stamp, connection, message, kind in sorted(records, key=lambda r: r[0]):
             writer.write(connection, round(stamp * 1e9), serialize(message, kind))
 
 
-def tf_bag(tmp_path, kind, robot):
-    """Write ``robot``'s run as a ROS 1 bag, a ROS 2 sqlite3 bag or a ROS 2 MCAP bag."""
+def tf_bag(tmp_path, kind, robot, edit=None):
+    """Write ``robot``'s run as a ROS 1 bag, a ROS 2 sqlite3 bag or a ROS 2 MCAP bag
+    (``edit``: see :meth:`Robot.write`)."""
     if kind == "ros1":
         store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "robot.bag"
         # the Noetic store lacks tf2_msgs; a recorder embeds each type's definition anyway
         text = "geometry_msgs/TransformStamped[] transforms"
         store.register(get_types_from_msg(text, "tf2_msgs/msg/TFMessage"))
         with Writer1(path) as writer:
-            robot.write(writer, store, True)
+            robot.write(writer, store, True, edit)
         return path
     store, path = get_typestore(Stores.ROS2_HUMBLE), tmp_path / f"robot-{kind}"
     plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
     with Writer2(path, version=9, storage_plugin=plugin) as writer:
-        robot.write(writer, store, False)
+        robot.write(writer, store, False, edit)
     return path
 
 

@@ -209,6 +209,55 @@ def test_missing_mount_names_the_transform(tmp_path):
         read_bag_scans(path, fixed_frame="nowhere")
 
 
+def _renamed(topic, index, end, name):
+    """Rename the parent (``end`` 0) or child (1) of the first transform of ``topic``'s
+    message ``index``."""
+
+    def edit(records):
+        messages = [m for _, c, m, _ in sorted(records, key=lambda r: r[0]) if c.topic == topic]
+        item = messages[index].transforms[0]
+        if end == 0:
+            item.header.frame_id = name
+        else:
+            item.child_frame_id = name
+
+    return edit
+
+
+def _unturned_tf(records):
+    """The rotation of /tf message 7's first transform all zeros."""
+    rotation = [m for _, c, m, _ in records if c.topic == "/tf"][7].transforms[0].transform.rotation
+    rotation.x = rotation.y = rotation.z = rotation.w = 0.0
+
+
+@pytest.mark.parametrize(
+    ("kind", "edit", "shown"),
+    [
+        ("ros1", _renamed("/tf", 5, 1, ""), r"field '/tf message 5'.*'/odom' -> ''.*empty"),
+        ("ros1", _renamed("/tf", 9, 0, ""), r"field '/tf message 9'.*'' -> 'base_link'.*empty"),
+        ("mcap", _renamed("/tf", 0, 0, "/"), r"field '/tf message 0'.*'/' -> 'base_link'.*empty"),
+        ("ros1", _renamed("/tf_static", 0, 1, ""), r"field '/tf_static message 0'.*empty"),
+        ("ros1", _unturned_tf, r"field '/tf message 7'.*rotation \(0\.0, 0\.0, 0\.0, 0\.0\)"),
+    ],
+)
+def test_a_malformed_transform_is_refused_naming_bag_topic_and_message(
+    tmp_path, robot, kind, edit, shown
+):
+    """A transform naming an empty frame cannot be chained, like one that is no rotation."""
+    from maps.errors import TransformError
+
+    path = tf_bag(tmp_path, kind, robot, edit)
+    with pytest.raises(TransformError, match=re.escape(str(path)) + ".*" + shown):
+        read_bag_scans(path)
+
+
+@pytest.mark.parametrize("frame", ["", "/", "//"])
+def test_an_empty_fixed_frame_is_refused_naming_the_option(tmp_path, robot, frame):
+    path = tf_bag(tmp_path, "ros1", robot)
+    with pytest.raises(LogFormatError, match=r"field 'fixed_frame'.*frame name .* is empty"):
+        read_bag_scans(path, fixed_frame=frame)
+
+
 @pytest.mark.parametrize("ros1", [True, False])
 def test_map_from_bag(tmp_path, ros1):
     from maps import OccupancyGrid

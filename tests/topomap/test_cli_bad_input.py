@@ -261,6 +261,14 @@ def test_an_empty_output_path_is_a_usage_error(tmp_path, capsys, plan_map, monke
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("command", ["map", "segment", "batch"])
+def test_an_empty_fixed_frame_is_a_usage_error(tmp_path, capsys, command):
+    argv = [command, str(tmp_path / "run.bag"), "--fixed-frame", ""]
+    assert main([*argv, "--out", str(tmp_path / "out")]) == 2
+    assert "--fixed-frame: frame name '' is empty" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_export_refuses_a_folder_as_its_file(tmp_path, capsys, plan_map):
     (tmp_path / "route.geojson").mkdir()
     argv = ["export", str(plan_map), "--nav2-route", str(tmp_path / "route.geojson")]

@@ -55,7 +55,9 @@ def read_as_bag(source: Path) -> bool:
 def add_bag_options(parser: argparse.ArgumentParser, *, map_topic: bool) -> None:
     """``--fixed-frame`` for scans in bags (and ``--map-topic``, ``--stamp`` for their maps)."""
     parser.add_argument(
-        "--fixed-frame", help="place bag scans in this tf frame (default: map, else odom)"
+        "--fixed-frame",
+        type=frame_name,
+        help="place bag scans in this tf frame (default: map, else odom)",
     )
     if map_topic:
         parser.add_argument(
@@ -64,6 +66,19 @@ def add_bag_options(parser: argparse.ArgumentParser, *, map_topic: bool) -> None
         parser.add_argument(
             "--stamp", type=float, help="with --map-topic: the last map at or before this time, s"
         )
+
+
+def frame_name(text: str) -> str:
+    """``--fixed-frame``: a tf frame name that is not empty.
+
+    An argparse type, so an empty name is a usage error before any work.
+    """
+    from maps.tf import frame_problem
+
+    problem = frame_problem(text)
+    if problem is not None:
+        raise argparse.ArgumentTypeError(problem)
+    return text
 
 
 def add_output_options(
