@@ -200,8 +200,20 @@ class MapBuilder:
 
     def reserve(self, low: NDArray[np.float64], high: NDArray[np.float64]) -> None:
         """Grow the counts to cover map points ``low`` to ``high`` (by half again at least, so
-        growing costs little over a run)."""
+        growing costs little over a run).
+
+        Raises
+        ------
+        MapTooLargeError
+            If the map of what was counted and ``low`` to ``high`` (the grid :meth:`grid` would
+            give, and :func:`check_map_extent` checks) is larger than memory allows. The room
+            to grow is no memory (the tiles are made as scans reach them), so it is not
+            counted: a run is taken keyframe by keyframe exactly when it is taken at once.
+        """
         res = self.resolution
+        seen_low, seen_high = (low, high) if self._seen is None else self._seen
+        cols, rows = np.ceil((np.maximum(high, seen_high) - np.minimum(low, seen_low)) / res)
+        check_map_size(int(rows), int(cols), what=f"map at {res:g} m per cell")
         height, width = self._shape
         if height:
             top = self._low + np.array([width, height]) * res
@@ -211,7 +223,6 @@ class MapBuilder:
             low = np.where(low < self._low, np.minimum(low, self._low - span / 2), self._low)
             high = np.where(high > top, np.maximum(high, top + span / 2), top)
         cols, rows = np.ceil((np.asarray(high) - low) / res).astype(int)
-        check_map_size(int(rows), int(cols), what=f"map at {res:g} m per cell")
         low = np.asarray(low, float)
         if height:  # the old extent's top-left cell is (row, col) of the new one
             col = round((self._low[0] - low[0]) / res)

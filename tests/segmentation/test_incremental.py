@@ -147,6 +147,33 @@ def test_a_map_built_keyframe_by_keyframe_equals_one_built_at_once(office_run):
     assert np.array_equal(part.cells[rows, cols], whole.cells[r, c])
 
 
+@pytest.mark.parametrize("spare", [0, -1])
+def test_the_windows_engine_takes_exactly_the_runs_the_offline_map_takes(
+    office_run, monkeypatch, spare
+):
+    """Memory allowing the offline map's cells and no more (``spare`` 0), the online map may
+    not refuse a run the offline one takes for the room it keeps to grow; one cell fewer,
+    both refuse it alike."""
+    from maps.errors import MapTooLargeError
+    from maps.mapping import check_map_extent
+
+    keyframes = office_run[1][:120]
+    rows, cols = grid_from_keyframes(keyframes).shape
+    monkeypatch.setattr("maps.limits.max_cells", lambda: rows * cols + spare)
+    online = IncrementalSegmenter(background=False).fit(keyframes[:40])
+    if spare == 0:
+        check_map_extent(keyframes)
+        online.partial_fit(keyframes[40:])
+        online.flush()  # the whole map partitioned last
+        assert online.n_regions_ > 1
+        return
+    refused = f"{cols} x {rows} cells .* at most {rows * cols - 1} cells"
+    with pytest.raises(MapTooLargeError, match=refused):
+        check_map_extent(keyframes)
+    with pytest.raises(MapTooLargeError, match=refused):
+        online.partial_fit(keyframes[40:])
+
+
 def test_one_scan_against_earlier_ones_is_eq_12_as_the_offline_matrix_has_it(office_run):
     shifted = [
         dataclasses.replace(k, pose=(k.pose[0] - 40.0, k.pose[1] - 30.0, k.pose[2]))
