@@ -39,7 +39,9 @@ STEPS = (0.4, 0.2, 0.1)
 #: Metres apart two wall points may be to pair in the last step.
 PAIRED = 0.3
 #: Cells on a side the first step's correlation may have (coarser cells on larger maps).
-MAX_CANVAS = 1024
+MAX_CANVAS = 512
+#: Wall points the last step pairs at most (evenly spread over the walls).
+MAX_PAIRS = 4000
 
 
 @dataclass(frozen=True)
@@ -115,13 +117,10 @@ def register(previous: OccupancyGrid, grid: OccupancyGrid) -> Placement:
     steps[0] = max(steps[0], span / MAX_CANVAS)
     coarse = np.arange(-MAX_TURN, MAX_TURN + 1e-9, 2.0)
     degrees, shift = _best_shift(walls, target, about, coarse, steps[0])
-    near = _turned(walls - about, degrees) + about + shift
-    low, high = near.min(axis=0) - steps[0], near.max(axis=0) + steps[0]
-    nearby = target[np.all((target >= low) & (target <= high), axis=1)]
-    fine = degrees + np.arange(-1.0, 1.0 + 1e-9, 0.5)
-    if len(nearby):
-        degrees, shift = _best_shift(walls, nearby, about, fine, steps[1])
-    tree, sample = cKDTree(target), _thinned(walls, steps[2])
+    fine = degrees + np.arange(-1.0, 1.0 + 1e-9, 0.25)
+    degrees, shift = _best_shift(walls, target, about, fine, steps[1], shift)
+    sample = _thinned(walls, steps[2])
+    tree, sample = cKDTree(target), sample[:: -(-len(sample) // MAX_PAIRS)]
     degrees, shift = _closest_points(sample, tree, about, degrees, shift)
     offset = about + shift - _turned(about[None], degrees)[0]
     found = Placement(float(offset[0]), float(offset[1]), degrees)
@@ -174,26 +173,49 @@ def _best_shift(
     about: NDArray[np.float64],
     turns: NDArray[np.float64],
     step: float,
+    start: NDArray[np.float64] | None = None,
 ) -> tuple[float, NDArray[np.float64]]:
-    """Of ``turns`` (about ``about``) and every shift, the one that lays the most of ``walls``
-    on ``target`` (blurred by a cell), on ``step``-sided cells: ``(degrees, shift)``."""
+    """Of ``turns`` (about ``about``) and the shifts, the one that lays the most of ``walls``
+    on ``target`` (blurred by a cell), on ``step``-sided cells: ``(degrees, shift)``. Every
+    shift, or with ``start`` those within two cells twice as large of it (the previous step's
+    shift: a canvas the size of the walls, not of both maps)."""
     walls, target = _thinned(walls, step), _thinned(target, step)
-    reach = float(np.hypot(*(walls - about).T).max()) + step
-    low = target.min(axis=0) - reach
-    size = (target.max(axis=0) + reach - low) / step + 1
-    shape = tuple(fft.next_fast_len(int(v), real=True) for v in size[::-1])
+    if start is None:
+        reach = np.full(2, float(np.hypot(*(walls - about).T).max()) + step)
+        low, high = target.min(axis=0) - reach, target.max(axis=0) + reach
+    else:  # the walls where the turns lay them, and the shifts' and turns' slack around
+        turned = [_turned(walls - about, float(d)) + about + start for d in turns[[0, -1]]]
+        low = np.min([t.min(axis=0) for t in turned], axis=0) - 5 * step
+        high = np.max([t.max(axis=0) for t in turned], axis=0) + 5 * step
+    shape = tuple(fft.next_fast_len(int(v), real=True) for v in ((high - low) / step + 1)[::-1])
     spectrum = fft.rfft2(cv2.GaussianBlur(_raster(target, low, shape, step), (0, 0), 1.0))
-    centre = low + np.array(shape[::-1]) * step / 2
+    anchor = low + np.array(shape[::-1]) * step / 2 if start is None else about + start
+    size = np.array(shape[::-1])
     best, found = -1.0, (0.0, np.zeros(2))
     for degrees in turns:
-        image = _raster(_turned(walls - about, degrees) + centre, low, shape, step)
+        image = _raster(_turned(walls - about, degrees) + anchor, low, shape, step)
         scores = fft.irfft2(spectrum * np.conj(fft.rfft2(image)), s=shape)
-        peak = int(np.argmax(scores))
-        if scores.flat[peak] > best:
-            cells = np.array(np.unravel_index(peak, shape)[::-1])
-            cells = np.where(cells > np.array(shape[::-1]) // 2, cells - shape[::-1], cells)
-            best, found = float(scores.flat[peak]), (float(degrees), centre - about + cells * step)
+        if start is not None:  # wrapped around beyond 4 cells: not searched
+            scores[5:-4] = scores[:, 5:-4] = 0
+        peak = np.unravel_index(int(np.argmax(scores)), shape)
+        if scores[peak] > best:
+            cells = np.array(peak[::-1]) + _vertex(scores, peak)
+            cells = np.where(cells > size // 2, cells - size, cells)
+            best, found = float(scores[peak]), (float(degrees), anchor - about + cells * step)
     return found
+
+
+def _vertex(scores: NDArray[np.floating], peak: tuple[np.intp, ...]) -> NDArray[np.float64]:
+    """Where, within half a cell of ``peak`` (x, y), the parabola through it and its two
+    neighbours peaks (``scores`` wrap around)."""
+    offsets = []
+    for axis in (1, 0):
+        before, after = list(peak), list(peak)
+        before[axis], after[axis] = peak[axis] - 1, (peak[axis] + 1) % scores.shape[axis]
+        low, mid, high = scores[tuple(before)], scores[peak], scores[tuple(after)]
+        bend = low - 2 * mid + high
+        offsets.append(0.0 if bend >= 0 else float(np.clip((low - high) / (2 * bend), -0.5, 0.5)))
+    return np.array(offsets)
 
 
 def _closest_points(

@@ -150,12 +150,12 @@ def lay(previous: OccupancyGrid, grid: OccupancyGrid, *, aligned: bool = False) 
     >>> cells[[0, -1], :] = cells[:, [0, 30, -1]] = 100  # two rooms
     >>> cells[20:40, 30] = 0  # a door
     >>> old = OccupancyGrid(cells, 0.1)
-    >>> print(lay(old, OccupancyGrid(cells, 0.1, (0.4, 0.0, 0.0))))
-    shifted (0.40, 0.00) m and turned 0.0 degrees
-    >>> lay(old, OccupancyGrid(cells, 0.1, (0.4, 0.0, 0.0)), aligned=True)
+    >>> print(lay(old, OccupancyGrid(cells, 0.1, (1.3, -0.7, 0.0))))
+    shifted (1.30, -0.70) m and turned 0.0 degrees
+    >>> lay(old, OccupancyGrid(cells, 0.1, (1.3, -0.7, 0.0)), aligned=True)
     Traceback (most recent call last):
     ...
-    segmentation.growing.MapMismatchError: 67% of the previous map's walls lie in this one's \
+    segmentation.growing.MapMismatchError: 81% of the previous map's walls lie in this one's \
 free space: a map in another frame, or another building
     """
     placement = Placement() if aligned else register(previous, grid)
