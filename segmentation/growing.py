@@ -3,7 +3,10 @@ regions that did not change.
 
 A robot that keeps exploring saves bigger and bigger maps of one building (ROSE²'s
 *incremental partial maps*). Each is segmented whole; then its regions are matched to the
-previous map's, cell by cell in the map frame, and take over their ids:
+previous map's, cell by cell, and take over their ids. The previous map is first laid where
+its walls fit the new map's best (:func:`maps.registration.register`: a SLAM re-run or a map
+saved with another origin moves the frame), then refused if it still does not fit
+(:func:`check_same_building`):
 
 - ``q`` *lies in* ``r`` when more than half of the previous region ``q``'s cells are in the new
   region ``r``; ``r`` *comes from* ``q`` when more than half of the cells of ``r`` that the
@@ -28,6 +31,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid
+from maps.registration import Placement, register
 from segmentation.errors import SegmentationError
 
 #: More than this share of the cells makes "most of" a region.
@@ -40,7 +44,7 @@ WALL_SLACK = 0.5
 
 
 class MapMismatchError(SegmentationError):
-    """The previous map cannot be laid on the new one (another resolution or frame)."""
+    """The previous map is no map of the new one's building, even laid where it fits best."""
 
 
 @dataclass(frozen=True)
@@ -69,12 +73,8 @@ def align(
     previous: OccupancyGrid, labels: NDArray[np.integer | np.bool_], grid: OccupancyGrid
 ) -> NDArray[np.int32]:
     """The previous map's ``labels`` on the cells of ``grid`` (0 where it had none), matched by
-    the map frame: each cell takes the label of the previous cell its centre falls in.
-
-    Raises
-    ------
-    MapMismatchError
-        The two maps differ in resolution or in the yaw of their origins.
+    the map frame (any resolutions and origins): each cell takes the label of the previous cell
+    its centre falls in.
 
     Examples
     --------
@@ -83,16 +83,6 @@ def align(
     >>> align(old, np.array([[1, 2], [3, 4]]), new).tolist()
     [[0, 1, 2], [0, 3, 4]]
     """
-    if not np.isclose(previous.resolution, grid.resolution, rtol=1e-6):
-        raise MapMismatchError(
-            f"the previous map has {previous.resolution} m cells and this one "
-            f"{grid.resolution} m: a growing map keeps its resolution"
-        )
-    if not np.isclose(previous.origin[2], grid.origin[2], atol=1e-6):
-        raise MapMismatchError(
-            f"the previous map's origin has yaw {previous.origin[2]} and this one's "
-            f"{grid.origin[2]}: the maps are not in one frame"
-        )
     rows, cols = np.indices(grid.shape)
     x, y = grid.cell_to_world(rows, cols)
     r, c = previous.world_to_cell(x, y)
@@ -103,8 +93,8 @@ def align(
 
 
 def check_same_building(previous: OccupancyGrid, grid: OccupancyGrid) -> None:
-    """Refuse ``grid`` as a later map of ``previous``'s building in its frame (:func:`align`'s
-    checks, then two more): less than half of the previous map's free cells free in it, or
+    """Refuse ``grid`` as a later map of ``previous``'s building in its frame: less than half
+    of the previous map's free cells free in it, or
     more than half of the previous map's walls on it lying in its free space, farther than
     :data:`WALL_SLACK` from its walls (a map in another frame: an office's rooms overlap
     their shifted selves, their walls do not).
@@ -126,7 +116,8 @@ def check_same_building(previous: OccupancyGrid, grid: OccupancyGrid) -> None:
 free space: a map in another frame, or another building
     """
     free = align(previous, previous.free, grid).astype(bool)
-    kept = int(np.count_nonzero(free & grid.free)) / max(1, int(np.count_nonzero(previous.free)))
+    area = int(np.count_nonzero(previous.free)) * previous.resolution**2
+    kept = int(np.count_nonzero(free & grid.free)) * grid.resolution**2 / max(area, 1e-12)
     if kept < MOST:
         raise MapMismatchError(
             f"only {kept:.0%} of the previous map's free cells are free in this one: another "
@@ -141,6 +132,40 @@ free space: a map in another frame, or another building
             f"{lost:.0%} of the previous map's walls lie in this one's free space: a map in "
             "another frame, or another building"
         )
+
+
+def lay(previous: OccupancyGrid, grid: OccupancyGrid, *, aligned: bool = False) -> Placement:
+    """Where ``previous`` lies on ``grid``: the move that fits its walls best
+    (:func:`maps.registration.register`; none when ``aligned``, the frames known to be one),
+    checked by :func:`check_same_building`.
+
+    Raises
+    ------
+    MapMismatchError
+        ``grid`` is no map of ``previous``'s building, the move found named.
+
+    Examples
+    --------
+    >>> cells = np.zeros((60, 80), np.int8)
+    >>> cells[[0, -1], :] = cells[:, [0, 30, -1]] = 100  # two rooms
+    >>> cells[20:40, 30] = 0  # a door
+    >>> old = OccupancyGrid(cells, 0.1)
+    >>> print(lay(old, OccupancyGrid(cells, 0.1, (1.3, -0.7, 0.0))))
+    shifted (1.30, -0.70) m and turned 0.0 degrees
+    >>> lay(old, OccupancyGrid(cells, 0.1, (1.3, -0.7, 0.0)), aligned=True)
+    Traceback (most recent call last):
+    ...
+    segmentation.growing.MapMismatchError: 81% of the previous map's walls lie in this one's \
+free space: a map in another frame, or another building
+    """
+    placement = Placement() if aligned else register(previous, grid)
+    try:
+        check_same_building(placement.moved(previous), grid)
+    except MapMismatchError as err:
+        if aligned:
+            raise
+        raise MapMismatchError(f"{err} (laid where it fits best: {placement})") from None
+    return placement
 
 
 def carry_ids(

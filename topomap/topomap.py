@@ -15,13 +15,14 @@ from numpy.typing import ArrayLike, NDArray
 from maps.grid import OccupancyGrid
 from maps.limits import MAX_ROBOT_RADIUS, finite_in
 from maps.mapping import grid_from_keyframes
+from maps.registration import Placement
 from maps.scan import Keyframe, keyframe_list
 from maps.seeding import RandomState
 from segmentation.blocks import BlockSpectralSegmenter
 from segmentation.conditioning import ConditionedMap
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.graph import region_graph
-from segmentation.growing import align, carry_ids, check_same_building
+from segmentation.growing import align, carry_ids, lay
 from segmentation.pipeline import MAP_CRITERION, MapSegmenter, Segmentation
 from segmentation.regions import Regions
 from segmentation.spectral import SpectralSegmenter
@@ -109,6 +110,9 @@ class TopoMap:
     changes
         For a map made by :meth:`update`: what happened to each region (the events of
         :func:`segmentation.growing.carry_ids`).
+    placement
+        For a map made by :meth:`update`: where the previous map lay on this one
+        (:class:`maps.registration.Placement`).
     source
         For a map read back with :meth:`load`: the folder, where :meth:`planner` finds the
         prepared door graphs saved with it.
@@ -123,6 +127,7 @@ class TopoMap:
     partition: SavedPartition | None = None
     next_id: int = 0
     changes: list[dict[str, Any]] = field(default_factory=list)
+    placement: Placement | None = None
     source: Path | None = field(default=None, compare=False)
     _planners: dict[float, HierarchicalPlanner] = field(
         default_factory=dict, init=False, repr=False, compare=False
@@ -178,27 +183,32 @@ class TopoMap:
         grid: OccupancyGrid,
         keyframes: Sequence[Keyframe] | None = None,
         *,
+        aligned: bool = False,
         random_state: RandomState = 0,
         pipeline: MapSegmenter | None = None,
         **options: Any,
     ) -> TopoMap:
-        """Segment a later, larger map of the same building (in the same frame); regions that
-        continue one of this map's keep its id, and its name when their label is the same
-        (:mod:`segmentation.growing`). Options as for :meth:`from_grid`.
+        """Segment a later, larger map of the same building; regions that continue one of
+        this map's keep its id, and its name when their label is the same
+        (:mod:`segmentation.growing`). This map is laid where its walls fit the new map's
+        best (a shift and a turn within 10 degrees, :attr:`placement` of the result), unless
+        ``aligned`` says the two share their frame. Options as for :meth:`from_grid`.
 
         Raises
         ------
         MapMismatchError
-            ``grid`` has another resolution or frame, or is not a map of this building
-            (:func:`segmentation.growing.check_same_building`: less than half of this map's
-            free cells free in it, or more than half of its walls in its free space).
+            ``grid`` is not a map of this building (:func:`segmentation.growing.lay`: even
+            laid where it fits best, less than half of this map's free cells free in it, or
+            more than half of its walls in its free space).
         """
         if not isinstance(grid, OccupancyGrid):
             raise ParameterError(
                 f"update takes the new map as an OccupancyGrid, got a {type(grid).__name__}"
             )
-        check_same_building(self.grid, grid)
-        previous = align(self.grid, self.regions.labels, grid)
+        if not isinstance(aligned, bool):  # "no" is truthy: the search skipped
+            raise ParameterError(f"aligned must be True or False, got {aligned!r:.80}")
+        placement = lay(self.grid, grid, aligned=aligned)
+        previous = align(placement.moved(self.grid), self.regions.labels, grid)
         pipeline = _pipeline(pipeline, options)
         found = pipeline.segment(grid, keyframes, random_state=random_state)
         carried = carry_ids(previous, found.regions.labels, self.next_id or None)
@@ -206,7 +216,7 @@ class TopoMap:
         same = found.spectral is found.regions
         found = replace(found, regions=regions, spectral=regions if same else found.spectral)
         topo = self._build(grid, found, pipeline)
-        topo.next_id, topo.changes = carried.next_id, carried.events
+        topo.next_id, topo.changes, topo.placement = carried.next_id, carried.events, placement
         carry_names(topo.graph, self.graph)
         return topo
 

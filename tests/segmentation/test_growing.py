@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from maps.grid import OccupancyGrid
-from segmentation.growing import MapMismatchError, align, carry_ids
+from segmentation.growing import align, carry_ids
 
 shapes = st.tuples(st.integers(1, 12), st.integers(1, 12))
 labels = arrays(np.int32, shapes, elements=st.integers(0, 6))
@@ -54,7 +53,7 @@ def test_a_split_keeps_the_id_on_the_larger_piece_and_a_region_gone_is_removed()
     assert {"event": "removed", "region": 6} in found.events
 
 
-def test_align_follows_the_map_frame_and_refuses_another_resolution():
+def test_align_follows_the_map_frame_at_any_resolution_and_yaw():
     old = OccupancyGrid(np.zeros((3, 3), np.int8), 0.5, origin=(1.0, 2.0, 0.0))
     previous = np.arange(9).reshape(3, 3)
     new = OccupancyGrid(np.zeros((4, 5), np.int8), 0.5, origin=(0.0, 2.0, 0.0))
@@ -62,7 +61,9 @@ def test_align_follows_the_map_frame_and_refuses_another_resolution():
     # old cell (row 2, col 0) has its lower-left corner at (1, 2): new cell (row 3, col 2)
     assert moved[3, 2] == previous[2, 0] and moved[1, 4] == previous[0, 2]
     assert moved[:, :2].sum() == 0 and moved[0].sum() == 0
-    with pytest.raises(MapMismatchError, match=r"0\.25 m"):
-        align(old, previous, OccupancyGrid(np.zeros((4, 5), np.int8), 0.25))
-    with pytest.raises(MapMismatchError, match="yaw"):
-        align(old, previous, OccupancyGrid(np.zeros((4, 5), np.int8), 0.5, (0.0, 0.0, 0.3)))
+    finer = align(old, previous, OccupancyGrid(np.zeros((6, 6), np.int8), 0.25, (1.0, 2.0, 0.0)))
+    assert np.array_equal(finer, np.repeat(np.repeat(previous, 2, axis=0), 2, axis=1))
+    # the old map turned a quarter turn about its corner: its bottom row stands on the left of
+    # it, its first cell lowest (rows count down)
+    turned = OccupancyGrid(old.cells, 0.5, (1.0, 2.0, np.pi / 2))
+    assert align(turned, previous, new)[1:, 1].tolist() == previous[2, ::-1].tolist()

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import re
 
 import networkx as nx
 import numpy as np
@@ -11,6 +10,7 @@ import pytest
 
 import maps
 from maps.grid import OccupancyGrid
+from segmentation.errors import ParameterError
 from segmentation.growing import MapMismatchError
 from topomap.cli.main import main
 from topomap.labels import carry_names, find_region
@@ -77,14 +77,17 @@ def test_a_carried_name_written_otherwise_is_no_other_region_s_name_too():
     assert find_region(graph, "corridor 2") == 1
 
 
-def test_a_map_of_another_building_or_resolution_is_refused(explored):
+def test_a_map_of_another_building_is_refused_and_one_with_coarser_cells_laid_on_it(explored):
     before, _ = explored
     other = maps.generate_floor_plan("flat", random_state=5).grid
-    with pytest.raises(MapMismatchError, match="free cells"):
+    with pytest.raises(MapMismatchError, match=r"free cells .* \(laid where it fits best: "):
         before.update(other)
-    coarse = OccupancyGrid(before.grid.cells[::2, ::2], 2 * before.grid.resolution)
-    with pytest.raises(MapMismatchError, match=r"0\.05 m cells and this one 0\.1 m"):
-        before.update(coarse)
+    coarse = OccupancyGrid(before.grid.cells[1::2, ::2], 2 * before.grid.resolution)
+    after = before.update(coarse)  # cells twice as large, its origin at the frame's
+    assert after.placement is not None
+    assert (after.placement.x, after.placement.y) == pytest.approx((0.5, 0.5), abs=0.1)
+    kept = [e["region"] for e in after.changes if e["event"] == "kept"]
+    assert len(kept) >= 0.8 * len(before.regions.ids)
 
 
 def test_segment_previous_writes_changes_and_refuses_an_incomplete_folder(
@@ -115,19 +118,20 @@ def test_segment_previous_writes_changes_and_refuses_an_incomplete_folder(
     assert json.loads((tmp_path / "b" / "changes.json").read_text()) == changes  # untouched
 
 
-def test_the_same_building_in_another_frame_is_refused(explored, tmp_path, capsys):
+def test_the_same_building_in_another_frame_is_laid_back_on_it(explored):
     """Shifted 3.3 m and -1.7 m, the office's rooms still overlap themselves (88 % of the free
-    cells stay free) but its walls lie in its rooms: ids carried over it would be wrong."""
+    cells stay free) but its walls lie in its rooms: laid back where its walls fit, each region
+    keeps its id."""
     before, _ = explored
     grid = before.grid
     x, y, yaw = grid.origin
     shifted = OccupancyGrid(grid.cells, grid.resolution, (x + 3.3, y - 1.7, yaw))
+    after = before.update(shifted)
+    assert after.placement is not None
+    assert after.placement.as_dict() == {"x": 3.3, "y": -1.7, "degrees": 0.0}
+    assert np.array_equal(after.regions.labels, before.regions.labels)
+    assert {e["event"] for e in after.changes} == {"kept"}
     with pytest.raises(MapMismatchError, match="walls lie in this one's free space"):
-        before.update(shifted)
-    before.save(tmp_path / "before")
-    shifted.save(tmp_path / "shifted.yaml")
-    argv = ["segment", str(tmp_path / "shifted.yaml"), "--out", str(tmp_path / "after")]
-    assert main([*argv, "--previous", str(tmp_path / "before")]) == 2
-    named = re.escape(f"--previous {tmp_path / 'before'}: ")
-    assert re.search(named + r"\d+% of the previous map's walls", capsys.readouterr().err)
-    assert not (tmp_path / "after").exists()
+        before.update(shifted, aligned=True)
+    with pytest.raises(ParameterError, match="aligned must be True or False, got 'no'"):
+        before.update(shifted, aligned="no")

@@ -8,11 +8,10 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from maps.grid import OccupancyGrid
+from maps.registration import Placement
 from segmentation.growing import align
 from segmentation.metrics import rose2_score
 from topomap.cli.evaluate import floor_plans, read_rooms
@@ -23,22 +22,6 @@ Progress = Callable[[Iterable[Any]], Iterable[Any]]
 #: A room of the ground truth "did not change" between snapshots when it covers the same
 #: pixels up to this intersection over union.
 SAME_ROOM = 0.9
-
-
-def registered(previous: OccupancyGrid, grid: OccupancyGrid) -> OccupancyGrid:
-    """``grid`` with the origin that lays ``previous`` on it: the shift of the previous free
-    cells that overlaps the most free cells here (the snapshots' images carry no origin; a
-    map_server YAML of a growing SLAM map has it)."""
-    free = grid.free.astype(np.float32)
-    template = previous.free.astype(np.float32)
-    if any(t > g for t, g in zip(template.shape, free.shape, strict=True)):
-        return grid  # a snapshot smaller than the one before: keep its origin
-    scores = cv2.matchTemplate(free, template, cv2.TM_CCORR)
-    dx, dy = cv2.minMaxLoc(scores)[3]
-    res = grid.resolution
-    x = previous.origin[0] - dx * res
-    y = previous.origin[1] - (grid.shape[0] - previous.shape[0] - dy) * res
-    return OccupancyGrid(grid.cells, res, (x, y, previous.origin[2]))
 
 
 def _most(labels: NDArray[np.integer], mask: NDArray[np.bool_]) -> int:
@@ -84,11 +67,11 @@ def bench_growing(data_dir: str | Path, progress: Progress = iter) -> list[dict[
         record: dict[str, Any] = {"map": plan.name}
         if topo is None:
             topo = TopoMap.from_grid(grid)
-        else:
-            grid = registered(topo.grid, grid)
-            before = align(topo.grid, topo.regions.labels, grid)
-            laid = align(topo.grid, rooms_before, grid)
-            topo = topo.update(grid)
+        else:  # the images carry no origin: update lays each snapshot where it fits the next
+            previous, topo = topo, topo.update(grid)
+            laid_grid = (topo.placement or Placement()).moved(previous.grid)
+            before = align(laid_grid, previous.regions.labels, grid)
+            laid = align(laid_grid, rooms_before, grid)
             unchanged, kept = survival(before, laid, topo.regions.labels, rooms)
             events = [e["event"] for e in topo.changes]
             record |= {e: events.count(e) for e in ("kept", "merged", "split", "created")}

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -65,7 +66,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     seg.add_argument(
         "--previous",
         metavar="DIR",
-        help="the output of an earlier map of this building: continued regions keep their ids",
+        help="the output of an earlier map of this building: continued regions keep their ids "
+        "(it is laid where its walls fit this map's best: a shift and a turn within 10 degrees)",
+    )
+    seg.add_argument(
+        "--previous-aligned",
+        action="store_true",
+        help="--previous: the two maps share their frame, lay it as it is",
     )
     add_picture_option(seg, "segmentation.png")
     seg.set_defaults(func=cmd_segment)
@@ -93,6 +100,8 @@ def cmd_segment(args: argparse.Namespace) -> int:
         written_names.append("keyframes.csv")
     if args.previous is not None:
         written_names.append("changes.json")
+    elif args.previous_aligned:
+        raise UsageError("--previous-aligned needs --previous DIR")
     refuse_existing(out, written_names, args.force)
     previous = None if args.previous is None else TopoMap.load(args.previous)
     source = args.scans if args.scans is not None else args.map
@@ -105,7 +114,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
                 from maps.mapping import grid_from_keyframes
 
                 grid = grid_from_keyframes(keyframes, 0.05)
-                topo = _update(previous, args.previous, grid, keyframes, **options)
+                topo = _update(previous, args, grid, keyframes, **options)
             else:
                 topo = TopoMap.from_keyframes(keyframes, **options)
         else:
@@ -119,7 +128,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
             topo = (
                 TopoMap.from_grid(grid, **options)
                 if previous is None
-                else _update(previous, args.previous, grid, None, **options)
+                else _update(previous, args, grid, None, **options)
             )
     except SegmentationError as err:  # the input cannot be segmented: name it
         if isinstance(err, ParameterError) or str(source) in str(err):
@@ -206,6 +215,8 @@ def _write_summary(path: Path, topo: Any, source: str, count: int) -> str:
         },
         "seconds": {k: round(v, 3) for k, v in topo.seconds.items()},
     }
+    if topo.placement is not None:  # --previous: where the previous map was laid
+        summary["previous_placement"] = topo.placement.as_dict()
     text = json.dumps(summary, indent=2)
     write_text(path, text)
     return text
@@ -213,15 +224,20 @@ def _write_summary(path: Path, topo: Any, source: str, count: int) -> str:
 
 def _update(
     previous: TopoMap,
-    folder: str,
+    args: argparse.Namespace,
     grid: OccupancyGrid,
     keyframes: list[Keyframe] | None,
     **options: Any,
 ) -> TopoMap:
-    """``previous.update``, its refusal naming the ``--previous`` folder."""
+    """``previous.update``, its refusal naming the ``--previous`` folder; where the previous
+    map was laid said on stderr when that moves it by more than a cell."""
     from segmentation.growing import MapMismatchError
 
     try:
-        return previous.update(grid, keyframes, **options)
+        topo = previous.update(grid, keyframes, aligned=args.previous_aligned, **options)
     except MapMismatchError as err:
-        raise MapMismatchError(f"--previous {folder}: {err}") from None
+        raise MapMismatchError(f"--previous {args.previous}: {err}") from None
+    placement = topo.placement
+    if placement is not None and placement.largest_shift(previous.grid) > grid.resolution:
+        print(f"--previous {args.previous}: laid on this map {placement}", file=sys.stderr)
+    return topo
