@@ -189,14 +189,62 @@ class MapBuilder:
         """Count what the keyframe saw, growing the map to hold it (1 m of margin; the corner
         on the lattice of the cells, so every grid of this map has its cells there)."""
         points, keep = self.end_points(frame)
-        every = np.vstack([points[keep], [frame.pose[:2]]])
-        lattice = np.floor((every.min(axis=0) - 1.0) / self.resolution) * self.resolution
-        high = every.max(axis=0) + 1.0
+        lattice, high = self._extent(frame, points, keep)
         self.reserve(lattice, high)
         self.count(np.asarray(frame.pose[:2]), points, keep)
-        if self._seen is not None:
-            lattice, high = np.minimum(lattice, self._seen[0]), np.maximum(high, self._seen[1])
-        self._seen = (lattice, high)
+        self._seen = self._union(lattice, high, self._seen)
+
+    def check(self, frames: Sequence[Keyframe]) -> None:
+        """Refuse ``frames`` if :meth:`add` would refuse one of them, before anything changes.
+
+        Raises
+        ------
+        MapTooLargeError
+            :meth:`reserve`'s, at the first frame the map cannot hold, naming its scan.
+        """
+        seen = self._seen
+        for frame in frames:
+            low, high = self._extent(frame, *self.end_points(frame))
+            try:
+                self._check_size(low, high, seen)
+            except MapTooLargeError as err:
+                x, y = frame.pose[:2]
+                raise MapTooLargeError(
+                    f"{err} with scan {frame.scan_index} at ({x:.4g}, {y:.4g}) m"
+                ) from None
+            seen = self._union(low, high, seen)
+
+    def _extent(
+        self, frame: Keyframe, points: NDArray[np.float64], keep: NDArray[np.bool_]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The map :meth:`add` grows to hold the frame (its beams' end ``points``, ``keep``
+        those that count): its corner on the lattice of the cells and its far corner."""
+        every = np.vstack([points[keep], [frame.pose[:2]]])
+        lattice = np.floor((every.min(axis=0) - 1.0) / self.resolution) * self.resolution
+        return lattice, every.max(axis=0) + 1.0
+
+    @staticmethod
+    def _union(
+        low: NDArray[np.float64],
+        high: NDArray[np.float64],
+        seen: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``low`` to ``high`` and what was ``seen`` (None: nothing)."""
+        if seen is None:
+            return low, high
+        return np.minimum(low, seen[0]), np.maximum(high, seen[1])
+
+    def _check_size(
+        self,
+        low: NDArray[np.float64],
+        high: NDArray[np.float64],
+        seen: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+    ) -> None:
+        """:func:`~maps.limits.check_map_size` of the map of ``seen`` and ``low`` to ``high``."""
+        res = self.resolution
+        seen_low, seen_high = self._union(low, high, seen)
+        cols, rows = np.ceil((seen_high - seen_low) / res)
+        check_map_size(int(rows), int(cols), what=f"map at {res:g} m per cell")
 
     def reserve(self, low: NDArray[np.float64], high: NDArray[np.float64]) -> None:
         """Grow the counts to cover map points ``low`` to ``high`` (by half again at least, so
@@ -210,10 +258,8 @@ class MapBuilder:
             to grow is no memory (the tiles are made as scans reach them), so it is not
             counted: a run is taken keyframe by keyframe exactly when it is taken at once.
         """
+        self._check_size(low, high, self._seen)
         res = self.resolution
-        seen_low, seen_high = (low, high) if self._seen is None else self._seen
-        cols, rows = np.ceil((np.maximum(high, seen_high) - np.minimum(low, seen_low)) / res)
-        check_map_size(int(rows), int(cols), what=f"map at {res:g} m per cell")
         height, width = self._shape
         if height:
             top = self._low + np.array([width, height]) * res

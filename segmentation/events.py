@@ -100,26 +100,40 @@ class OnlineEstimator(Estimator):
             Before ``fit``.
         SegmentationError
             A keyframe with a pose that is not finite, or one too far from everything seen
-            so far (``max_gap``); the segmenter is as it was before that keyframe.
+            before it (``max_gap``).
+        MapTooLargeError
+            A keyframe whose map would be larger than memory allows.
+
+        A refused call leaves the segmenter as it was before it (every keyframe is checked
+        before the first is assigned): the keyframes offered again without the bad ones give
+        the regions of a run that never saw them.
         """
         if not getattr(self, "_fitted", False):
             raise OnlineStateError("partial_fit before fit: fit the seed keyframes first")
+        batch: Sequence[Keyframe]
         if isinstance(keyframes, Keyframe):
-            return self._offer(keyframes)
-        if not isinstance(keyframes, Sequence):  # each keyframe is checked as it arrives
+            batch = [keyframes]
+        elif isinstance(keyframes, Sequence):  # each keyframe is checked below
+            batch = keyframes
+        else:
             raise SegmentationError(
                 f"partial_fit takes a Keyframe or a list of them, got {keyframes!r:.200}"
             )
-        return [self._offer(k) for k in keyframes]
+        blind = [isinstance(k, Keyframe) and not seeing([k]) for k in batch]
+        self._admit([k for k, skipped in zip(batch, blind, strict=True) if not skipped])
+        regions = [
+            0 if skipped else self._arrive(k) for k, skipped in zip(batch, blind, strict=True)
+        ]
+        self.n_skipped_ += sum(blind)
+        return regions[0] if isinstance(keyframes, Keyframe) else regions
 
-    def _offer(self, keyframe: Keyframe) -> int:
-        """:meth:`_arrive`, or 0 for a keyframe with no valid beam, skipped."""
-        if isinstance(keyframe, Keyframe) and not seeing([keyframe]):
-            self.n_skipped_ += 1
-            return 0
-        return self._arrive(keyframe)
+    def _admit(self, keyframes: list[Keyframe]) -> None:
+        """Refuse ``keyframes`` (each with a valid beam, to arrive in order) if one of them
+        would be refused, before anything changes."""
+        raise NotImplementedError
 
     def _arrive(self, keyframe: Keyframe) -> int:
+        """Assign an admitted keyframe (:meth:`_admit`); its region."""
         raise NotImplementedError
 
     def flush(self) -> None:

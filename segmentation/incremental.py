@@ -232,8 +232,8 @@ class IncrementalSegmenter(OnlineEstimator):
         self.events_ = []
         self._next_id = 1
         for keyframe in keyframes:
-            distance = self._check(keyframe, len(self._keyframes))
-            self._add(keyframe, self._similar(keyframe, distance), 1)
+            self._check(keyframe, self._n)
+            self._add(keyframe, self._similar(keyframe, self._distance(keyframe)), 1)
         self._start(np.arange(len(keyframes)), len(keyframes), whole=True, seeding=True)
         self._arrival[: len(keyframes)] = self._labels[: len(keyframes)]
         self.n_seed_ = self._whole_at = self._last_whole = self._settled = len(keyframes)
@@ -262,14 +262,16 @@ class IncrementalSegmenter(OnlineEstimator):
         return np.array(self._work)
 
     # ----------------------------------------------------------------------------- internals
-    def _check(self, keyframe: Keyframe, index: int) -> NDArray[np.float64]:
-        """The keyframe's distance to every earlier one, or a SegmentationError (the keyframe
-        has a valid beam)."""
+    def _check(self, keyframe: Keyframe, index: int) -> None:
+        """A SegmentationError if keyframe ``index`` is none or its pose is not finite."""
         if not isinstance(keyframe, Keyframe):
             raise SegmentationError(f"keyframe {index} is not a Keyframe: {keyframe!r}")
         if not np.all(np.isfinite(keyframe.pose)):
             raise SegmentationError(f"keyframe {index} has a pose that is not finite")
-        return np.hypot(*(self._poses[:index] - keyframe.pose[:2]).T)
+
+    def _distance(self, keyframe: Keyframe) -> NDArray[np.float64]:
+        """The keyframe's distance to every earlier one."""
+        return np.hypot(*(self._poses[: self._n] - keyframe.pose[:2]).T)
 
     def _similar(self, keyframe: Keyframe, distance: NDArray[np.float64]) -> dict[int, float]:
         """The keyframe's similarity to the ``neighbours`` earlier keyframes nearest to it
@@ -306,14 +308,27 @@ class IncrementalSegmenter(OnlineEstimator):
         self.regions_.add(index, keyframe, region)
         self._map.add(keyframe)
 
+    def _admit(self, keyframes: list[Keyframe]) -> None:
+        """Refuse the batch if a keyframe is none, has a pose that is not finite, lies more
+        than ``max_gap`` from every keyframe before it, or its map or dense regions would be
+        larger than memory allows."""
+        for offset, keyframe in enumerate(keyframes):
+            self._check(keyframe, self._n + offset)
+        poses = np.vstack([self._poses[: self._n], *(k.pose[:2] for k in keyframes)])
+        for index in range(self._n, len(poses)):
+            gap = np.hypot(*(poses[:index] - poses[index]).T).min()
+            if gap > self.max_gap:
+                keyframe = keyframes[index - self._n]
+                raise SegmentationError(
+                    f"keyframe {index} (scan_index {keyframe.scan_index}) is {gap:.1f} m from "
+                    f"every earlier keyframe (max_gap {self.max_gap} m)"
+                )
+        self.regions_.check(keyframes)
+        self._map.check(keyframes)
+
     def _arrive(self, keyframe: Keyframe) -> int:
-        index = len(self._keyframes)
-        distance = self._check(keyframe, index)
-        if len(distance) and distance.min() > self.max_gap:
-            raise SegmentationError(
-                f"keyframe {index} (scan_index {keyframe.scan_index}) is "
-                f"{distance.min():.1f} m from every earlier keyframe (max_gap {self.max_gap} m)"
-            )
+        index = self._n
+        distance = self._distance(keyframe)
         row = self._similar(keyframe, distance)
         if row:
             region = int(self._labels[max(row, key=row.__getitem__)])

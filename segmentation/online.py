@@ -263,6 +263,13 @@ class OnlineSegmenter(OnlineEstimator):
     ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
         """Cell keys, tile keys and points of a keyframe (one with a valid beam), or a
         SegmentationError."""
+        points = self._points(keyframe, index)
+        keys = cells_of(points, self._resolution)
+        return keys, distinct(cell_keys(decode(keys) >> self._tile_bits)), points
+
+    def _points(self, keyframe: Keyframe, index: int) -> NDArray[np.float64]:
+        """The points keyframe ``index`` hit, or a SegmentationError if it is none or its pose
+        is not finite."""
         if not isinstance(keyframe, Keyframe):
             raise SegmentationError(f"keyframe {index} is not a Keyframe: {keyframe!r}")
         if not np.all(np.isfinite(keyframe.pose)):
@@ -270,20 +277,30 @@ class OnlineSegmenter(OnlineEstimator):
                 f"keyframe {index} (scan_index {keyframe.scan_index}) has a pose that is not "
                 f"finite: {keyframe.pose}"
             )
-        points = keyframe.points()
-        keys = cells_of(points, self._resolution)
-        return keys, distinct(cell_keys(decode(keys) >> self._tile_bits)), points
+        return keyframe.points()
+
+    def _admit(self, keyframes: list[Keyframe]) -> None:
+        """Refuse the batch if a keyframe is none, has a pose that is not finite, lies more
+        than ``max_gap`` outside the bounding box of everything hit before it, or its dense
+        regions would be larger than memory allows."""
+        low, high = self._low, self._high
+        for offset, keyframe in enumerate(keyframes):
+            index = self._n + offset
+            points = self._points(keyframe, index)
+            x, y = keyframe.pose[:2]
+            gap = max(low[0] - x, x - high[0], low[1] - y, y - high[1])
+            if gap > self.max_gap:
+                raise SegmentationError(
+                    f"keyframe {index} (scan_index {keyframe.scan_index}) at ({x:.2f}, "
+                    f"{y:.2f}) is {gap:.1f} m outside the map so far (max_gap {self.max_gap} m)"
+                )
+            low, high = np.minimum(low, points.min(axis=0)), np.maximum(high, points.max(axis=0))
+        if self.regions_ is not None:
+            self.regions_.check(keyframes)
 
     def _arrive(self, keyframe: Keyframe) -> int:
         index = self._n
         keys, tiles, points = self._scan(keyframe, index)
-        x, y = keyframe.pose[:2]
-        gap = max(self._low[0] - x, x - self._high[0], self._low[1] - y, y - self._high[1])
-        if gap > self.max_gap:
-            raise SegmentationError(
-                f"keyframe {index} (scan_index {keyframe.scan_index}) at ({x:.2f}, {y:.2f}) is "
-                f"{gap:.1f} m outside the map so far (max_gap {self.max_gap} m)"
-            )
         candidates, distances = self._compare(keys, None, tiles, keyframe, None)
         best = int(np.argmin(distances)) if candidates else -1
         nearest = float(distances[best]) if candidates else 1.0
@@ -293,7 +310,6 @@ class OnlineSegmenter(OnlineEstimator):
             region, move = self._next_id, True
         else:
             region, move = candidates[best], False
-        # nothing above changed the state: from here on the keyframe is accepted
         if index >= len(self._labels):
             self._labels = np.concatenate([self._labels, np.zeros_like(self._labels)])
             self._arrival = np.concatenate([self._arrival, np.zeros_like(self._arrival)])

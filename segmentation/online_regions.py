@@ -16,6 +16,7 @@ cells whose region changed.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import cv2
 import networkx as nx
@@ -176,14 +177,8 @@ class OnlineRegions:
             grow; nothing is changed), naming the keyframe's scan and pose.
         """
         x, y = keyframe.pose[:2]
+        self._fit(*self._grown(self._low, self._owner.shape, keyframe))
         cells, distance, walls = self._seen(keyframe)
-        try:
-            self._fit(np.vstack([cells, walls]))
-        except MapTooLargeError as err:
-            raise MapTooLargeError(
-                f"{err}: scan {keyframe.scan_index} at ({x:.6g}, {y:.6g}) m is too far from "
-                "the others"
-            ) from None
         if index >= len(self._region_of):
             grown = np.zeros(max(2 * len(self._region_of), index + 1), np.int64)
             grown[: len(self._region_of)] = self._region_of
@@ -205,6 +200,19 @@ class OnlineRegions:
             if np.any(closer):
                 self._claim(i[closer], j[closer], to[closer], owner)
         self._update_node(region)
+
+    def check(self, keyframes: Sequence[Keyframe]) -> None:
+        """Refuse ``keyframes`` if :meth:`add` would refuse one of them, before anything
+        changes (the arrays hold each keyframe's window of cells, a function of its pose).
+
+        Raises
+        ------
+        MapTooLargeError
+            :meth:`add`'s, at the first keyframe the arrays cannot hold.
+        """
+        low, shape = self._low, self._owner.shape
+        for keyframe in keyframes:
+            low, shape = self._grown(low, shape, keyframe)
 
     def merge(self, survivor: int, absorbed: int) -> None:
         """Region ``absorbed`` becomes part of ``survivor``."""
@@ -243,8 +251,7 @@ class OnlineRegions:
         x, y, yaw = keyframe.pose
         angles = scan.angles + yaw
         res = self.resolution
-        corner = np.floor((np.array([x, y]) - self.reach) / res).astype(np.int64) - 1
-        size = int(math.ceil(2 * self.reach / res)) + 3
+        corner, size = self._window(keyframe)
         ends = np.column_stack([x + length * np.cos(angles), y + length * np.sin(angles)])
         polygon = np.vstack([[x, y], ends]) / res - corner - 0.5  # pixel centres at integers
         seen = np.zeros((size, size), np.uint8)
@@ -257,28 +264,57 @@ class OnlineRegions:
         centres = (cells + 0.5) * self.resolution
         return cells, np.hypot(centres[:, 0] - x, centres[:, 1] - y), hit + corner
 
-    def _fit(self, cells: NDArray[np.int64]) -> None:
-        """Grow the arrays so ``cells`` and a one-cell border around them are inside."""
-        low = cells.min(axis=0) - 1
-        high = cells.max(axis=0) + 2
-        shape = np.array(self._owner.shape)
-        if self._owner.size and np.all(low >= self._low) and np.all(high <= self._low + shape):
-            return
-        if self._owner.size == 0:
-            new_low, new_high = low - _MARGIN, high + _MARGIN
+    def _window(self, keyframe: Keyframe) -> tuple[NDArray[np.int64], int]:
+        """The first cell and the side of the square of cells the keyframe may claim."""
+        corner = np.floor((np.asarray(keyframe.pose[:2]) - self.reach) / self.resolution)
+        return corner.astype(np.int64) - 1, int(math.ceil(2 * self.reach / self.resolution)) + 3
+
+    def _grown(
+        self, low: NDArray[np.int64], shape: tuple[int, int], keyframe: Keyframe
+    ) -> tuple[NDArray[np.int64], tuple[int, int]]:
+        """The first cell and the shape of arrays (now ``low`` and ``shape``) grown to hold
+        the keyframe's window of cells and a one-cell border around it.
+
+        Raises
+        ------
+        MapTooLargeError
+            If they would be larger than memory allows, naming the keyframe's scan and pose.
+        """
+        corner, side = self._window(keyframe)
+        first, last = corner - 1, corner + side + 1
+        size = np.array(shape)
+        if size.all() and np.all(first >= low) and np.all(last <= low + size):
+            return low, shape
+        if not size.all():
+            new_low, new_high = first - _MARGIN, last + _MARGIN
         else:
-            new_low = np.where(low < self._low, low - np.maximum(_MARGIN, shape // 2), self._low)
-            end = self._low + shape
-            new_high = np.where(high > end, high + np.maximum(_MARGIN, shape // 2), end)
-        size = tuple((new_high - new_low).tolist())
-        check_map_size(*size, what=f"online regions at {self.resolution:g} m per cell")
-        owner = np.full(size, -1, np.int32)
-        distance = np.full(size, np.inf, np.float32)
+            new_low = np.where(first < low, first - np.maximum(_MARGIN, size // 2), low)
+            end = low + size
+            new_high = np.where(last > end, last + np.maximum(_MARGIN, size // 2), end)
+        height, width = (new_high - new_low).tolist()
+        grown = (int(height), int(width))
+        try:
+            check_map_size(*grown, what=f"online regions at {self.resolution:g} m per cell")
+        except MapTooLargeError as err:
+            x, y = keyframe.pose[:2]
+            raise MapTooLargeError(
+                f"{err}: scan {keyframe.scan_index} at ({x:.6g}, {y:.6g}) m is too far from "
+                "the others"
+            ) from None
+        return new_low, grown
+
+    def _fit(self, low: NDArray[np.int64], shape: tuple[int, int]) -> None:
+        """The arrays from cell ``low`` in ``shape`` (:meth:`_grown`), what they hold kept."""
+        if shape == self._owner.shape:
+            return
+        owner = np.full(shape, -1, np.int32)
+        distance = np.full(shape, np.inf, np.float32)
         if self._owner.size:
-            a, b = self._low - new_low
-            owner[a : a + shape[0], b : b + shape[1]] = self._owner
-            distance[a : a + shape[0], b : b + shape[1]] = self._distance
-        self._owner, self._distance, self._low = owner, distance, new_low
+            a, b = self._low - low
+            height, width = self._owner.shape
+            owner[a : a + height, b : b + width] = self._owner
+            distance[a : a + height, b : b + width] = self._distance
+        self._owner, self._distance, self._low = owner, distance, low
 
     def _claim(
         self, i: NDArray[np.int64], j: NDArray[np.int64], distance: NDArray[np.float64], index: int

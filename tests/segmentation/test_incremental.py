@@ -170,8 +170,49 @@ def test_the_windows_engine_takes_exactly_the_runs_the_offline_map_takes(
     refused = f"{cols} x {rows} cells .* at most {rows * cols - 1} cells"
     with pytest.raises(MapTooLargeError, match=refused):
         check_map_extent(keyframes)
+    before = online.labels_.tolist(), list(online.events_), online.regions_.areas()
     with pytest.raises(MapTooLargeError, match=refused):
         online.partial_fit(keyframes[40:])
+    assert (online.labels_.tolist(), list(online.events_), online.regions_.areas()) == before
+
+
+def test_a_refused_batch_leaves_the_segmenter_as_it_was(office_run, monkeypatch):
+    """A batch refused at its last keyframe (too large a map for the memory; too far from
+    every earlier keyframe) changes nothing: the good keyframes offered again give the
+    regions of a run that never saw the bad ones."""
+    from maps.errors import MapTooLargeError
+
+    keyframes, blind = office_run[1][:150], _blind_keyframes()[0]
+
+    def state(online: IncrementalSegmenter):
+        regions = online.regions_
+        return (
+            online.labels_.tolist(),
+            online.arrival_labels_.tolist(),
+            list(online.events_),
+            online.n_skipped_,
+            online.n_regions_,
+            regions.areas(),
+            regions.boundary_counts(),
+            online._map.grid().cells.tobytes(),
+        )
+
+    options = {"background": False, "max_gap": 900.0}
+    clean = IncrementalSegmenter(**options).fit(keyframes[:40])
+    clean.partial_fit(keyframes[40:])
+    online = IncrementalSegmenter(**options).fit(keyframes[:40])
+    online.partial_fit(keyframes[40:60])
+    before = state(online)
+    rows, cols = grid_from_keyframes(keyframes).shape
+    monkeypatch.setattr("maps.limits.max_cells", lambda: rows * cols)
+    far = dataclasses.replace(keyframes[110], pose=(500.0, 500.0, 0.0))
+    jump = dataclasses.replace(far, pose=(-2000.0, 0.0, 0.0))
+    for bad, error in ((far, MapTooLargeError), (jump, SegmentationError)):
+        with pytest.raises(error, match=rf"scan(_index)? {far.scan_index}\b"):
+            online.partial_fit([*keyframes[60:100], blind, bad])
+        assert state(online) == before
+    online.partial_fit(keyframes[60:])
+    assert state(online) == state(clean)
 
 
 def test_one_scan_against_earlier_ones_is_eq_12_as_the_offline_matrix_has_it(office_run):

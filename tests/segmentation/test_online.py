@@ -231,12 +231,34 @@ def test_refused_keyframes_leave_the_state_unchanged(flat_run):
     object.__setattr__(nan, "pose", (math.nan, 0.0, 0.0))
     with pytest.raises(SegmentationError, match="pose that is not finite"):
         online.partial_fit(nan)
-    with pytest.raises(SegmentationError, match="not a Keyframe"):
+    with pytest.raises(SegmentationError, match="keyframe 61 is not a Keyframe"):
         online.partial_fit([keyframes[60], "scan"])  # type: ignore[list-item]
-    online_after_one = _state(online)
-    assert online_after_one[0] == before[0] + [online.labels_[60]]
+    assert _state(online) == before  # the whole batch refused
     with pytest.raises(InvalidScanError, match="finite"):
         Keyframe((math.nan, 0.0, 0.0), keyframes[0].scan)
+
+
+def test_a_refused_batch_leaves_the_segmenter_as_it_was(flat_run, monkeypatch):
+    """A batch refused at its last keyframe (too far from the map; too large a map for the
+    memory) changes nothing: the good keyframes offered again give the regions of a run that
+    never saw the bad ones."""
+    from maps.errors import MapTooLargeError
+
+    keyframes, blind = flat_run[1][:140], _blind_keyframes()[0]
+    clean = online_run(keyframes, max_gap=900.0)
+    online = OnlineSegmenter(SpectralSegmenter(random_state=0), max_gap=900.0)
+    online.fit(keyframes[:80]).partial_fit(keyframes[80:100])
+    before = _state(online), online.arrival_labels_.tolist(), online.n_skipped_
+    monkeypatch.setattr("maps.limits.max_cells", lambda: 10**6)  # 200 x 200 m at 0.2 m
+    far = dataclasses.replace(keyframes[110], pose=(500.0, 500.0, 0.0))
+    jump = dataclasses.replace(far, pose=(-2000.0, 0.0, 0.0))
+    for bad, error in ((far, MapTooLargeError), (jump, SegmentationError)):
+        with pytest.raises(error, match=rf"scan(_index)? {far.scan_index}\b"):
+            online.partial_fit([*keyframes[100:120], blind, bad])
+        assert (_state(online), online.arrival_labels_.tolist(), online.n_skipped_) == before
+    online.partial_fit(keyframes[100:])
+    assert _state(online) == _state(clean)
+    assert online.arrival_labels_.tolist() == clean.arrival_labels_.tolist()
 
 
 def test_bad_parameters_and_order_are_typed_errors(flat_run):
