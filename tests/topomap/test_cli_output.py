@@ -5,6 +5,7 @@ import argparse
 import importlib
 import json
 import logging
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -276,3 +277,24 @@ def test_the_command_line_exits_without_collecting_the_imports():
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines()[-1] == "True"
+
+
+@pytest.mark.parametrize("given", [None, "2"])
+def test_the_command_line_runs_blas_in_one_thread_unless_told(given):
+    # NumPy's, SciPy's and OpenCV's OpenBLAS each start threads that spin (0.1 s of start-up)
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    code = (
+        "import os, topomap.cli.main, topomap.topomap, cv2; "
+        "from threadpoolctl import threadpool_info; "
+        "print(os.environ['OPENBLAS_NUM_THREADS'], len(threadpool_info()), "
+        "max(i['num_threads'] for i in threadpool_info()))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=env, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    value, libraries, most = done.stdout.split()
+    assert value == (given or "1") and int(libraries) >= 1
+    assert given is not None or most == "1"
