@@ -2,9 +2,11 @@
 for bad input, a traceback for a bug, no file overwritten without --force."""
 
 import argparse
+import gc
 import importlib
 import json
 import logging
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -12,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from maps.sim.floorplan import generate_floor_plan
+from topomap.cli.commands.common import loading
 from topomap.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -276,3 +279,49 @@ def test_the_command_line_exits_without_collecting_the_imports():
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines()[-1] == "True"
+
+
+def test_segment_imports_its_libraries_without_collecting_them(tmp_path):
+    # the collector went 8 to 15 times over the older generations the imports fill (40 ms)
+    generate_floor_plan("flat", random_state=0).grid.save(tmp_path / "flat.yaml")
+    code = (
+        "import gc, sys; from topomap.cli.main import run; older = []; "
+        "gc.callbacks.append(lambda phase, info: older.append(info['generation']) "
+        "if phase == 'stop' and info['generation'] else None); "
+        "import atexit; atexit.register(lambda: print(len(older))); "
+        f"sys.argv = ['topomap', '-q', 'segment', {str(tmp_path / 'flat.yaml')!r}, "
+        f"'--out', {str(tmp_path / 'out')!r}]; run()"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert int(done.stdout.splitlines()[-1]) <= 2
+
+
+def test_loading_pauses_the_collector_and_freezes_only_in_the_console_script():
+    frozen = gc.get_freeze_count()
+    with loading():
+        assert not gc.isenabled()
+    assert gc.isenabled() and gc.get_freeze_count() == frozen
+
+
+@pytest.mark.parametrize("given", [None, "2"])
+def test_the_command_line_runs_blas_in_one_thread_unless_told(given):
+    # NumPy's, SciPy's and OpenCV's OpenBLAS each start threads that spin (0.1 s of start-up)
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    code = (
+        "import os, topomap.cli.main, topomap.topomap, cv2; "
+        "from threadpoolctl import threadpool_info; "
+        "print(os.environ['OPENBLAS_NUM_THREADS'], len(threadpool_info()), "
+        "max(i['num_threads'] for i in threadpool_info()))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=env, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    value, libraries, most = done.stdout.split()
+    assert value == (given or "1") and int(libraries) >= 1
+    assert given is not None or most == "1"

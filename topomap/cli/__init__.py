@@ -1,3 +1,14 @@
 """The tools around the library: the ``topomap`` command line (:mod:`topomap.cli.main`, one
 module per command in :mod:`topomap.cli.commands`), the demo, benchmarks, evaluations and
-pictures. Nothing in the library packages imports from here."""
+pictures. Nothing in the library packages imports from here.
+
+The tools run BLAS in one thread unless ``OPENBLAS_NUM_THREADS`` says otherwise (set here,
+before NumPy, SciPy and OpenCV load their OpenBLAS): each of the three starts a pool of
+threads that spin while they wait, which costs ``topomap segment`` 0.1 s of its start-up on
+two cores, and none of the pipeline's BLAS work is large enough to gain from threads (the
+spectral partition limits them to one anyway, :mod:`segmentation.spectral`).
+"""
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")

@@ -89,9 +89,12 @@ def bench_maps(
     return records
 
 
-#: What ``topomap segment`` imports before it reads the map, ended as the command ends (the
-#: collector frozen, :func:`topomap.cli.main.run`): its start-up.
-STARTUP = "import gc, topomap.cli.main, topomap.topomap, topomap.cli.drawing; gc.freeze()"
+#: What ``topomap segment`` imports before it reads the map, as the command imports it (the
+#: collector paused, then frozen: :func:`topomap.cli.commands.common.loading`): its start-up.
+STARTUP = (
+    "import gc; gc.disable(); import topomap.cli.main, topomap.topomap, topomap.cli.drawing; "
+    "gc.freeze()"
+)
 
 
 def _run(command: list[str]) -> tuple[float, float]:

@@ -19,6 +19,7 @@ from topomap.cli.commands import (
     batch,
     bench,
     build,
+    common,
     demo,
     evaluate,
     export,
@@ -122,7 +123,10 @@ def run() -> None:
     of the command); frozen, they are left for the process's end to reclaim at once.
     ``atexit`` handlers still run, and objects are still released as their last references go.
     Not after planning (:data:`COUNTED_AT_EXIT`): OMPL would report its types as leaked.
+    The objects a command's imports make are frozen as soon as they are made
+    (:func:`~topomap.cli.commands.common.loading`).
     """
+    common.FREEZE_IMPORTS = True
     status = main()
     if not any(name in sys.modules for name in COUNTED_AT_EXIT):
         gc.freeze()

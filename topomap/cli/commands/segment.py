@@ -18,6 +18,7 @@ from topomap.cli.commands.common import (
     add_output_options,
     add_picture_option,
     add_segmenter_options,
+    loading,
     read_as_bag,
     read_keyframes,
     refuse_existing,
@@ -79,14 +80,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def cmd_segment(args: argparse.Namespace) -> int:
-    from maps.grid import OccupancyGrid
-    from maps.scan import select_keyframes
-    from segmentation.errors import ParameterError, SegmentationError
-    from topomap.cli.drawing import draw_regions
-    from topomap.cli.inputs import input_kind
-    from topomap.errors import led_by
-    from topomap.saving import SAVED
-    from topomap.topomap import TopoMap
+    with loading():
+        from maps.grid import OccupancyGrid
+        from maps.scan import select_keyframes
+        from segmentation.errors import ParameterError, SegmentationError
+        from topomap.cli.drawing import draw_regions
+        from topomap.cli.inputs import input_kind
+        from topomap.errors import led_by
+        from topomap.saving import SAVED
+        from topomap.topomap import TopoMap
 
     if args.map is not None and input_kind(Path(args.map)) == "log":
         args.scans, args.map = args.map, None  # a log's keyframes are the paper's input
