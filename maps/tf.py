@@ -56,10 +56,10 @@ def quaternion_from_yaw(yaw: float) -> tuple[float, float, float, float]:
     return 0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)
 
 
-def frame_problem(name: str) -> str | None:
-    """What is wrong with ``name`` as a tf frame name (empty, or only the ``/`` that tf2 drops
-    in front of a name: it names no frame, and no link can be chained to it), or None when it
-    is fine. Callers raise their own located error with it.
+def frame_problem(name: object) -> str | None:
+    """What is wrong with ``name`` as a tf frame name (no string, empty, or only the ``/``
+    that tf2 drops in front of a name: it names no frame, and no link can be chained to it),
+    or None when it is fine. Callers raise their own located error with it.
 
     Examples
     --------
@@ -67,7 +67,11 @@ def frame_problem(name: str) -> str | None:
     True
     >>> frame_problem("/")
     "frame name '/' is empty"
+    >>> frame_problem(5)
+    'frame name must be a string, got 5'
     """
+    if not isinstance(name, str):
+        return f"frame name must be a string, got {name!r:.80}"
     return None if name.lstrip("/") else f"frame name {name!r} is empty"
 
 

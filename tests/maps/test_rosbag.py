@@ -258,6 +258,13 @@ def test_an_empty_fixed_frame_is_refused_naming_the_option(tmp_path, robot, fram
         read_bag_scans(path, fixed_frame=frame)
 
 
+@pytest.mark.parametrize("frame", [5, b"map", ["map"]])
+def test_a_fixed_frame_that_is_no_string_is_refused_naming_the_option(tmp_path, frame):
+    """Not a name: refused before the bag is opened (it was an AttributeError)."""
+    with pytest.raises(LogFormatError, match=r"field 'fixed_frame'.*frame name must be a str"):
+        read_bag_scans(tmp_path / "run.bag", fixed_frame=frame)
+
+
 @pytest.mark.parametrize("ros1", [True, False])
 def test_map_from_bag(tmp_path, ros1):
     from maps import OccupancyGrid
