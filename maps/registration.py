@@ -9,12 +9,13 @@ and resolution, which may differ), from the walls alone:
 1. every turn within :data:`MAX_TURN` degrees in steps of 2 degrees, each with every shift,
    on 0.4 m cells: the shift is the peak of the cross-correlation of the two maps' walls
    (scipy's FFT), which finds a map moved by metres and one that covers only part of the other;
-2. the turns within a degree of the best in half-degree steps, on 0.2 m cells, near it;
+2. the turns within a degree of the best (and of :data:`MAX_TURN`) in quarter-degree steps, on
+   0.2 m cells, near it;
 3. iterative closest points (scipy's ``cKDTree``) from the walls thinned to 0.1 m to the other
    map's, pairs farther apart than 0.3 m left out (walls that are in one map only): to a
-   fraction of a cell.
+   fraction of a cell (not kept if it turns the map beyond :data:`MAX_TURN`).
 
-A move that shifts no cell by half a cell, or that lays fewer walls on walls than none, is no
+A move that shifts no cell by half a cell, or that lays no more walls on walls than none, is no
 move (:class:`Placement` ``()``).
 """
 
@@ -118,10 +119,13 @@ def register(previous: OccupancyGrid, grid: OccupancyGrid) -> Placement:
     coarse = np.arange(-MAX_TURN, MAX_TURN + 1e-9, 2.0)
     degrees, shift = _best_shift(walls, target, about, coarse, steps[0])
     fine = degrees + np.arange(-1.0, 1.0 + 1e-9, 0.25)
+    fine = fine[np.abs(fine) <= MAX_TURN + 1e-9]
     degrees, shift = _best_shift(walls, target, about, fine, steps[1], shift)
     sample = _thinned(walls, steps[2])
     tree, sample = cKDTree(target), sample[:: -(-len(sample) // MAX_PAIRS)]
-    degrees, shift = _closest_points(sample, tree, about, degrees, shift)
+    closest = _closest_points(sample, tree, about, degrees, shift)
+    if abs(closest[0]) <= MAX_TURN:  # beyond: pulled off by walls of another place, not kept
+        degrees, shift = closest
     offset = about + shift - _turned(about[None], degrees)[0]
     found = Placement(float(offset[0]), float(offset[1]), degrees)
     if found.largest_shift(previous) < cell / 2:
