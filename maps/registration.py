@@ -9,14 +9,17 @@ and resolution, which may differ), from the walls alone:
 1. every turn within :data:`MAX_TURN` degrees in steps of 2 degrees, each with every shift,
    on 0.4 m cells: the shift is the peak of the cross-correlation of the two maps' walls
    (scipy's FFT), which finds a map moved by metres and one that covers only part of the other;
-2. the turns within a degree of the best (and of :data:`MAX_TURN`) in quarter-degree steps, on
-   0.2 m cells, near it;
+   twice: anywhere, and within :data:`NEAR` metres (of shifts that fit alike, the nearest);
+2. for each, the turns within a degree of it (and of :data:`MAX_TURN`) in quarter-degree
+   steps, on 0.2 m cells, near it;
 3. iterative closest points (scipy's ``cKDTree``) from the walls thinned to 0.1 m to the other
    map's, pairs farther apart than 0.3 m left out (walls that are in one map only): to a
    fraction of a cell (not kept if it turns the map beyond :data:`MAX_TURN`).
 
-A move that shifts no cell by half a cell, or that lays no more walls on walls than none, is no
-move (:class:`Placement` ``()``).
+Of the two, the one that lays more walls on walls (within a cell), the near one when they lay
+as many: where rooms repeat, a small map's walls fit as well at every room, and the move a
+loop closure makes is the near one. A move that shifts no cell by half a cell, or that lays no
+more walls on walls than none, is no move (:class:`Placement` ``()``).
 """
 
 from __future__ import annotations
@@ -43,6 +46,9 @@ PAIRED = 0.3
 MAX_CANVAS = 512
 #: Wall points the last step pairs at most (evenly spread over the walls).
 MAX_PAIRS = 4000
+#: Metres a frame moves at most when a loop closure or a SLAM re-run corrects it: a move this
+#: near that lays as many walls on walls as the best one anywhere is taken over it.
+NEAR = 3.0
 
 
 @dataclass(frozen=True)
@@ -117,25 +123,31 @@ def register(previous: OccupancyGrid, grid: OccupancyGrid) -> Placement:
     span = float(np.ptp(target, axis=0).max()) + 2 * reach
     steps[0] = max(steps[0], span / MAX_CANVAS)
     coarse = np.arange(-MAX_TURN, MAX_TURN + 1e-9, 2.0)
-    degrees, shift = _best_shift(walls, target, about, coarse, steps[0])
-    fine = degrees + np.arange(-1.0, 1.0 + 1e-9, 0.25)
-    fine = fine[np.abs(fine) <= MAX_TURN + 1e-9]
-    degrees, shift = _best_shift(walls, target, about, fine, steps[1], shift)
     sample = _thinned(walls, steps[2])
     tree, sample = cKDTree(target), sample[:: -(-len(sample) // MAX_PAIRS)]
-    closest = _closest_points(sample, tree, about, degrees, shift)
-    if abs(closest[0]) <= MAX_TURN:  # beyond: pulled off by walls of another place, not kept
-        degrees, shift = closest
-    offset = about + shift - _turned(about[None], degrees)[0]
-    found = Placement(float(offset[0]), float(offset[1]), degrees)
+
+    def refined(degrees: float, shift: NDArray[np.float64]) -> Placement:
+        fine = degrees + np.arange(-1.0, 1.0 + 1e-9, 0.25)
+        fine = fine[np.abs(fine) <= MAX_TURN + 1e-9]
+        degrees, shift = _best_shift(walls, target, about, fine, steps[1], shift)
+        closest = _closest_points(sample, tree, about, degrees, shift)
+        if abs(closest[0]) <= MAX_TURN:  # beyond: pulled off by walls of another place
+            degrees, shift = closest
+        offset = about + shift - _turned(about[None], degrees)[0]
+        return Placement(float(offset[0]), float(offset[1]), degrees)
+
+    def on_walls(move: Placement) -> int:
+        distance = tree.query(move.apply(sample), distance_upper_bound=cell)[0]
+        return int(np.count_nonzero(np.isfinite(distance)))
+
+    # the best move anywhere, and the best within NEAR: where rooms repeat, a far move can lay
+    # a small map's walls as well as the true one; of two that do, the nearer is the one
+    near = refined(*_best_shift(walls, target, about, coarse, steps[0], near=NEAR))
+    anywhere = refined(*_best_shift(walls, target, about, coarse, steps[0]))
+    found = near if on_walls(near) >= on_walls(anywhere) else anywhere
     if found.largest_shift(previous) < cell / 2:
         return Placement()
-    on_walls = [
-        tree.query(move.apply(sample), distance_upper_bound=cell)[0]
-        for move in (Placement(), found)
-    ]
-    none, best = (np.count_nonzero(np.isfinite(d)) for d in on_walls)
-    return found if best > none else Placement()
+    return found if on_walls(found) > on_walls(Placement()) else Placement()
 
 
 def _walls(grid: OccupancyGrid) -> NDArray[np.float64]:
@@ -178,11 +190,13 @@ def _best_shift(
     turns: NDArray[np.float64],
     step: float,
     start: NDArray[np.float64] | None = None,
+    near: float | None = None,
 ) -> tuple[float, NDArray[np.float64]]:
     """Of ``turns`` (about ``about``) and the shifts, the one that lays the most of ``walls``
     on ``target`` (blurred by a cell), on ``step``-sided cells: ``(degrees, shift)``. Every
     shift, or with ``start`` those within two cells twice as large of it (the previous step's
-    shift: a canvas the size of the walls, not of both maps)."""
+    shift: a canvas the size of the walls, not of both maps), or with ``near`` those that
+    move the frame's origin at most ``near`` metres."""
     walls, target = _thinned(walls, step), _thinned(target, step)
     if start is None:
         reach = np.full(2, float(np.hypot(*(walls - about).T).max()) + step)
@@ -195,14 +209,23 @@ def _best_shift(
     spectrum = fft.rfft2(cv2.GaussianBlur(_raster(target, low, shape, step), (0, 0), 1.0))
     anchor = low + np.array(shape[::-1]) * step / 2 if start is None else about + start
     size = np.array(shape[::-1])
-    best, found = -1.0, (0.0, np.zeros(2))
+    if near is not None:  # each cell's shift in cells (x, y), as the peak's is read below
+        grid = np.indices(shape)[::-1].astype(float)
+        wrapped = np.where(grid > size[:, None, None] // 2, grid - size[:, None, None], grid)
+    best, found = -np.inf, (0.0, np.zeros(2))
     for degrees in turns:
         image = _raster(_turned(walls - about, degrees) + anchor, low, shape, step)
         scores = fft.irfft2(spectrum * np.conj(fft.rfft2(image)), s=shape)
         if start is not None:  # wrapped around beyond 4 cells: not searched
             scores[5:-4] = scores[:, 5:-4] = 0
-        peak = np.unravel_index(int(np.argmax(scores)), shape)
-        if scores[peak] > best:
+        searched = scores
+        if near is not None:  # the frame's origin moves by anchor + cells * step - turned about
+            origin = anchor - _turned(about[None], float(degrees))[0]
+            moves = np.hypot(*(origin[:, None, None] + wrapped * step))
+            # of shifts that fit alike (rooms that repeat), the nearest
+            searched = np.where(moves <= near, scores - moves * 1e-6 * scores.max(), -np.inf)
+        peak = np.unravel_index(int(np.argmax(searched)), shape)
+        if searched[peak] > best:
             cells = np.array(peak[::-1]) + _vertex(scores, peak)
             cells = np.where(cells > size // 2, cells - size, cells)
             best, found = float(scores[peak]), (float(degrees), anchor - about + cells * step)
