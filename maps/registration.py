@@ -129,7 +129,7 @@ def register(previous: OccupancyGrid, grid: OccupancyGrid) -> Placement:
     def refined(degrees: float, shift: NDArray[np.float64]) -> Placement:
         fine = degrees + np.arange(-1.0, 1.0 + 1e-9, 0.25)
         fine = fine[np.abs(fine) <= MAX_TURN + 1e-9]
-        degrees, shift = _best_shift(walls, target, about, fine, steps[1], shift)
+        ((degrees, shift),) = _best_shift(walls, target, about, fine, steps[1], shift)
         closest = _closest_points(sample, tree, about, degrees, shift)
         if abs(closest[0]) <= MAX_TURN:  # beyond: pulled off by walls of another place
             degrees, shift = closest
@@ -142,12 +142,14 @@ def register(previous: OccupancyGrid, grid: OccupancyGrid) -> Placement:
 
     # the best move anywhere, and the best within NEAR: where rooms repeat, a far move can lay
     # a small map's walls as well as the true one; of two that do, the nearer is the one
-    near = refined(*_best_shift(walls, target, about, coarse, steps[0], near=NEAR))
-    anywhere = refined(*_best_shift(walls, target, about, coarse, steps[0]))
-    found = near if on_walls(near) >= on_walls(anywhere) else anywhere
-    if found.largest_shift(previous) < cell / 2:
+    anywhere, near = (
+        refined(*move) for move in _best_shift(walls, target, about, coarse, steps[0], near=NEAR)
+    )
+    fits = {move: on_walls(move) for move in (near, anywhere, Placement())}
+    found = near if fits[near] >= fits[anywhere] else anywhere
+    if found.largest_shift(previous) < cell / 2 or fits[found] <= fits[Placement()]:
         return Placement()
-    return found if on_walls(found) > on_walls(Placement()) else Placement()
+    return found
 
 
 def _walls(grid: OccupancyGrid) -> NDArray[np.float64]:
@@ -191,12 +193,13 @@ def _best_shift(
     step: float,
     start: NDArray[np.float64] | None = None,
     near: float | None = None,
-) -> tuple[float, NDArray[np.float64]]:
+) -> list[tuple[float, NDArray[np.float64]]]:
     """Of ``turns`` (about ``about``) and the shifts, the one that lays the most of ``walls``
-    on ``target`` (blurred by a cell), on ``step``-sided cells: ``(degrees, shift)``. Every
+    on ``target`` (blurred by a cell), on ``step``-sided cells: ``[(degrees, shift)]``. Every
     shift, or with ``start`` those within two cells twice as large of it (the previous step's
-    shift: a canvas the size of the walls, not of both maps), or with ``near`` those that
-    move the frame's origin at most ``near`` metres."""
+    shift: a canvas the size of the walls, not of both maps); with ``near``, the same
+    correlations give a second: the best of the shifts that move the frame's origin at most
+    ``near`` metres (of those that fit alike, the nearest)."""
     walls, target = _thinned(walls, step), _thinned(target, step)
     if start is None:
         reach = np.full(2, float(np.hypot(*(walls - about).T).max()) + step)
@@ -212,23 +215,26 @@ def _best_shift(
     if near is not None:  # each cell's shift in cells (x, y), as the peak's is read below
         grid = np.indices(shape)[::-1].astype(float)
         wrapped = np.where(grid > size[:, None, None] // 2, grid - size[:, None, None], grid)
-    best, found = -np.inf, (0.0, np.zeros(2))
+    searches = 1 if near is None else 2
+    best = [-np.inf] * searches
+    found = [(0.0, np.zeros(2))] * searches
     for degrees in turns:
         image = _raster(_turned(walls - about, degrees) + anchor, low, shape, step)
         scores = fft.irfft2(spectrum * np.conj(fft.rfft2(image)), s=shape)
         if start is not None:  # wrapped around beyond 4 cells: not searched
             scores[5:-4] = scores[:, 5:-4] = 0
-        searched = scores
+        searched = [scores]
         if near is not None:  # the frame's origin moves by anchor + cells * step - turned about
             origin = anchor - _turned(about[None], float(degrees))[0]
             moves = np.hypot(*(origin[:, None, None] + wrapped * step))
-            # of shifts that fit alike (rooms that repeat), the nearest
-            searched = np.where(moves <= near, scores - moves * 1e-6 * scores.max(), -np.inf)
-        peak = np.unravel_index(int(np.argmax(searched)), shape)
-        if searched[peak] > best:
-            cells = np.array(peak[::-1]) + _vertex(scores, peak)
-            cells = np.where(cells > size // 2, cells - size, cells)
-            best, found = float(scores[peak]), (float(degrees), anchor - about + cells * step)
+            searched.append(np.where(moves <= near, scores - moves * 1e-6 * scores.max(), -np.inf))
+        for i, values in enumerate(searched):
+            peak = np.unravel_index(int(np.argmax(values)), shape)
+            if values[peak] > best[i]:
+                cells = np.array(peak[::-1]) + _vertex(scores, peak)
+                cells = np.where(cells > size // 2, cells - size, cells)
+                best[i] = float(values[peak])
+                found[i] = (float(degrees), anchor - about + cells * step)
     return found
 
 
