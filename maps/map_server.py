@@ -58,11 +58,9 @@ def cells_from_image(
         problem = finite_in(value, name, 0.0, 1.0)
         if problem is not None:
             raise MapFormatError(problem, field=name)
-    if free_thresh > occupied_thresh:
-        raise MapFormatError(
-            f"free_thresh {free_thresh} is above occupied_thresh {occupied_thresh}",
-            field="free_thresh",
-        )
+    problem = _order_problem(mode, occupied_thresh, free_thresh)
+    if problem is not None:
+        raise MapFormatError(problem, field="free_thresh")
     pixels = np.asarray(image)
     if pixels.ndim not in (2, 3) or (pixels.ndim == 3 and not 1 <= pixels.shape[2] <= 4):
         raise MapFormatError(
@@ -90,6 +88,20 @@ def cells_from_image(
         trinary = _cell_table(grey, "trinary", negate, occupied_thresh, free_thresh)
         cells[transparent] = trinary[total[transparent]]
     return cells
+
+
+def _order_problem(mode: str, occupied_thresh: float, free_thresh: float) -> str | None:
+    """What is wrong with the thresholds' order in ``mode``, or None: ``free_thresh`` above
+    ``occupied_thresh``, or equal to it in scale mode (a grey on both would be scaled by
+    0 / 0, which map_server leaves undefined)."""
+    if free_thresh > occupied_thresh:
+        return f"free_thresh {free_thresh} is above occupied_thresh {occupied_thresh}"
+    if mode == "scale" and free_thresh == occupied_thresh:
+        return (
+            f"free_thresh {free_thresh} equals occupied_thresh: scale mode has no range to "
+            "scale between them"
+        )
+    return None
 
 
 def _cell_table(
@@ -398,6 +410,24 @@ class _PlainLoader(yaml.SafeLoader):
             )
         return super().compose_node(parent, index)
 
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        """The mapping, a key written twice refused (PyYAML keeps the last value, map_server's
+        yaml-cpp the first)."""
+        lines: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            if not isinstance(key_node, yaml.ScalarNode) or key_node.tag.endswith(":merge"):
+                continue  # a collection as a key is refused as unhashable; << merges
+            key = self.construct_object(key_node)
+            if key in lines:
+                raise yaml.constructor.ConstructorError(
+                    "while constructing a mapping",
+                    node.start_mark,
+                    f"found key {key!r} twice (first on line {lines[key]})",
+                    key_node.start_mark,
+                )
+            lines[key] = key_node.start_mark.line + 1
+        return super().construct_mapping(node, deep)
+
 
 def parse_yaml(path: str | Path, *, limit: int = MAX_YAML_BYTES) -> Any:
     """The data of a small YAML file (data only, as ``safe_load`` reads it, without
@@ -470,18 +500,15 @@ def load_map(path: str | Path) -> OccupancyGrid:
     resolution = _number(doc, "resolution", path, *RESOLUTION_RANGE)
     occupied = _number(doc, "occupied_thresh", path, 0.0, 1.0)
     free = _number(doc, "free_thresh", path, 0.0, 1.0)
-    if free > occupied:
-        raise MapFormatError(
-            f"free_thresh {free} is above occupied_thresh {occupied}",
-            path=path,
-            field="free_thresh",
-        )
     negate = doc.get("negate")
     if negate not in (0, 1):  # True and False compare equal to 1 and 0
         raise MapFormatError(f"expected 0 or 1, got {negate!r}", path=path, field="negate")
     mode = doc.get("mode", "trinary")
     if mode not in MODES:
         raise MapFormatError(f"expected one of {MODES}, got {mode!r}", path=path, field="mode")
+    problem = _order_problem(mode, occupied, free)
+    if problem is not None:
+        raise MapFormatError(problem, path=path, field="free_thresh")
     origin = doc.get("origin")
     if isinstance(origin, list):
         origin = [_yaml_number(v) for v in origin]

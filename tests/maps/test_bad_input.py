@@ -161,6 +161,14 @@ def test_a_yaml_error_is_one_line_with_its_line(tmp_path):
     assert "\n" not in str(info.value) and info.value.line == 3 and "line 2" in str(info.value)
 
 
+def test_a_yaml_naming_a_field_twice_is_refused_with_both_lines(tmp_path):
+    # PyYAML keeps the last value, map_server's yaml-cpp the first: neither is safe to guess
+    path = _map(tmp_path, YAML + THRESHOLDS + "resolution: 5\n")
+    with pytest.raises(MapFormatError) as info:
+        load_map(path)
+    assert info.value.line == 7 and "'resolution' twice (first on line 2)" in str(info.value)
+
+
 def _bag(tmp_path):
     store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "run.bag"
     with Writer1(path) as writer:

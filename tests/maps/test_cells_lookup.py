@@ -4,11 +4,12 @@ every pixel that it replaced (random images, every mode)."""
 import cv2
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from maps.map_server import FREE, OCCUPIED, UNKNOWN, cells_from_image, read_image
+from maps.errors import MapFormatError
+from maps.map_server import FREE, OCCUPIED, UNKNOWN, cells_from_image, load_map, read_image
 
 
 def cell_plain(grey, alpha, mode, negate, occupied_thresh, free_thresh):
@@ -57,6 +58,7 @@ shapes = st.tuples(st.integers(1, 8), st.integers(1, 8)).flatmap(
     st.sampled_from([(0.65, 0.196), (0.65, 0.05), (0.9, 0.1), (0.5, 0.5)]),
 )
 def test_cells_equal_the_arithmetic_on_every_pixel(image, mode, negate, thresholds):
+    assume(mode != "scale" or thresholds[0] != thresholds[1])  # refused: no range to scale
     options = dict(
         mode=mode, negate=negate, occupied_thresh=thresholds[0], free_thresh=thresholds[1]
     )
@@ -71,3 +73,22 @@ def test_colour_images_are_read_in_rgb_order(tmp_path, channels):
     cv2.imwrite(str(tmp_path / "map.png"), bgr)
     order = [2, 1, 0, 3][:channels]
     assert read_image(tmp_path / "map.png").tolist() == bgr[:, :, order].tolist()
+
+
+@pytest.mark.parametrize("threshold", [0.0, 0.2, 1.0])
+def test_a_scale_map_with_equal_thresholds_is_refused(tmp_path, threshold):
+    # a grey exactly on both (white, 204, black) would be scaled by 0 / 0: map_server's
+    # undefined cast, NumPy's free cell with a warning
+    options = dict(mode="scale", occupied_thresh=threshold, free_thresh=threshold)
+    with pytest.raises(MapFormatError, match=r"free_thresh.*no range to scale"):
+        cells_from_image(np.array([[0, 204, 255]], np.uint8), **options)
+    cv2.imwrite(str(tmp_path / "map.pgm"), np.zeros((2, 2), np.uint8))
+    (tmp_path / "map.yaml").write_text(
+        f"image: map.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nnegate: 0\nmode: scale\n"
+        f"occupied_thresh: {threshold}\nfree_thresh: {threshold}\n"
+    )
+    with pytest.raises(MapFormatError, match=r"map\.yaml, field 'free_thresh'.*no range"):
+        load_map(tmp_path / "map.yaml")
+    options["mode"] = "trinary"  # the grey on them is unknown
+    on_both = np.array([[round(255 * (1 - threshold))]], np.uint8)
+    assert cells_from_image(on_both, **options).tolist() == [[UNKNOWN]]
