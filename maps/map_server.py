@@ -49,6 +49,12 @@ def cells_from_image(
     channels) is never averaged in (map_server averages it in trinary mode, a legacy quirk that
     turns grey 245 with opaque alpha into free space and breaks the rule "grey >= 250 is free"
     of the room-segmentation benchmark); in scale mode a fully transparent pixel is unknown.
+
+    Raises
+    ------
+    MapFormatError
+        An unknown mode, thresholds out of order, or an image that is not a uint8 array of
+        rows x columns (x 1-4 channels).
     """
     if mode not in MODES:
         raise MapFormatError(f"unknown mode {mode!r}, expected one of {MODES}", field="mode")
@@ -67,6 +73,8 @@ def cells_from_image(
             f"an image is rows x columns (x 1-4 channels), got shape {pixels.shape}",
             field="image",
         )
+    if pixels.dtype != np.uint8:  # a 16-bit grey would index past the table
+        raise MapFormatError(f"an image array must be uint8, got {pixels.dtype}", field="image")
     if pixels.ndim == 2:
         pixels = pixels[:, :, None]
     channels = pixels.shape[2]
@@ -78,7 +86,7 @@ def cells_from_image(
     # every sum's cell, looked up: the arithmetic on the 256 grey values, not on every pixel
     grey = np.arange(255 * averaged + 1) // averaged
     table = _cell_table(grey, mode, negate, occupied_thresh, free_thresh)
-    if averaged == 1 and pixels.dtype == np.uint8:  # OpenCV's lookup, 5x numpy's gather
+    if averaged == 1:  # OpenCV's lookup, 5x numpy's gather
         grey_pixels = np.ascontiguousarray(pixels[:, :, 0])
         cells = cv2.LUT(grey_pixels, table.view(np.uint8)).view(np.int8)
     else:
@@ -354,9 +362,7 @@ def grid_from_image(
     free_thresh: float = 0.196,
 ) -> OccupancyGrid:
     """An occupancy grid from an image file or an 8-bit array and a resolution in metres."""
-    pixels = read_image(image) if isinstance(image, str | Path) else np.asarray(image)
-    if pixels.dtype != np.uint8:
-        raise MapFormatError(f"an image array must be uint8, got {pixels.dtype}")
+    pixels = read_image(image) if isinstance(image, str | Path) else image
     cells = cells_from_image(
         pixels, mode=mode, negate=negate, occupied_thresh=occupied_thresh, free_thresh=free_thresh
     )

@@ -92,3 +92,19 @@ def test_a_scale_map_with_equal_thresholds_is_refused(tmp_path, threshold):
     options["mode"] = "trinary"  # the grey on them is unknown
     on_both = np.array([[round(255 * (1 - threshold))]], np.uint8)
     assert cells_from_image(on_both, **options).tolist() == [[UNKNOWN]]
+
+
+@pytest.mark.parametrize(
+    "image",
+    [
+        np.array([[0, 1000]]),  # a table index out of range, a 16-bit grey
+        np.array([[65535]], np.uint16),
+        np.array([[-5]], np.int16),
+        np.array([[0.5, np.nan]]),  # read as black (occupied) with a warning
+        np.array([[True, False]]),
+        np.array([[None]], object),
+    ],
+)
+def test_an_image_array_that_is_not_8_bit_is_refused(image):
+    with pytest.raises(MapFormatError, match=f"image array must be uint8, got {image.dtype}"):
+        cells_from_image(image)
