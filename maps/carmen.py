@@ -44,7 +44,8 @@ def _lines(path: Path) -> Iterator[tuple[int, str]]:
         with path.open("rb") as raw:
             gzipped = raw.read(2) == b"\x1f\x8b"
         opener = gzip.open if gzipped else open
-        with opener(path, "rt", encoding="utf-8", errors="strict") as text:
+        # utf-8-sig: a byte order mark (Windows editors write one) is not part of line 1
+        with opener(path, "rt", encoding="utf-8-sig", errors="strict") as text:
             for number in range(1, MAX_LOG_LINES + 2):
                 line = text.readline(MAX_LINE_CHARS)
                 if not line:
@@ -146,12 +147,6 @@ class _Line:
             field,
         )
 
-    def stamp_at(self, index: int) -> float | None:
-        try:
-            return float(self.tokens[index])
-        except (IndexError, ValueError):
-            return None
-
 
 def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
     """Read every laser scan of a CARMEN log, in line order.
@@ -208,17 +203,18 @@ def read_carmen(path: str | Path, *, max_range: float = 50.0) -> list[Keyframe]:
             pose = line.pose_at(at, names)
             # start_angle ... the counts and values, then 12 numbers before the host name
             line.check_numbers(at - 2 + 12, "num_readings")
-            stamp = line.stamp_at(at + 11)
+            stamp = line.number_at(at + 11, "ipc_timestamp")
         else:
             beams = line.count_at(1, "n")
-            if beams == 0:
-                raise line.error("a scan needs at least one beam", "n")
             ranges = line.ranges(2, beams)
             names = ("x", "y", "theta")
             pose = line.pose_at(2 + beams, names)
             line.check_numbers(beams + 7, "n")  # ranges, two poses, the ipc stamp
             start, increment = -math.pi / 2, carmen_angle_increment(beams)
-            stamp = line.stamp_at(2 + beams + 6)
+            stamp = line.number_at(2 + beams + 6, "ipc_timestamp")
+        if beams == 0:
+            field = "num_readings" if tokens[0] == ROBOTLASER else "n"
+            raise line.error("a scan needs at least one beam", field)
         if increment == 0:
             raise line.error("angular resolution must not be 0", "angular_resolution")
         if abs(start) > 2 * math.pi or abs(increment) * (beams - 1) > 2 * math.pi + 1e-6:

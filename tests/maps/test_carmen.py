@@ -63,6 +63,9 @@ def test_plain_text_robotlaser_and_comments(tmp_path):
         ("FLASER 3 1.0 1.0 2.0 0 0\n", "theta"),
         ("FLASER three 1.0\n", "n"),
         ("FLASER 2.5 1.0\n", "n"),
+        ("FLASER 1 1.0 0 0 0 0 0 0 nan host 7\n", "ipc_timestamp"),
+        ("FLASER 1 1.0 0 0 0 0 0 0 -inf\n", "ipc_timestamp"),
+        ("ROBOTLASER1 0 -1 2 0.5 80 0.01 0 0 0 3 4 0.1 3 4 0.1 0 0 0 0 0 9 h 9\n", "num_readings"),
     ],
 )
 def test_bad_lines_name_line_and_field(tmp_path, text, field):
@@ -72,6 +75,12 @@ def test_bad_lines_name_line_and_field(tmp_path, text, field):
         read_carmen(path)
     assert info.value.line == 2 and info.value.field == field
     assert "bad.log" in str(info.value) and "line 2" in str(info.value)
+
+
+def test_a_byte_order_mark_is_no_part_of_the_first_line(tmp_path):
+    path = tmp_path / "notepad.log"
+    path.write_text(_line([1.0, 2.0]) * 2, encoding="utf-8-sig")
+    assert [frame.scan_index for frame in read_carmen(path)] == [0, 1]
 
 
 def test_bad_max_range(tmp_path):
