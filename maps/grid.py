@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from maps.errors import InvalidMapError
 from maps.limits import MAX_COORDINATE, MAX_LENGTH, RESOLUTION_RANGE, check_map_size, finite_in
-from maps.tf import quaternion_from_yaw, yaw_from_quaternion
+from maps.tf import is_rotation, quaternion_from_yaw, yaw_from_quaternion
 
 if TYPE_CHECKING:
     from typing import Self
@@ -184,7 +184,7 @@ class OccupancyGrid:
             origin = _field(info, "origin")
             position, rotation = _field(origin, "position"), _field(origin, "orientation")
             quaternion = [float(_field(rotation, k)) for k in "xyzw"]
-            if not math.hypot(*quaternion) > 1e-9:  # NaN fails too
+            if not is_rotation(*quaternion):
                 raise InvalidMapError(
                     f"OccupancyGrid field 'info.origin.orientation' is no rotation: {quaternion}"
                 )

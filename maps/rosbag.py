@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import itertools
 import logging
-import math
 import sqlite3
 import struct
 from collections.abc import Iterator, Sequence
@@ -28,7 +27,7 @@ from maps.errors import (
 from maps.grid import OccupancyGrid
 from maps.limits import no_valid_beam, pose_jump
 from maps.scan import Keyframe, LaserScan
-from maps.tf import TOLERANCE, TransformTree, frame_problem, yaw_from_quaternion
+from maps.tf import TOLERANCE, TransformTree, frame_problem, is_rotation, yaw_from_quaternion
 
 log = logging.getLogger(__name__)
 
@@ -77,7 +76,7 @@ def _pose_of(message: Any) -> tuple[float, float, float]:
         pose = pose.pose
     q = pose.orientation
     quaternion = (float(q.x), float(q.y), float(q.z), float(q.w))
-    if not math.hypot(*quaternion) > 1e-9:  # NaN fails too
+    if not is_rotation(*quaternion):
         raise InvalidScanError(f"orientation {quaternion} is no rotation")
     return float(pose.position.x), float(pose.position.y), yaw_from_quaternion(*quaternion)
 

@@ -34,14 +34,24 @@ TOLERANCE = 0.2
 TILT = 10.0
 
 
+def is_rotation(x: float, y: float, z: float, w: float) -> bool:
+    """Whether a quaternion names a rotation: finite, and not (nearly) zero."""
+    return 1e-9 < math.hypot(x, y, z, w) < math.inf
+
+
 def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
-    """The rotation about z of a quaternion, radians.
+    """The rotation about z of a quaternion of any length (normalised first, as tf2 does; see
+    :func:`is_rotation`), radians.
 
     Examples
     --------
     >>> round(yaw_from_quaternion(0.0, 0.0, math.sin(0.25), math.cos(0.25)), 6)
     0.5
+    >>> round(yaw_from_quaternion(0.0, 0.0, 1.0, 1.0), 6)  # a quarter turn
+    1.570796
     """
+    norm = math.hypot(x, y, z, w)
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
     return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 

@@ -95,6 +95,21 @@ def test_bag_round_trip(tmp_path, ros1):
         assert frame.scan.angle_increment == 0.5 and frame.scan.range_max == 20.0
 
 
+def _lengthened(scans, poses):
+    """Every orientation ten times as long: the same rotations (tf2 normalises them)."""
+    for pose in poses:
+        q = pose.pose.orientation
+        q.x, q.y, q.z, q.w = (10 * v for v in (q.x, q.y, q.z, q.w))
+
+
+def test_a_pose_topic_quaternion_of_any_length_is_its_rotation(tmp_path):
+    store, path = get_typestore(Stores.ROS1_NOETIC), tmp_path / "long.bag"
+    with Writer1(path) as writer:
+        _write(writer, store, True, edit=_lengthened)
+    poses = np.array([frame.pose for frame in read_rosbag(path)])
+    assert poses == pytest.approx(np.array([(i + 0.5, 2.0, 0.1 * (i + 0.5)) for i in range(5)]))
+
+
 def test_bad_bags(tmp_path):
     with pytest.raises(MapFileNotFoundError):
         read_rosbag(tmp_path / "missing.bag")
@@ -114,6 +129,11 @@ def _unturned(scans, poses):
     orientation.x = orientation.y = orientation.z = orientation.w = 0.0
 
 
+def _endless(scans, poses):
+    """The fourth pose's orientation infinite."""
+    poses[3].pose.orientation.w = math.inf
+
+
 def _later(scans, poses):
     """The poses stamped 1,000 s after the scans."""
     for pose in poses:
@@ -128,6 +148,7 @@ def _later(scans, poses):
         ("far.bag", {"far": True}, r"far\.bag.*/scan message 2.*jumps.*message 1"),
         ("blind.bag", {"blind": True}, r"blind\.bag.*5 scans of 15 beams.*no beam"),
         ("still.bag", {"edit": _unturned}, r"still\.bag, field '/pose message 3'.*no rotation"),
+        ("endless.bag", {"edit": _endless}, r"endless\.bag, field '/pose message 3'.*no rotation"),
         (
             "late.bag",
             {"edit": _later},

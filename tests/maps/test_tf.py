@@ -8,7 +8,7 @@ from hypothesis.extra.numpy import arrays
 
 from maps.errors import InvalidMapError, TransformError
 from maps.grid import OccupancyGrid
-from maps.tf import TransformTree, quaternion_from_yaw
+from maps.tf import TransformTree, quaternion_from_yaw, yaw_from_quaternion
 
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
 
@@ -91,6 +91,20 @@ def test_msg_fields_errors_name_the_field():
     del fields["info"]["resolution"]
     with pytest.raises(InvalidMapError, match="'resolution'"):
         OccupancyGrid.from_msg_fields(fields)
+    fields["info"]["resolution"] = 0.1
+    turned = {"x": 0.0, "y": 0.0, "z": 1.0, "w": 1.0}  # a quarter turn, not normalised
+    fields["info"]["origin"]["orientation"] = turned
+    assert OccupancyGrid.from_msg_fields(fields).origin[2] == pytest.approx(math.pi / 2)
+    fields["info"]["origin"]["orientation"] = {**turned, "w": math.inf}
+    with pytest.raises(InvalidMapError, match=r"'info\.origin\.orientation' is no rotation"):
+        OccupancyGrid.from_msg_fields(fields)
+
+
+@given(yaw=st.floats(-3.1, 3.1), length=st.floats(1e-6, 1e300))
+def test_the_yaw_of_a_quaternion_of_any_length_is_its_rotation(yaw, length):
+    # tf2 normalises a message's quaternion; (0, 0, 1, 1) is a quarter turn
+    quaternion = [length * v for v in quaternion_from_yaw(yaw)]
+    assert yaw_from_quaternion(*quaternion) == pytest.approx(yaw, abs=1e-9)
 
 
 poses = st.tuples(st.floats(-50, 50), st.floats(-50, 50), st.floats(-3.1, 3.1))
