@@ -65,8 +65,16 @@ def _pick_topic(
     return matching[0]
 
 
+#: Nanoseconds in a second: a header stamp's ``nanosec`` lies below it.
+NANOSECONDS = 1_000_000_000
+
+
 def _stamp(message: Any) -> float:
+    """The header stamp in seconds; a ``nanosec`` of a second or more (a corrupt field, or a
+    converter's whole stamp in nanoseconds) is refused, not read as seconds later."""
     stamp = message.header.stamp
+    if not 0 <= stamp.nanosec < NANOSECONDS:
+        raise InvalidScanError(f"header stamp nanosec {stamp.nanosec} is not below {NANOSECONDS}")
     return float(stamp.sec) + 1e-9 * float(stamp.nanosec)
 
 
@@ -307,11 +315,11 @@ def read_bag_scans(
             message = _deserialize(reader, raw, connection, path)
             if connection.topic == scan_name:
                 try:
-                    scan = LaserScan.from_msg_fields(message)
+                    scan, stamp = LaserScan.from_msg_fields(message), _stamp(message)
                 except InvalidScanError as err:
                     field = f"{scan_name} message {len(scans)}"
                     raise LogFormatError(str(err), path=path, field=field) from err
-                scans.append((_stamp(message), message.header.frame_id, scan))
+                scans.append((stamp, message.header.frame_id, scan))
             elif connection.topic == pose_name:
                 try:
                     poses.append((_stamp(message), _pose_of(message)))
@@ -371,12 +379,17 @@ def _check_jumps(frames: list[Keyframe], path: Path, scan_name: str) -> None:
 def _add_transforms(tree: TransformTree, message: Any, *, static: bool) -> None:
     for item in message.transforms:
         t, r = item.transform.translation, item.transform.rotation
+        try:
+            stamp = None if static else _stamp(item)
+        except InvalidScanError as err:
+            link = f"{item.header.frame_id!r} -> {item.child_frame_id!r}"
+            raise TransformError(f"link {link}: {err}") from None
         tree.add(
             item.header.frame_id,
             item.child_frame_id,
             (float(t.x), float(t.y), float(t.z)),
             (float(r.x), float(r.y), float(r.z), float(r.w)),
-            stamp=None if static else _stamp(item),
+            stamp=stamp,
         )
 
 

@@ -134,6 +134,11 @@ def _endless(scans, poses):
     poses[3].pose.orientation.w = math.inf
 
 
+def _overflowing(scans, poses):
+    """The last scan stamped 4e9 ns past its second: 4 s later, or a corrupt field."""
+    scans[4].header.stamp.nanosec = 4_000_000_000
+
+
 def _later(scans, poses):
     """The poses stamped 1,000 s after the scans."""
     for pose in poses:
@@ -149,6 +154,7 @@ def _later(scans, poses):
         ("blind.bag", {"blind": True}, r"blind\.bag.*5 scans of 15 beams.*no beam"),
         ("still.bag", {"edit": _unturned}, r"still\.bag, field '/pose message 3'.*no rotation"),
         ("endless.bag", {"edit": _endless}, r"endless\.bag, field '/pose message 3'.*no rotation"),
+        ("ns.bag", {"edit": _overflowing}, r"ns\.bag, field '/scan message 4'.*nanosec 4000000000"),
         (
             "late.bag",
             {"edit": _later},
@@ -251,6 +257,12 @@ def _unturned_tf(records):
     rotation.x = rotation.y = rotation.z = rotation.w = 0.0
 
 
+def _overflowing_tf(records):
+    """/tf message 3's first transform stamped a whole second in nanoseconds."""
+    item = [m for _, c, m, _ in records if c.topic == "/tf"][3].transforms[0]
+    item.header.stamp.nanosec = 1_000_000_000
+
+
 @pytest.mark.parametrize(
     ("kind", "edit", "shown"),
     [
@@ -259,6 +271,7 @@ def _unturned_tf(records):
         ("mcap", _renamed("/tf", 0, 0, "/"), r"field '/tf message 0'.*'/' -> 'base_link'.*empty"),
         ("ros1", _renamed("/tf_static", 0, 1, ""), r"field '/tf_static message 0'.*empty"),
         ("ros1", _unturned_tf, r"field '/tf message 7'.*rotation \(0\.0, 0\.0, 0\.0, 0\.0\)"),
+        ("ros1", _overflowing_tf, r"field '/tf message 3'.*nanosec 1000000000"),
     ],
 )
 def test_a_malformed_transform_is_refused_naming_bag_topic_and_message(
