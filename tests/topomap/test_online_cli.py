@@ -10,7 +10,10 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from maps.errors import MapTooLargeError
+from maps.scan import Keyframe, LaserScan
 from topomap.cli.main import main
+from topomap.cli.online import run_online
+from topomap.errors import UsageError
 from topomap.topomap import TopoMap
 
 
@@ -236,3 +239,10 @@ def test_online_refuses_a_run_larger_than_memory_before_any_fit(tmp_path, capsys
         assert _online(log, tmp_path / "out", "--online-method", method) == 2
         assert capsys.readouterr().err.strip() == f"topomap: error: {log}: {offline}"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["walk.log"]
+
+
+@pytest.mark.parametrize("seed", [None, 2])
+def test_online_refuses_fewer_than_two_keyframes_by_their_count(seed):
+    scan = LaserScan(np.full(181, 2.0), -math.pi / 2, math.pi / 180, 0.0, 30.0)
+    with pytest.raises(UsageError, match="at least 2 keyframes, got 1"):
+        run_online([Keyframe((0.0, 0.0, 0.0), scan)], seed_keyframes=seed)

@@ -143,6 +143,8 @@ def run_online(
         raise UsageError(
             f"--online-method must be one of {', '.join(ONLINE_METHODS)}, got {method!r}"
         )
+    if len(keyframes) < 2:
+        raise UsageError(f"an online run needs at least 2 keyframes, got {len(keyframes)}")
     if seed_keyframes is None:
         seed_keyframes = default_seed(len(keyframes))
     if not 2 <= seed_keyframes <= len(keyframes):
