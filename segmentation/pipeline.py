@@ -5,8 +5,9 @@ Stages, each timed in :attr:`Segmentation.seconds`:
 1. ``condition``: the map's building space and its clutter (:mod:`segmentation.conditioning`).
 2. ``places``: watershed basins of the clearance (:func:`segmentation.refine.basins`) measured
    in the conditioned space, where furniture does not count as wall and the gaps of straight
-   walls are closed but for a hole (:func:`segmentation.walls.wall_gaps`); places bounded by
-   unknown space rather than walls are dropped
+   walls and the mouths of halls are closed but for a hole (:func:`segmentation.walls.wall_gaps`,
+   :func:`segmentation.walls.hall_mouths`); places bounded by unknown space rather than walls
+   are dropped
    (:func:`~segmentation.conditioning.drop_outside`).
 3. ``keyframes``: for a map alone, virtual 360 degree scans at the most open point of every
    place and on a lattice of ``spacing`` metres, simulated in the conditioned space; a robot's
@@ -36,6 +37,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 
 from maps.errors import TopomapError
 from maps.grid import OccupancyGrid
@@ -56,7 +58,7 @@ from segmentation.refine import PLACE_DEPTH, basins, count_basins, merge_open_bo
 from segmentation.regions import Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter, at_most
 from segmentation.virtual import VIRTUAL_LASER, virtual_keyframes
-from segmentation.walls import seen_walls, wall_gaps
+from segmentation.walls import hall_mouths, seen_walls, wall_gaps
 from segmentation.working import block_phase, pool, pool_factor, unpool
 
 log = logging.getLogger(__name__)
@@ -364,7 +366,9 @@ class MapSegmenter(Estimator):
 
         The gaps of straight walls (:func:`~segmentation.walls.wall_gaps` of the walls the
         map shows, :func:`~segmentation.walls.seen_walls`) are wall on the working grid:
-        places, keyframes and passages end at them like at a wall with a door; when places
+        places, keyframes and passages end at them like at a wall with a door; so are the
+        mouths of halls (:func:`~segmentation.walls.hall_mouths`), which part the place of
+        the hall and the corridors that enter it (:meth:`_basins`); when places
         bounded by unknown space are dropped (fans of rays), the walls between what is left
         are found again. The cover gives their cells a region. Basins that meet at a cut
         across a corridor are one place (:func:`~segmentation.corridors.join_corridor_cuts`).
@@ -380,24 +384,44 @@ class MapSegmenter(Estimator):
         grid = conditioned.grid
         factor = pool_factor(grid.resolution, self.cell_size)
         walls = seen_walls(grid, conditioned.space, conditioned.clutter)
-        closed = wall_gaps(walls, conditioned.space, grid.resolution)  # on the map's cells
-        space = pool(conditioned.space & ~closed, grid, factor, fine_clearance=True, phase=phase)
-        places = basins(space, self.place_depth)
+        closed = _closures(walls, conditioned.space, grid.resolution)  # on the map's cells
+        space, places = self._basins(grid, conditioned.space, closed, factor, phase)
         outside = drop_outside(conditioned, unpool(places, factor, conditioned.space, phase))
         if outside is not conditioned:
             conditioned = outside
             kept = seen_walls(grid, conditioned.space, conditioned.clutter)
-            refound = bool((kept != walls).any())  # strips between fans of rays: no walls
-            if refound:
-                closed = wall_gaps(kept, conditioned.space, grid.resolution)
-            space = pool(
-                conditioned.space & ~closed, grid, factor, fine_clearance=True, phase=phase
-            )
-            if refound:
-                places = basins(space, self.place_depth)
+            if bool((kept != walls).any()):  # strips between fans of rays: no walls
+                closed = _closures(kept, conditioned.space, grid.resolution)
+                space, places = self._basins(grid, conditioned.space, closed, factor, phase)
             else:
+                space = pool(
+                    conditioned.space & ~closed[1], grid, factor, fine_clearance=True, phase=phase
+                )
                 places = consecutive(np.where(space.free, places, 0))
         return conditioned, space, join_corridor_cuts(places, space)
+
+    def _basins(
+        self,
+        grid: OccupancyGrid,
+        building: NDArray[np.bool_],
+        closed: tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]],
+        factor: int,
+        phase: tuple[int, int],
+    ) -> tuple[OccupancyGrid, NDArray[np.int32]]:
+        """The working grid of the ``building``'s space (the map ``grid``'s cells) with the
+        ``closed`` cells (:func:`_closures`) shut, and its places: the clearance basins; where
+        a hall's mouth was found, those of the space with the mouths open, joined across the
+        corridors' cuts (:func:`join_corridor_cuts`: the corridors that enter the hall meet
+        there, so a corridor that runs past the mouth stays one place) and parted along the
+        mouths' lines (:func:`parted`)."""
+        gaps, shut, cut = closed
+        space = pool(building & ~shut, grid, factor, fine_clearance=True, phase=phase)
+        if not cut.any():
+            return space, basins(space, self.place_depth)
+        opened = pool(building & ~gaps, grid, factor, fine_clearance=True, phase=phase)
+        joined = join_corridor_cuts(basins(opened, self.place_depth), opened)
+        whole = pool(building & ~gaps & ~cut, grid, factor, phase=phase).free
+        return space, parted(joined, whole, space.free)
 
     def partition(
         self,
@@ -433,6 +457,41 @@ class MapSegmenter(Estimator):
         if conditioned.blur:
             joined = consecutive(np.where(grid.occupied & ~conditioned.clutter, 0, joined))
         return replace(covered, labels=joined, pockets=pockets)
+
+
+def _closures(
+    walls: NDArray[np.bool_], space: NDArray[np.bool_], resolution: float
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
+    """The cells of the robot's ``space`` that close the gaps of straight walls
+    (:func:`wall_gaps`); those and the ones that close the mouths of halls but for a hole
+    (:func:`hall_mouths`, found with the gaps closed); the mouths' whole lines."""
+    gaps = wall_gaps(walls, space, resolution)
+    mouths, lines = hall_mouths(walls, space & ~gaps, resolution)
+    return gaps, gaps | mouths, lines
+
+
+def parted(
+    places: NDArray[np.int32], whole: NDArray[np.bool_], free: NDArray[np.bool_]
+) -> NDArray[np.int32]:
+    """``places`` parted into their pieces (4-connected) on the ``whole`` cells, on the
+    ``free`` cells; the free cells off ``whole`` take the nearest piece's label.
+
+    Examples
+    --------
+    >>> places = np.ones((3, 7), np.int32)
+    >>> whole = np.ones((3, 7), bool)
+    >>> whole[:, 3] = False  # a line across the place
+    >>> parted(places, whole, np.ones((3, 7), bool)).tolist()[0]
+    [1, 1, 1, 1, 2, 2, 2]
+    """
+    parts, count = ndimage.label(whole & (places > 0))
+    keyed = np.where(parts > 0, places.astype(np.int64) * (count + 1) + parts, 0)
+    labels = consecutive(keyed)
+    missing = free & (labels == 0)
+    if missing.any() and labels.any():
+        _, (rows, columns) = ndimage.distance_transform_edt(labels == 0, return_indices=True)
+        labels = np.where(missing, labels[rows, columns], labels)
+    return consecutive(np.where(free, labels, 0))
 
 
 def by_place(

@@ -22,9 +22,11 @@ import math
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from maps.grid import OccupancyGrid
 from segmentation.coverage import DOOR_WIDTH
+from segmentation.refine import OPEN
 
 #: The widest gap closed: double doors, metres (the coverage's widest door).
 GAP = DOOR_WIDTH
@@ -50,6 +52,22 @@ MIN_LENGTH = 2.5
 #: degrees) carrying less than ``SHARE`` of all line length is a ray's end or clutter's edge.
 TOLERANCE = 3
 SHARE = 0.1
+#: The widest mouth of a hall closed, metres: twice the widest door (:data:`GAP`). A mouth is
+#: a gap between two walls' ends in any direction, the walls going on roughly straight across
+#: it, between a hall and the corridor it opens onto (:func:`hall_mouths`).
+MOUTH = 2 * GAP
+#: The least wall that bounds a mouth, metres: a seen stretch of wall, not a cabinet's side.
+PIECE = 1.5
+#: How far the walls may bend across a mouth, degrees: a wall broken by a wide opening goes on
+#: near its own line (two walls at 36 and 60 degrees across a 2.9 m mouth bend 12 degrees
+#: each to meet the line between their ends).
+BEND = 20.0
+#: A hall is at least this many times as wide as the corridor its mouth opens onto: its
+#: clearance straight in from the mouth rises to twice the corridor's (a crossing of two
+#: corridors rises to sqrt(2) times, a corridor's wide spots less).
+HALL = 2.0
+#: The least corridor, metres: building codes' least width (the corridors' cuts' too).
+CORRIDOR = 1.2
 
 
 def seen_walls(
@@ -150,6 +168,223 @@ def wall_gaps(
             ):
                 _close(out, *wall_ends, HOLE / resolution)
     return out.astype(bool) & free
+
+
+def hall_mouths(
+    walls: NDArray[np.bool_], free: NDArray[np.bool_], resolution: float
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Free cells that close the mouths of halls but for a :data:`HOLE` in the middle, and
+    the free cells of the mouths' whole lines (run on twice :data:`JAGGED` into the walls).
+
+    A hall opening onto a corridor through a gap in the corridor's side wall is one clearance
+    basin with it: the space only widens into the hall, and the gap may be wider than double
+    doors and its walls off the building's main directions, where :func:`wall_gaps` does not
+    look. A mouth (:func:`mouth_lines`) is a gap of :data:`GAP` to :data:`MOUTH` metres
+    between the ends of two straight walls (probabilistic Hough lines of any direction, at
+    least :data:`PIECE` long, each followed to where its wall ends) that go on across it
+    within :data:`BEND` degrees, where the two sides differ in kind: straight in from the
+    gap, the clearance on one side rises to :data:`HALL` times the other's (a hall beside a
+    corridor), both sides are at least a corridor deep all along the gap (:data:`CORRIDOR`:
+    furniture or a wall with doors just behind a gap is no corridor), and on neither side
+    does the space keep the gap's width (within :data:`~segmentation.refine.OPEN`) as it
+    leaves the gap: a corridor that goes on through the gap is not closed.
+
+    Parameters
+    ----------
+    walls
+        Wall cells (occupied, furniture left out); only their cells beside free cells count.
+    free
+        Free cells (the gaps :func:`wall_gaps` closed taken out); only these are returned.
+    resolution
+        Metres per cell.
+
+    Examples
+    --------
+    >>> free = np.zeros((120, 160), bool)  # 0.1 m cells: a corridor above, a hall below
+    >>> free[10:110, 10:150] = True
+    >>> free[40:43, 10:70] = free[40:43, 100:150] = False  # a 3 m mouth in the wall between
+    >>> closed, line = hall_mouths(~free, free, 0.1)
+    >>> bool(closed[40, 75]), bool(closed[40, 85]), bool(line[40, 85]), bool(closed[80, 80])
+    (True, False, True, False)
+    """
+    closed = np.zeros(free.shape, np.uint8)
+    lines = np.zeros(free.shape, np.uint8)
+    on = 2 * JAGGED / resolution  # the ends lie on the walls' faces, up to JAGGED off them
+    for a, b in mouth_lines(walls, free, resolution):
+        _close(closed, _cell(a), _cell(b), HOLE / resolution)
+        way = (b - a) / float(np.hypot(*(b - a)))
+        cv2.line(lines, _cell(a - on * way), _cell(b + on * way), 1, 2)
+    return closed.astype(bool) & free, lines.astype(bool) & free
+
+
+def mouth_lines(
+    walls: NDArray[np.bool_], free: NDArray[np.bool_], resolution: float
+) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """The mouths :func:`hall_mouths` closes, each as its two ends (x, y cells, on the walls'
+    faces).
+
+    Examples
+    --------
+    >>> free = np.zeros((120, 160), bool)  # 0.1 m cells: a corridor above, a hall below
+    >>> free[10:110, 10:150] = True
+    >>> free[40:43, 10:70] = free[40:43, 100:150] = False  # a 3 m mouth in the wall between
+    >>> [(a.round().tolist(), b.round().tolist()) for a, b in mouth_lines(~free, free, 0.1)]
+    [([99.0, 40.0], [70.0, 40.0])]
+    """
+    reach = _reach(resolution)
+    surface = walls & _within(free, reach)
+    near = _within(surface, reach)
+    return [
+        (a, b)
+        for a, b in _mouths(near, _any_lines(surface, resolution), free, resolution)
+        if _hall_beside_corridor(free, a, b, resolution)
+    ]
+
+
+def _cell(point: NDArray) -> tuple[int, int]:
+    """The nearest cell (x, y) of a point."""
+    x, y = np.rint(point).astype(int).tolist()
+    return x, y
+
+
+def _any_lines(surface: NDArray[np.bool_], resolution: float) -> NDArray[np.int32]:
+    """Probabilistic Hough lines (x0, y0, x1, y1) of the walls' faces in any direction, at
+    least :data:`PIECE` long, across breaks narrower than the :data:`HOLE` (a wall, not two)."""
+    found = cv2.HoughLinesP(
+        surface.astype(np.uint8),
+        1,
+        math.pi / 180,
+        threshold=max(3, round(PIECE / resolution / 2)),
+        minLineLength=PIECE / resolution,
+        maxLineGap=HOLE / resolution,
+    )
+    return (
+        np.zeros((0, 4), np.int32) if found is None else np.asarray(found, np.int32).reshape(-1, 4)
+    )
+
+
+def _mouths(
+    near: NDArray[np.bool_], lines: NDArray[np.int32], free: NDArray[np.bool_], resolution: float
+) -> list[tuple[NDArray, NDArray]]:
+    """The gaps (x, y cells of both ends) of :data:`GAP` to :data:`MOUTH` metres between the
+    ends of two ``lines``, each followed along its own line while on a wall (``near``), that
+    go on across the gap within :data:`BEND` degrees, the gap's cells mostly free and off the
+    walls; one per place (the narrowest of those within :data:`HOLE` of each other)."""
+    if len(lines) < 2:
+        return []
+    starts, stops = lines[:, :2].astype(float), lines[:, 2:].astype(float)
+    along = (stops - starts) / np.maximum(np.hypot(*(stops - starts).T), 1e-9)[:, None]
+    out = np.concatenate([-along, along])  # each end's way out of its wall
+    tips = _wall_ends(near, np.concatenate([starts, stops]), out, MOUTH / resolution)
+    line = np.tile(np.arange(len(lines)), 2)
+    near_pairs = cKDTree(tips).query_pairs(MOUTH / resolution, output_type="ndarray")
+    first, second = near_pairs[line[near_pairs[:, 0]] != line[near_pairs[:, 1]]].T
+    apart = tips[second] - tips[first]
+    span = np.hypot(apart[:, 0], apart[:, 1])
+    way = apart / np.maximum(span, 1e-9)[:, None]
+    bend = math.cos(math.radians(BEND))
+    keep = (
+        (span > GAP / resolution)
+        & ((way * out[first]).sum(axis=1) >= bend)
+        & ((-way * out[second]).sum(axis=1) >= bend)
+    )
+    skip = 2 * _reach(resolution) + 1  # the ends' own walls
+    found = []
+    for i, j, length, unit in zip(first[keep], second[keep], span[keep], way[keep], strict=True):
+        steps = np.arange(skip, int(length) - skip)
+        cells = np.rint(tips[i] + steps[:, None] * unit).astype(int)
+        if (
+            len(cells)
+            and free[cells[:, 1], cells[:, 0]].mean() >= 0.8
+            and near[cells[:, 1], cells[:, 0]].mean() <= 0.3
+        ):
+            found.append((float(length), tips[i], tips[j]))
+    kept: list[tuple[NDArray, NDArray]] = []
+    for _, a, b in sorted(found, key=lambda f: f[0]):
+        middle = (a + b) / 2
+        if all(np.hypot(*(middle - (p + q) / 2)) * resolution > HOLE for p, q in kept):
+            kept.append((a, b))
+    return kept
+
+
+def _wall_ends(
+    near: NDArray[np.bool_], tips: NDArray, ways: NDArray, longest: float
+) -> NDArray[np.float64]:
+    """Where the walls at ``tips`` (x, y cells) end, each followed along its unit ``ways``
+    while on a wall (``near``), at most ``longest`` cells."""
+    height, width = near.shape
+    tips = tips.astype(float).copy()
+    going = np.ones(len(tips), bool)
+    for _ in range(int(longest)):
+        ahead = np.rint(tips + ways).astype(int)
+        inside = (
+            (ahead[:, 0] >= 0) & (ahead[:, 0] < width) & (ahead[:, 1] >= 0) & (ahead[:, 1] < height)
+        )
+        on = np.zeros(len(tips), bool)
+        on[inside] = near[ahead[inside, 1], ahead[inside, 0]]
+        going &= on
+        if not going.any():
+            break
+        tips[going] += ways[going]
+    return tips
+
+
+def _hall_beside_corridor(
+    free: NDArray[np.bool_], a: NDArray[np.float64], b: NDArray[np.float64], resolution: float
+) -> bool:
+    """Whether the gap from ``a`` to ``b`` (x, y cells) in the ``free`` cells is a hall's
+    mouth onto a corridor (:func:`hall_mouths`): from three points along it (a quarter, half
+    and three quarters of the way) straight in on each side, the shortest run of free cells
+    (the side's depth) and the median of the most clearance along them (measured with the gap
+    shut); at 0.5 to 2 m from its middle on each side, the median width across."""
+    span = float(np.hypot(*(b - a)))
+    way = (b - a) / span
+    normal = np.array([-way[1], way[0]])
+    longest = MOUTH / resolution
+    runs = []
+    for side in (1.0, -1.0):
+        widths = [
+            sum(
+                len(_run(free, (a + b) / 2 + side * t / resolution * normal, w, longest))
+                for w in (way, -way)
+            )
+            for t in (0.5, 1.0, 1.5, 2.0)
+        ]
+        if float(np.median(widths)) * OPEN <= span:
+            return False  # a corridor going on through the gap
+        runs.append(
+            [_run(free, a + t * (b - a), side * normal, longest) for t in (0.25, 0.5, 0.75)]
+        )
+        if min(len(r) for r in runs[-1]) * resolution < CORRIDOR:
+            return False  # furniture or a wall just behind the gap: no corridor, no hall
+    # the clearance round the gap (obstacles up to MOUTH beyond the runs' ends count), shut
+    margin = int(2 * longest) + 2
+    (left, top), (right, bottom) = (
+        np.minimum(a, b).astype(int) - margin,
+        np.maximum(a, b).astype(int) + margin + 1,
+    )
+    left, top = max(left, 0), max(top, 0)
+    window = free[top:bottom, left:right].astype(np.uint8)
+    cv2.line(window, _cell(a - (left, top)), _cell(b - (left, top)), 0, 2)
+    clearance = cv2.distanceTransform(window, cv2.DIST_L2, 5)
+    rise = [
+        float(np.median([clearance[r[:, 1] - top, r[:, 0] - left].max(initial=0) for r in side]))
+        for side in runs
+    ]
+    return max(rise) >= HALL * max(min(rise), 1.0)
+
+
+def _run(free: NDArray[np.bool_], start: NDArray, way: NDArray, length: float) -> NDArray[np.intp]:
+    """The cells (x, y) from ``start`` along ``way`` while free, at most ``length`` cells."""
+    height, width = free.shape
+    steps = np.rint(start + np.arange(1, max(2, int(length)))[:, None] * way).astype(int)
+    inside = (
+        (steps[:, 0] >= 0) & (steps[:, 0] < width) & (steps[:, 1] >= 0) & (steps[:, 1] < height)
+    )
+    stop = np.flatnonzero(~inside)
+    steps = steps[: stop[0] if len(stop) else len(steps)]
+    stop = np.flatnonzero(~free[steps[:, 1], steps[:, 0]])
+    return steps[: stop[0] if len(stop) else len(steps)]
 
 
 def wall_stubs(

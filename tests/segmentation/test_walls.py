@@ -9,7 +9,7 @@ from maps.grid import OccupancyGrid
 from segmentation import pipeline
 from segmentation.pipeline import MapSegmenter
 from segmentation.spectral import SpectralSegmenter
-from segmentation.walls import seen_walls, wall_gaps
+from segmentation.walls import hall_mouths, seen_walls, wall_gaps
 
 
 def _wall_with_gap(gap_cells: int) -> np.ndarray:
@@ -220,3 +220,46 @@ def test_the_strip_between_two_dropped_fans_of_rays_is_no_wall(monkeypatch):
     assert not conditioned.space[:, 137:].any()  # the fans were dropped
     assert seen[0][69:71, 140:195].all()  # between robot space at first: a wall
     assert len(seen) == 2 and not seen[-1][69:71, 140:195].any()
+
+
+def _hall_beside_corridor(mouth_cells: int) -> np.ndarray:
+    """0.05 m cells, walls as occupied cells: a 2 m wide, 21 m long corridor, and above it a
+    10 m x 5 m hall opening onto it through a gap of ``mouth_cells`` in the wall between,
+    whose two pieces slant 8 degrees up from the gap (off the building's main directions)."""
+    cells = np.full((180, 440), 100, np.int8)
+    cells[130:170, 10:430] = 0  # the corridor
+    cells[30:130, 120:320] = 0  # the hall
+    left = 220 - mouth_cells // 2
+    right = left + mouth_cells
+    slope = np.tan(np.radians(8))
+    for x in [*range(120, left), *range(right, 320)]:
+        off = left - 1 - x if x < left else x - right
+        cells[127 - round(off * slope) : 130, x] = 100  # the wall, solid down to the corridor
+    return cells
+
+
+def test_a_hall_beside_a_corridor_is_a_place_of_its_own_and_the_corridor_stays_one():
+    grid = OccupancyGrid(_hall_beside_corridor(60), 0.05)  # a 3 m mouth
+    segmenter = MapSegmenter()
+    _, space, places = segmenter.places(segmenter.condition(grid))
+    hall, west, east = (
+        places[space.world_to_cell(*grid.cell_to_world(row, column))]
+        for row, column in ((60, 220), (150, 30), (150, 410))
+    )
+    assert hall > 0 and west > 0 and hall != west and west == east
+
+
+def test_a_mouth_is_closed_only_between_a_hall_and_a_corridor():
+    cells = _hall_beside_corridor(60)
+    free = cells == 0
+    closed, line = hall_mouths(cells == 100, free, 0.05)
+    assert closed[120:135, 190:250].any() and line[120:135, 215:225].any()
+    assert not closed[:115].any() and not closed[140:].any()
+    # the same gap between two corridors of one width: a corridor going on, left open
+    cells[30:125, 120:320] = 100
+    cells[40:125, 190:250] = 0  # a 3 m wide corridor leaving the mouth
+    assert not hall_mouths(cells == 100, cells == 0, 0.05)[0].any()
+    # a gap of double doors or less in the corridor's straight wall: closed as a wall gap
+    narrow = _hall_beside_corridor(36)
+    gaps = wall_gaps(narrow == 100, narrow == 0, 0.05)
+    assert gaps.any() and not hall_mouths(narrow == 100, (narrow == 0) & ~gaps, 0.05)[0].any()
