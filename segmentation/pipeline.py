@@ -385,20 +385,20 @@ class MapSegmenter(Estimator):
         factor = pool_factor(grid.resolution, self.cell_size)
         walls = seen_walls(grid, conditioned.space, conditioned.clutter)
         closed = _closures(walls, conditioned.space, grid.resolution)  # on the map's cells
-        space, places = self._basins(grid, conditioned.space, closed, factor, phase)
+        space, places, joined = self._basins(grid, conditioned.space, closed, factor, phase)
         outside = drop_outside(conditioned, unpool(places, factor, conditioned.space, phase))
         if outside is not conditioned:
             conditioned = outside
             kept = seen_walls(grid, conditioned.space, conditioned.clutter)
             if bool((kept != walls).any()):  # strips between fans of rays: no walls
                 closed = _closures(kept, conditioned.space, grid.resolution)
-                space, places = self._basins(grid, conditioned.space, closed, factor, phase)
+                space, places, joined = self._basins(grid, conditioned.space, closed, factor, phase)
             else:
                 space = pool(
                     conditioned.space & ~closed[1], grid, factor, fine_clearance=True, phase=phase
                 )
                 places = consecutive(np.where(space.free, places, 0))
-        return conditioned, space, join_corridor_cuts(places, space)
+        return conditioned, space, places if joined else join_corridor_cuts(places, space)
 
     def _basins(
         self,
@@ -407,21 +407,23 @@ class MapSegmenter(Estimator):
         closed: tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]],
         factor: int,
         phase: tuple[int, int],
-    ) -> tuple[OccupancyGrid, NDArray[np.int32]]:
+    ) -> tuple[OccupancyGrid, NDArray[np.int32], bool]:
         """The working grid of the ``building``'s space (the map ``grid``'s cells) with the
-        ``closed`` cells (:func:`_closures`) shut, and its places: the clearance basins; where
-        a hall's mouth was found, those of the space with the mouths open, joined across the
-        corridors' cuts (:func:`join_corridor_cuts`: the corridors that enter the hall meet
-        there, so a corridor that runs past the mouth stays one place) and parted along the
-        mouths' lines (:func:`parted`)."""
+        ``closed`` cells (:func:`_closures`) shut, its places, and whether they are joined
+        across corridor cuts already: the clearance basins (not joined); where a hall's mouth
+        was found, those of the space with the mouths open, joined across the corridors' cuts
+        (:func:`join_corridor_cuts`: the corridors that enter the hall meet there, so a
+        corridor that runs past the mouth stays one place) and parted along the mouths' lines
+        (:func:`parted`; a cut across a mouth's hole is narrower than a corridor, so joining
+        again would change nothing)."""
         gaps, shut, cut = closed
         space = pool(building & ~shut, grid, factor, fine_clearance=True, phase=phase)
         if not cut.any():
-            return space, basins(space, self.place_depth)
+            return space, basins(space, self.place_depth), False
         opened = pool(building & ~gaps, grid, factor, fine_clearance=True, phase=phase)
         joined = join_corridor_cuts(basins(opened, self.place_depth), opened)
         whole = pool(building & ~gaps & ~cut, grid, factor, phase=phase).free
-        return space, parted(joined, whole, space.free)
+        return space, parted(joined, whole, space.free), True
 
     def partition(
         self,
@@ -474,7 +476,9 @@ def parted(
     places: NDArray[np.int32], whole: NDArray[np.bool_], free: NDArray[np.bool_]
 ) -> NDArray[np.int32]:
     """``places`` parted into their pieces (4-connected) on the ``whole`` cells, on the
-    ``free`` cells; the free cells off ``whole`` take the nearest piece's label.
+    ``free`` cells; the free cells off ``whole`` take the nearest piece's label. Only the
+    places that reach off ``whole`` are looked at, in the box round them (a campus's few
+    mouths, not its whole map).
 
     Examples
     --------
@@ -484,13 +488,26 @@ def parted(
     >>> parted(places, whole, np.ones((3, 7), bool)).tolist()[0]
     [1, 1, 1, 1, 2, 2, 2]
     """
-    parts, count = ndimage.label(whole & (places > 0))
-    keyed = np.where(parts > 0, places.astype(np.int64) * (count + 1) + parts, 0)
+    crossed = np.unique(places[(places > 0) & ~whole])
+    if len(crossed) == 0:
+        return consecutive(np.where(free, places, 0))
+    rows, columns = np.nonzero(np.isin(places, crossed))
+    reach = 8  # cells round them: the nearest piece of a cell on the line lies within
+    box = (
+        slice(max(int(rows.min()) - reach, 0), int(rows.max()) + reach + 1),
+        slice(max(int(columns.min()) - reach, 0), int(columns.max()) + reach + 1),
+    )
+    inside = places[box]
+    mine = np.isin(inside, crossed)
+    parts, count = ndimage.label(whole[box] & mine)
+    keyed = places.astype(np.int64) * (count + 1)  # pieces in the order of their places
+    keyed[box] = np.where(mine, np.where(parts > 0, inside * (count + 1) + parts, 0), keyed[box])
     labels = consecutive(keyed)
-    missing = free & (labels == 0)
-    if missing.any() and labels.any():
-        _, (rows, columns) = ndimage.distance_transform_edt(labels == 0, return_indices=True)
-        labels = np.where(missing, labels[rows, columns], labels)
+    near = labels[box]
+    missing = free[box] & (near == 0)
+    if missing.any() and near.any():
+        _, (at_row, at_column) = ndimage.distance_transform_edt(near == 0, return_indices=True)
+        labels[box] = np.where(missing, near[at_row, at_column], near)
     return consecutive(np.where(free, labels, 0))
 
 

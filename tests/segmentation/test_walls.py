@@ -7,7 +7,7 @@ from scipy import ndimage
 
 from maps.grid import OccupancyGrid
 from segmentation import pipeline
-from segmentation.pipeline import MapSegmenter
+from segmentation.pipeline import MapSegmenter, parted
 from segmentation.spectral import SpectralSegmenter
 from segmentation.walls import hall_mouths, seen_walls, wall_gaps
 
@@ -263,3 +263,17 @@ def test_a_mouth_is_closed_only_between_a_hall_and_a_corridor():
     narrow = _hall_beside_corridor(36)
     gaps = wall_gaps(narrow == 100, narrow == 0, 0.05)
     assert gaps.any() and not hall_mouths(narrow == 100, (narrow == 0) & ~gaps, 0.05)[0].any()
+
+
+@given(st.integers(0, 6), st.integers(1, 5))
+def test_parting_along_a_line_cuts_only_the_places_it_crosses(column, width):
+    places = np.zeros((12, 30), np.int32)
+    places[1:11, 1:10], places[1:11, 12:29] = 1, 2  # two places apart
+    whole = np.ones(places.shape, bool)
+    whole[:, 14 + column : 14 + column + width] = False  # a mouth's line across place 2
+    free = places > 0
+    found = parted(places, whole, free)
+    assert (found[places == 1] == 1).all()  # the place the line misses keeps its label
+    left, right = found[5, 12], found[5, 28]
+    assert {left, right} == {2, 3} and left < right  # pieces in reading order
+    assert (found[free] > 0).all() and not found[~free].any()
