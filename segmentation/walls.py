@@ -204,7 +204,7 @@ def hall_mouths(
     >>> free[10:110, 10:150] = True
     >>> free[40:43, 10:70] = free[40:43, 100:150] = False  # a 3 m mouth in the wall between
     >>> closed, line = hall_mouths(~free, free, 0.1)
-    >>> bool(closed[40, 75]), bool(closed[40, 85]), bool(line[40, 85]), bool(closed[80, 80])
+    >>> bool(closed[42, 75]), bool(closed[42, 85]), bool(line[42, 85]), bool(closed[80, 80])
     (True, False, True, False)
     """
     closed = np.zeros(free.shape, np.uint8)
@@ -229,14 +229,16 @@ def mouth_lines(
     >>> free[10:110, 10:150] = True
     >>> free[40:43, 10:70] = free[40:43, 100:150] = False  # a 3 m mouth in the wall between
     >>> [(a.round().tolist(), b.round().tolist()) for a, b in mouth_lines(~free, free, 0.1)]
-    [([99.0, 40.0], [70.0, 40.0])]
+    [([99.0, 42.0], [70.0, 42.0])]
     """
     reach = _reach(resolution)
     surface = walls & _within(free, reach)
     near = _within(surface, reach)
+    cross = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+    face = surface & (cv2.dilate(free.astype(np.uint8), cross) > 0)  # beside a free cell
     return [
         (a, b)
-        for a, b in _mouths(near, _any_lines(surface, resolution), free, resolution)
+        for a, b in _mouths(near, _any_lines(face, resolution), free, resolution)
         if _hall_beside_corridor(free, a, b, resolution)
     ]
 
