@@ -238,7 +238,7 @@ def mouth_lines(
     face = surface & (cv2.dilate(free.astype(np.uint8), cross) > 0)  # beside a free cell
     return [
         (a, b)
-        for a, b in _mouths(near, _any_lines(face, resolution), free, resolution)
+        for a, b in _mouths(near, _hough_lines(face, resolution, PIECE, HOLE), free, resolution)
         if _hall_beside_corridor(free, a, b, resolution)
     ]
 
@@ -249,16 +249,18 @@ def _cell(point: NDArray) -> tuple[int, int]:
     return x, y
 
 
-def _any_lines(surface: NDArray[np.bool_], resolution: float) -> NDArray[np.int32]:
-    """Probabilistic Hough lines (x0, y0, x1, y1) of the walls' faces in any direction, at
-    least :data:`PIECE` long, across breaks narrower than the :data:`HOLE` (a wall, not two)."""
+def _hough_lines(
+    surface: NDArray[np.bool_], resolution: float, min_length: float, gap: float
+) -> NDArray[np.int32]:
+    """Probabilistic Hough lines (x0, y0, x1, y1) of ``surface`` (walls' faces) in any
+    direction, at least ``min_length`` long across breaks of up to ``gap`` metres."""
     found = cv2.HoughLinesP(
         surface.astype(np.uint8),
         1,
         math.pi / 180,
-        threshold=max(3, round(PIECE / resolution / 2)),
-        minLineLength=PIECE / resolution,
-        maxLineGap=HOLE / resolution,
+        threshold=max(3, round(min_length / resolution / 2)),
+        minLineLength=min_length / resolution,
+        maxLineGap=gap / resolution,
     )
     return (
         np.zeros((0, 4), np.int32) if found is None else np.asarray(found, np.int32).reshape(-1, 4)
@@ -448,18 +450,11 @@ def _wall_lines(
     """The cells (x, y) along each wall line of ``surface`` (walls' faces): probabilistic
     Hough lines at least ``min_length`` long across gaps of up to ``gap`` metres, kept along
     the building's main directions (:func:`_main_directions`)."""
-    found = cv2.HoughLinesP(
-        surface.astype(np.uint8),
-        1,
-        math.pi / 180,
-        threshold=max(3, round(min_length / resolution / 2)),
-        minLineLength=min_length / resolution,
-        maxLineGap=gap / resolution,
-    )
-    if found is None:
+    found = _hough_lines(surface, resolution, min_length, gap)
+    if len(found) == 0:
         return []
     cells = []
-    for x0, y0, x1, y1 in _main_directions(np.asarray(found, np.int32).reshape(-1, 4)).tolist():
+    for x0, y0, x1, y1 in _main_directions(found).tolist():
         n = max(abs(x1 - x0), abs(y1 - y0)) + 1
         xs = np.rint(np.linspace(x0, x1, n)).astype(int)
         ys = np.rint(np.linspace(y0, y1, n)).astype(int)
