@@ -466,6 +466,61 @@ class OccupancyGrid:
         origin = (ox - step * math.cos(yaw), oy - step * math.sin(yaw), yaw)
         return OccupancyGrid(cells, self.resolution, origin)
 
+    def known_box(self, margin: float) -> tuple[slice, slice]:
+        """The rows and columns of the known cells and ``margin`` metres round them, within
+        the grid (the whole grid if it knows nothing).
+
+        Examples
+        --------
+        >>> cells = np.full((100, 200), -1, np.int8)
+        >>> cells[40:50, 120:130] = 0  # a 1 x 1 m room at 0.1 m, in a 20 x 10 m canvas
+        >>> OccupancyGrid(cells, 0.1).known_box(2.0)
+        (slice(20, 70, None), slice(100, 150, None))
+        """
+        known = self.cells >= FREE
+        rows, cols = np.flatnonzero(known.any(axis=1)), np.flatnonzero(known.any(axis=0))
+        if len(rows) == 0:
+            return slice(0, self.shape[0]), slice(0, self.shape[1])
+        reach = math.ceil(margin / self.resolution - 1e-9)
+        return (
+            slice(max(int(rows[0]) - reach, 0), min(int(rows[-1]) + 1 + reach, self.shape[0])),
+            slice(max(int(cols[0]) - reach, 0), min(int(cols[-1]) + 1 + reach, self.shape[1])),
+        )
+
+    def cropped(self, rows: slice, cols: slice) -> OccupancyGrid:
+        """The cells ``rows`` x ``cols`` (slices with their bounds given, inside the grid) as
+        a grid of their own: every cell keeps its place in the map frame.
+
+        Examples
+        --------
+        >>> grid = OccupancyGrid(np.zeros((4, 5), np.int8), 0.1, (1.0, 2.0, 0.0))
+        >>> part = grid.cropped(slice(1, 3), slice(2, 5))
+        >>> part.shape, part.origin
+        ((2, 3), (1.2, 2.1, 0.0))
+        >>> grid.cell_to_world(2, 3) == part.cell_to_world(1, 1)
+        True
+        """
+        height, width = self.shape
+        if not (
+            isinstance(rows.start, int)
+            and isinstance(rows.stop, int)
+            and isinstance(cols.start, int)
+            and isinstance(cols.stop, int)
+            and 0 <= rows.start < rows.stop <= height
+            and 0 <= cols.start < cols.stop <= width
+            and rows.step is None
+            and cols.step is None
+        ):
+            raise InvalidMapError(
+                f"a crop must be rows and columns inside the {height} x {width} cells, got "
+                f"{rows!r}, {cols!r}"
+            )
+        ox, oy, yaw = self.origin
+        right, up = cols.start * self.resolution, (height - rows.stop) * self.resolution
+        c, s = math.cos(yaw), math.sin(yaw)  # the lower-left corner moves along the grid's axes
+        origin = (ox + c * right - s * up, oy + s * right + c * up, yaw)
+        return OccupancyGrid(self.cells[rows, cols], self.resolution, origin)
+
     def inflate(self, radius: float) -> OccupancyGrid:
         """A grid where free cells closer than ``radius`` metres to a non-free cell are occupied.
 

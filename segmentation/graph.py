@@ -58,6 +58,7 @@ def region_graph(
         found = np.bincount(np.asarray(keyframe_regions, np.int64), minlength=len(counts))
         counts[: len(found)] = found[: len(counts)]
     graph = nx.Graph(resolution=regions.grid.resolution, origin=tuple(regions.grid.origin))
+    regions = regions.known_part()
     grid = regions.grid
     on_free = np.where(grid.free, regions.labels, 0)
     ids = np.flatnonzero(label_counts(on_free))  # the ids on free cells, ascending

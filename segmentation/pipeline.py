@@ -34,13 +34,14 @@ import logging
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
 from maps.errors import TopomapError
-from maps.grid import OccupancyGrid
+from maps.grid import UNKNOWN, OccupancyGrid
 from maps.limits import MAX_LENGTH, finite_in
 from maps.scan import Keyframe, keyframe_list, poses_array, seeing
 from maps.seeding import RandomState
@@ -55,7 +56,7 @@ from segmentation.errors import ParameterError, SegmentationError
 from segmentation.passages import boundary_openness
 from segmentation.pockets import join_pockets
 from segmentation.refine import PLACE_DEPTH, basins, count_basins, merge_open_boundaries
-from segmentation.regions import Regions, consecutive, dense_labels, pieces
+from segmentation.regions import CANVAS_MARGIN, Regions, consecutive, dense_labels, pieces
 from segmentation.spectral import SpectralSegmenter, at_most
 from segmentation.virtual import VIRTUAL_LASER, virtual_keyframes
 from segmentation.walls import hall_mouths, seen_walls, wall_gaps
@@ -220,7 +221,9 @@ class MapSegmenter(Estimator):
     ) -> Segmentation:
         """Segment ``grid``, clustering ``keyframes`` if given (else virtual ones).
 
-        ``random_state`` overrides the spectral settings' seed.
+        ``random_state`` overrides the spectral settings' seed. A map on a canvas far larger
+        than what it knows is segmented on its known part
+        (:data:`~segmentation.regions.CANVAS_MARGIN`); the regions are of the whole map.
 
         Raises
         ------
@@ -236,6 +239,19 @@ class MapSegmenter(Estimator):
                 "the map must be an OccupancyGrid (OccupancyGrid.load('map.yaml')), got "
                 f"{type(grid).__name__}"
             )
+        rows, cols = grid.known_box(CANVAS_MARGIN)
+        if (rows.stop - rows.start, cols.stop - cols.start) == grid.shape:
+            return self._segment(grid, keyframes, random_state)
+        found = self._segment(grid.cropped(rows, cols), keyframes, random_state)
+        return _embedded(found, grid, rows, cols)
+
+    def _segment(
+        self,
+        grid: OccupancyGrid,
+        keyframes: Sequence[Keyframe] | None,
+        random_state: RandomState,
+    ) -> Segmentation:
+        """:meth:`segment` of ``grid`` as given (the map's known part)."""
         seconds: dict[str, float] = {}
         clock = [time.perf_counter()]
 
@@ -470,6 +486,37 @@ def _closures(
     gaps = wall_gaps(walls, space, resolution)
     mouths, lines = hall_mouths(walls, space & ~gaps, resolution)
     return gaps, gaps | mouths, lines
+
+
+def _embedded(found: Segmentation, grid: OccupancyGrid, rows: slice, cols: slice) -> Segmentation:
+    """``found``, the segmentation of ``grid``'s cells ``rows`` x ``cols``, on the whole of
+    ``grid``: its map-sized arrays put back in place, nothing (unknown space) round them; the
+    working grid and the places keep their own frame."""
+
+    def whole(part: NDArray[Any], fill: Any = 0) -> NDArray[Any]:
+        out = np.full(grid.shape, fill, part.dtype)
+        out[rows, cols] = part
+        return out
+
+    conditioned = found.conditioned
+    sharp = grid
+    if conditioned.blur:  # the walls' blur was taken off: the whole map with it off
+        sharp = OccupancyGrid(whole(conditioned.grid.cells, UNKNOWN), grid.resolution, grid.origin)
+    conditioned = replace(
+        conditioned,
+        grid=sharp,
+        space=whole(conditioned.space),
+        free=whole(conditioned.free),
+        clutter=whole(conditioned.clutter),
+    )
+    spectral = Regions(grid, whole(found.spectral.labels))
+    regions = (
+        spectral if found.regions is found.spectral else Regions(grid, whole(found.regions.labels))
+    )
+    coverage = replace(found.coverage, labels=whole(found.coverage.labels))
+    return replace(
+        found, conditioned=conditioned, spectral=spectral, regions=regions, coverage=coverage
+    )
 
 
 def parted(

@@ -197,6 +197,15 @@ def pieces(
     return consecutive(merge_small(labels.astype(np.int32), min_cells))
 
 
+#: Unknown space farther than this from every known cell is no part of the map, metres: the
+#: canvas a SLAM package allocates before it maps (gmapping's 200 x 200 m by default) round a
+#: building that fills a corner of it. Maps are segmented, and their regions measured, on
+#: their known cells and this margin round them (:meth:`~maps.grid.OccupancyGrid.known_box`),
+#: in the time of the building rather than of the canvas, and a canvas of any size round
+#: them gives the same regions. Wider than the margins maps are saved or drawn with (the ipa
+#: plans and ROSE²'s maps: up to 13.6 m), which are segmented as given.
+CANVAS_MARGIN = 15.0
+
 #: The largest piece of furniture, m^2 (a conference table, a row of shelves): an unlabelled
 #: piece of the map (cells drawn as walls, cells nobody saw) no larger that one region
 #: encloses is in it (:meth:`Regions.at`).
@@ -226,6 +235,26 @@ class Regions:
             raise SegmentationError(
                 f"labels shape {self.labels.shape} differs from the grid's {self.grid.shape}"
             )
+
+    def known_part(self) -> Regions:
+        """These regions on their map's known cells and :data:`CANVAS_MARGIN` round them
+        (:meth:`~maps.grid.OccupancyGrid.known_box`; itself if that is the whole map): every
+        measure of them the same, in the time of the building rather than of the canvas.
+
+        Examples
+        --------
+        >>> cells = np.full((1000, 1000), -1, np.int8)
+        >>> cells[:10, :20] = 0  # a 1 x 2 m room in a corner of a 100 x 100 m canvas
+        >>> labels = np.zeros((1000, 1000), np.int32)
+        >>> labels[:10, :20] = 1
+        >>> part = Regions(OccupancyGrid(cells, 0.1), labels).known_part()
+        >>> part.grid.shape, round(part.area(1), 6)
+        ((160, 170), 2.0)
+        """
+        rows, cols = self.grid.known_box(CANVAS_MARGIN)
+        if (rows.stop - rows.start, cols.stop - cols.start) == self.grid.shape:
+            return self
+        return Regions(self.grid.cropped(rows, cols), self.labels[rows, cols])
 
     @property
     def ids(self) -> list[int]:

@@ -121,12 +121,18 @@ def region_colours(count: int, seed: int = 7) -> NDArray[np.float64]:
     return colours
 
 
+#: The unknown space shown round a map's known part in :func:`draw_regions`, metres.
+FRAME = 1.0
+
+
 def draw_regions(
     path: str | Path, grid: OccupancyGrid, labels: NDArray[np.integer], graph: Any, title: str = ""
 ) -> Path:
     """Write a PNG of the regions in colour with the region graph drawn over them (OpenCV).
 
-    The map is scaled so that its longer side has at least 1,600 pixels. Each door is a red
+    The picture shows the map's known part and :data:`FRAME` metres round it (a SLAM
+    package's canvas is mostly unknown), scaled so that its longer side has at least 1,600
+    pixels. Each door is a red
     segment; the graph's edges are drawn door to door inside each region
     (:func:`topomap.graph_layout.edge_segments`: a hall with many doors is a tree along them,
     not a star over its name); each region's name (or id) is written once at its most open
@@ -137,6 +143,8 @@ def draw_regions(
 
     from topomap.graph_layout import edge_segments
 
+    rows, cols = grid.known_box(FRAME)
+    grid, labels = grid.cropped(rows, cols), labels[rows, cols]
     scale = max(1, int(np.ceil(1600 / max(grid.shape))))
     image = cv2.cvtColor(map_image(grid, labels), cv2.COLOR_RGBA2BGR)
     image = cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)

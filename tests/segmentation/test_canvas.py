@@ -1,0 +1,138 @@
+"""A map on a canvas far larger than what it knows (a SLAM package's preallocated grid):
+segmented, measured and drawn on its known part, the same whatever the canvas round it."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from maps import generate_floor_plan
+from maps.errors import InvalidMapError
+from maps.grid import UNKNOWN, OccupancyGrid
+from segmentation.graph import region_graph
+from segmentation.pipeline import MapSegmenter
+from segmentation.regions import CANVAS_MARGIN, Regions
+from segmentation.spectral import SpectralSegmenter
+from topomap.cli.drawing import draw_regions
+
+
+def on_canvas(grid: OccupancyGrid, left: int, top: int, right: int, bottom: int) -> OccupancyGrid:
+    """``grid`` with unknown cells round it, every cell in its place in the map frame."""
+    moved = grid.padded(left, top)
+    cells = np.full((moved.shape[0] + bottom, moved.shape[1] + right), UNKNOWN, np.int8)
+    cells[: moved.shape[0], : moved.shape[1]] = moved.cells
+    x, y, yaw = moved.origin  # rows added at the bottom move the lower-left corner down
+    down = bottom * grid.resolution
+    return OccupancyGrid(
+        cells, grid.resolution, (x + down * math.sin(yaw), y - down * math.cos(yaw), yaw)
+    )
+
+
+@given(
+    st.integers(1, 30),
+    st.integers(1, 30),
+    st.data(),
+    st.floats(-math.pi, math.pi),
+    st.floats(-50.0, 50.0),
+)
+@settings(max_examples=60, deadline=None)
+def test_a_crop_keeps_every_cell_where_it_is_in_the_map_frame(height, width, data, yaw, x):
+    grid = OccupancyGrid(np.zeros((height, width), np.int8), 0.05, (x, -x / 2, yaw))
+    r0 = data.draw(st.integers(0, height - 1))
+    r1 = data.draw(st.integers(r0 + 1, height))
+    c0 = data.draw(st.integers(0, width - 1))
+    c1 = data.draw(st.integers(c0 + 1, width))
+    part = grid.cropped(slice(r0, r1), slice(c0, c1))
+    rows, cols = np.mgrid[r0:r1, c0:c1]
+    expected = grid.cell_to_world(rows.ravel(), cols.ravel())
+    found = part.cell_to_world((rows - r0).ravel(), (cols - c0).ravel())
+    np.testing.assert_allclose(found, expected, atol=1e-9)
+    back = part.world_to_cell(*expected)
+    np.testing.assert_array_equal(back[0], (rows - r0).ravel())
+    np.testing.assert_array_equal(back[1], (cols - c0).ravel())
+
+
+@pytest.mark.parametrize(
+    "rows, cols",
+    [(slice(0, 0), slice(0, 2)), (slice(-1, 2), slice(0, 2)), (slice(0, 5), slice(0, 2))],
+)
+def test_a_crop_off_the_grid_is_refused(rows, cols):
+    with pytest.raises(InvalidMapError, match="inside the 4 x 3 cells"):
+        OccupancyGrid(np.zeros((4, 3), np.int8), 0.1).cropped(rows, cols)
+
+
+def test_the_known_box_holds_every_known_cell_and_the_margin_within_the_grid():
+    cells = np.full((300, 200), UNKNOWN, np.int8)
+    cells[100, 5] = 100  # a wall cell near the left edge
+    cells[150:160, 50:60] = 0
+    rows, cols = OccupancyGrid(cells, 0.1).known_box(3.0)
+    assert (rows, cols) == (slice(70, 190), slice(0, 90))  # 30 cells round, cut at the edge
+    assert OccupancyGrid(np.full((5, 5), UNKNOWN, np.int8), 0.1).known_box(1.0) == (
+        slice(0, 5),
+        slice(0, 5),
+    )
+
+
+@pytest.fixture(scope="module")
+def flat() -> OccupancyGrid:
+    return generate_floor_plan("flat", random_state=0).grid
+
+
+def test_any_canvas_wider_than_the_margin_gives_the_same_regions(flat):
+    beyond = math.ceil(CANVAS_MARGIN / flat.resolution) + 5
+    pipeline = MapSegmenter(SpectralSegmenter(random_state=0))
+    small = on_canvas(flat, beyond, beyond, beyond, beyond)
+    large = on_canvas(flat, beyond + 150, beyond + 40, beyond + 300, beyond + 7)
+    first = pipeline.segment(small, random_state=0)
+    second = pipeline.segment(large, random_state=0)
+    assert first.regions.labels.shape == small.shape
+    assert second.regions.labels.shape == large.shape
+    inner = second.regions.labels[40 : 40 + small.shape[0], 150 : 150 + small.shape[1]]
+    np.testing.assert_array_equal(inner, first.regions.labels)
+    assert small.cell_to_world(0, 0) == pytest.approx(large.cell_to_world(40, 150))
+    assert len(first.regions.ids) >= 3
+    for found, grid in ((first, small), (second, large)):
+        conditioned = found.conditioned
+        assert conditioned.free.shape == conditioned.space.shape == grid.shape
+        assert conditioned.grid.shape == grid.shape
+        assert found.coverage.labels.shape == grid.shape
+        assert not found.regions.labels[grid.unknown & ~conditioned.clutter].any()
+    x, y = first.regions.grid.cell_to_world(*np.argwhere(first.regions.labels == 1)[0])
+    assert first.regions.at(float(x), float(y)) == second.regions.at(float(x), float(y)) == 1
+
+
+def test_the_graph_of_regions_on_a_canvas_is_that_of_their_known_part(flat):
+    found = MapSegmenter(SpectralSegmenter(random_state=0)).segment(flat, random_state=0)
+    beyond = math.ceil(CANVAS_MARGIN / flat.resolution) + 200
+    canvas = on_canvas(flat, beyond, beyond, beyond, beyond)
+    labels = np.zeros(canvas.shape, np.int32)
+    labels[beyond : beyond + flat.shape[0], beyond : beyond + flat.shape[1]] = found.regions.labels
+    regions = Regions(canvas, labels)
+    part = regions.known_part()
+    assert part.grid.shape[0] < canvas.shape[0] and part.grid.shape[1] < canvas.shape[1]
+    graph, tight = region_graph(regions), region_graph(found.regions)
+    assert graph.graph["origin"] == canvas.origin  # the map's frame, as the files say
+    assert sorted(graph.edges) == sorted(tight.edges)
+    for node, data in tight.nodes(data=True):
+        assert graph.nodes[node]["x"] == pytest.approx(data["x"])
+        assert graph.nodes[node]["y"] == pytest.approx(data["y"])
+        assert graph.nodes[node]["polygon"].equals(data["polygon"])
+        assert graph.nodes[node]["area_m2"] == pytest.approx(data["area_m2"])
+
+
+def test_the_picture_shows_the_known_part_not_the_canvas(flat, tmp_path):
+    found = MapSegmenter(SpectralSegmenter(random_state=0)).segment(flat, random_state=0)
+    graph = region_graph(found.regions)
+    canvas = on_canvas(flat, 2000, 1000, 3000, 500)
+    labels = np.zeros(canvas.shape, np.int32)
+    labels[1000 : 1000 + flat.shape[0], 2000 : 2000 + flat.shape[1]] = found.regions.labels
+    tight = cv2.imread(str(draw_regions(tmp_path / "tight.png", flat, found.regions.labels, graph)))
+    wide = cv2.imread(str(draw_regions(tmp_path / "wide.png", canvas, labels, graph)))
+    assert abs(wide.shape[0] - tight.shape[0]) <= 0.1 * tight.shape[0]
+    assert abs(wide.shape[1] - tight.shape[1]) <= 0.1 * tight.shape[1]
+    assert (wide != 192).any(axis=2).mean() > 0.3  # the building, not a sea of unknown grey
