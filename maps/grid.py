@@ -442,10 +442,11 @@ class OccupancyGrid:
             self._derived[name] = value
         return self._derived[name]
 
-    def padded(self, left: int, top: int) -> OccupancyGrid:
-        """The same map with ``left`` columns and ``top`` rows of unknown cells added on its
-        left and top: every cell keeps its place in the map frame, only the cell grid moves
-        against the building (what a map saved one cell over would be).
+    def padded(self, left: int, top: int, right: int = 0, bottom: int = 0) -> OccupancyGrid:
+        """The same map with ``left``, ``top``, ``right`` and ``bottom`` columns and rows of
+        unknown cells added on those sides: every cell keeps its place in the map frame, only
+        the cell grid moves against the building (what a map saved one cell over would be,
+        or on a SLAM package's larger canvas).
 
         Examples
         --------
@@ -455,16 +456,23 @@ class OccupancyGrid:
         ((4, 4), (0.9, 2.0, 0.0), True)
         >>> [int(v) for v in moved.world_to_cell(1.05, 2.05)]
         [3, 1]
+        >>> grid.padded(1, 2, 3, 4).shape, grid.padded(0, 0, 0, 1).origin
+        ((8, 7), (1.0, 1.9, 0.0))
         """
-        if not (isinstance(left, int) and isinstance(top, int) and left >= 0 and top >= 0):
-            raise InvalidMapError(f"padding must be whole cells >= 0, got {left!r}, {top!r}")
-        check_map_size(self.shape[0] + top, self.shape[1] + left, what="padded grid")
-        cells = np.full((self.shape[0] + top, self.shape[1] + left), UNKNOWN, np.int8)
-        cells[top:, left:] = self.cells
+        sides = (left, top, right, bottom)
+        if not all(isinstance(side, int) and side >= 0 for side in sides):
+            raise InvalidMapError(f"padding must be whole cells >= 0, got {sides!r}")
+        height, width = self.shape[0] + top + bottom, self.shape[1] + left + right
+        check_map_size(height, width, what="padded grid")
+        cells = np.full((height, width), UNKNOWN, np.int8)
+        cells[top : top + self.shape[0], left : left + self.shape[1]] = self.cells
         ox, oy, yaw = self.origin
-        step = left * self.resolution  # the lower-left corner moves left along the grid's x
-        origin = (ox - step * math.cos(yaw), oy - step * math.sin(yaw), yaw)
-        return OccupancyGrid(cells, self.resolution, origin)
+        # the lower-left corner moves left along the grid's x and down along its y
+        back, down = left * self.resolution, bottom * self.resolution
+        c, s = math.cos(yaw), math.sin(yaw)
+        return OccupancyGrid(
+            cells, self.resolution, (ox - c * back + s * down, oy - s * back - c * down, yaw)
+        )
 
     def known_box(self, margin: float) -> tuple[slice, slice]:
         """The rows and columns of the known cells and ``margin`` metres round them, within

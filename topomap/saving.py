@@ -175,14 +175,17 @@ def planner(topo: TopoMap, robot_radius: float) -> HierarchicalPlanner:
     """The hierarchical planner of ``topo`` for a disc of ``robot_radius`` metres: with the
     door graph saved in the folder ``topo`` was read from (:attr:`TopoMap.source`) when there
     is one for this radius and it was made for this map and these regions; otherwise (none,
-    stale, damaged, or of another version: a warning in the log) one to prepare anew."""
+    stale, damaged, or of another version: a warning in the log) one to prepare anew. It
+    plans on the map's known part (:meth:`~segmentation.regions.Regions.known_part`): every
+    path the same, in the time of the building rather than of the canvas round it."""
     from planners.errors import DoorGraphFileError, StaleDoorGraphError
     from planners.hierarchical import HierarchicalPlanner
     from planners.prepared import read_prepared
     from planners.workspace import Workspace
 
-    space = Workspace(topo.grid, robot_radius)
-    labels, graph = topo.regions.labels, topo.graph
+    known = topo.regions.known_part()  # a SLAM canvas round the building: not planned in
+    space = Workspace(known.grid, robot_radius)
+    labels, graph = known.labels, topo.graph
     path = None if topo.source is None else topo.source / door_graph_name(robot_radius)
     if path is not None and path.is_file():
         try:

@@ -368,9 +368,9 @@ class TopoMap:
         check_options(**options)  # before they are a key: a list is no option
         key = (robot if isinstance(robot, str) else id(robot), tuple(sorted(options.items())))
         if key not in self._kinematic:
-            cspace = HeadingCSpace(self.grid, model)
+            known = self.regions.known_part()  # as :meth:`planner`
             self._kinematic[key] = KinematicHierarchicalPlanner(
-                cspace, self.regions.labels, self.graph, **options
+                HeadingCSpace(known.grid, model), known.labels, self.graph, **options
             )
         return self._kinematic[key]
 

@@ -21,18 +21,6 @@ from segmentation.spectral import SpectralSegmenter
 from topomap.cli.drawing import draw_regions
 
 
-def on_canvas(grid: OccupancyGrid, left: int, top: int, right: int, bottom: int) -> OccupancyGrid:
-    """``grid`` with unknown cells round it, every cell in its place in the map frame."""
-    moved = grid.padded(left, top)
-    cells = np.full((moved.shape[0] + bottom, moved.shape[1] + right), UNKNOWN, np.int8)
-    cells[: moved.shape[0], : moved.shape[1]] = moved.cells
-    x, y, yaw = moved.origin  # rows added at the bottom move the lower-left corner down
-    down = bottom * grid.resolution
-    return OccupancyGrid(
-        cells, grid.resolution, (x + down * math.sin(yaw), y - down * math.cos(yaw), yaw)
-    )
-
-
 @given(
     st.integers(1, 30),
     st.integers(1, 30),
@@ -86,8 +74,8 @@ def flat() -> OccupancyGrid:
 def test_any_canvas_wider_than_the_margin_gives_the_same_regions(flat):
     beyond = math.ceil(CANVAS_MARGIN / flat.resolution) + 5
     pipeline = MapSegmenter(SpectralSegmenter(random_state=0))
-    small = on_canvas(flat, beyond, beyond, beyond, beyond)
-    large = on_canvas(flat, beyond + 150, beyond + 40, beyond + 300, beyond + 7)
+    small = flat.padded(beyond, beyond, beyond, beyond)
+    large = flat.padded(beyond + 150, beyond + 40, beyond + 300, beyond + 7)
     first = pipeline.segment(small, random_state=0)
     second = pipeline.segment(large, random_state=0)
     assert first.regions.labels.shape == small.shape
@@ -109,7 +97,7 @@ def test_any_canvas_wider_than_the_margin_gives_the_same_regions(flat):
 def test_the_graph_of_regions_on_a_canvas_is_that_of_their_known_part(flat):
     found = MapSegmenter(SpectralSegmenter(random_state=0)).segment(flat, random_state=0)
     beyond = math.ceil(CANVAS_MARGIN / flat.resolution) + 200
-    canvas = on_canvas(flat, beyond, beyond, beyond, beyond)
+    canvas = flat.padded(beyond, beyond, beyond, beyond)
     labels = np.zeros(canvas.shape, np.int32)
     labels[beyond : beyond + flat.shape[0], beyond : beyond + flat.shape[1]] = found.regions.labels
     regions = Regions(canvas, labels)
@@ -128,7 +116,7 @@ def test_the_graph_of_regions_on_a_canvas_is_that_of_their_known_part(flat):
 def test_the_picture_shows_the_known_part_not_the_canvas(flat, tmp_path):
     found = MapSegmenter(SpectralSegmenter(random_state=0)).segment(flat, random_state=0)
     graph = region_graph(found.regions)
-    canvas = on_canvas(flat, 2000, 1000, 3000, 500)
+    canvas = flat.padded(2000, 1000, 3000, 500)
     labels = np.zeros(canvas.shape, np.int32)
     labels[1000 : 1000 + flat.shape[0], 2000 : 2000 + flat.shape[1]] = found.regions.labels
     tight = cv2.imread(str(draw_regions(tmp_path / "tight.png", flat, found.regions.labels, graph)))
@@ -136,3 +124,21 @@ def test_the_picture_shows_the_known_part_not_the_canvas(flat, tmp_path):
     assert abs(wide.shape[0] - tight.shape[0]) <= 0.1 * tight.shape[0]
     assert abs(wide.shape[1] - tight.shape[1]) <= 0.1 * tight.shape[1]
     assert (wide != 192).any(axis=2).mean() > 0.3  # the building, not a sea of unknown grey
+
+
+def test_the_planner_plans_on_the_known_part_the_same_paths(flat):
+    from topomap import TopoMap
+
+    beyond = math.ceil(CANVAS_MARGIN / flat.resolution) + 5
+    near = TopoMap.from_grid(flat.padded(beyond, beyond, beyond, beyond))
+    far = TopoMap.from_grid(flat.padded(beyond + 120, beyond + 30, beyond + 200, beyond + 9))
+    nodes = sorted(near.graph.nodes(data=True), key=lambda node: node[1]["x"])
+    start, goal = (nodes[0][1]["x"], nodes[0][1]["y"]), (nodes[-1][1]["x"], nodes[-1][1]["y"])
+    paths = []
+    for topo in (near, far):
+        planner = topo.planner(0.2)
+        assert planner.space.grid.shape == topo.regions.known_part().grid.shape
+        assert planner.space.grid.shape[1] < topo.grid.shape[1]
+        paths.append(planner.plan(start, goal))
+    np.testing.assert_allclose(paths[0].waypoints, paths[1].waypoints)
+    assert paths[0].length > 5.0 and len(paths[0].regions) >= 2

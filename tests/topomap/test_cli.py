@@ -466,6 +466,12 @@ def test_bench_maps_command_times_the_segment_command_in_parts(tmp_path, capsys)
     assert record["startup_s"] > 0 and record["segmentation_s"] > 0 and record["cpu_s"] > 0
     assert parts == pytest.approx(record["seconds"], abs=0.01) or parts > record["seconds"]
     assert "| mean |" in capsys.readouterr().out
+    again = ["-q", "bench", "maps", "--command", str(data), "--out", str(out), "--force"]
+    assert main([*again, "--canvas", "1200"]) == 0
+    plain, canvas = json.loads((out / "command.json").read_text())
+    assert (plain["map"], canvas["map"]) == ("flat", "flat@1200")
+    assert canvas["seconds"] > 0 and canvas["segmentation_s"] > 0
+    assert main([*again, "--canvas", "0"]) == 2  # a usage error, before any work
 
 
 def test_segment_bad_input(tmp_path, capsys):

@@ -127,23 +127,50 @@ def time_command(yaml: Path, out: Path, startup: float) -> dict[str, Any]:
 
 
 def bench_command(
-    data_dir: str | Path, out: str | Path, progress: Callable[[Any], Any] = iter
+    data_dir: str | Path,
+    out: str | Path,
+    progress: Callable[[Any], Any] = iter,
+    canvas: int | None = None,
 ) -> list[dict[str, Any]]:
     """:func:`time_command` on every map of ``data_dir`` (the layouts
     :func:`topomap.cli.evaluate.floor_plans` reads; ROSE²'s images are given a map_server YAML
     first); start-up is a run of the imports alone just before each map's command, so that a
-    machine busy with other work weighs on the two alike."""
+    machine busy with other work weighs on the two alike. With ``canvas``, each map is timed
+    again in the middle of that many cells square of unknown space (:func:`on_canvas`): the
+    record named ``NAME@CELLS``."""
     from topomap.cli.evaluate import floor_plans
 
     out = Path(out)
     records = []
     with tempfile.TemporaryDirectory() as scratch:
         for plan in progress(floor_plans(data_dir)):
-            yaml = plan.yaml
-            if yaml.suffix != ".yaml":
-                yaml = plan.grid().save(Path(scratch) / f"{plan.name}.yaml")
-            startup, _ = _run([sys.executable, "-c", STARTUP])
-            records.append(time_command(yaml, Path(scratch) / plan.name, startup))
+            maps = [(plan.name, plan.yaml)]
+            if plan.yaml.suffix != ".yaml":
+                maps = [(plan.name, plan.grid().save(Path(scratch) / f"{plan.name}.yaml"))]
+            if canvas is not None:
+                name = f"{plan.name}@{canvas}"
+                maps.append(
+                    (name, on_canvas(plan.grid(), canvas).save(Path(scratch) / f"{name}.yaml"))
+                )
+            for name, yaml in maps:
+                startup, _ = _run([sys.executable, "-c", STARTUP])
+                records.append({**time_command(yaml, Path(scratch) / name, startup), "map": name})
     out.mkdir(parents=True, exist_ok=True)
     write_text(out / "command.json", json.dumps(records, indent=2), overwrite=True)
     return records
+
+
+def on_canvas(grid: OccupancyGrid, cells: int) -> OccupancyGrid:
+    """``grid`` in the middle of ``cells`` x ``cells`` unknown cells (or of its own size where
+    that is larger), every cell in its place in the map frame: a map as gmapping saves it
+    (4000 x 4000 cells by default) round the building it mapped.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> big = on_canvas(OccupancyGrid(np.zeros((10, 30), np.int8), 0.1), 20)
+    >>> big.shape, int((big.cells == 0).sum()), big.cell_to_world(5, 0)[0]
+    ((20, 30), 300, np.float64(0.05))
+    """
+    rows, cols = max(cells - grid.shape[0], 0), max(cells - grid.shape[1], 0)
+    return grid.padded(cols // 2, rows // 2, cols - cols // 2, rows - rows // 2)

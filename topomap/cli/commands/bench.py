@@ -52,6 +52,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         metavar="DATA_DIR",
         help="time `topomap segment` itself on every map of DATA_DIR (ipa or ROSE² layout)",
     )
+    maps_bench.add_argument(
+        "--canvas",
+        type=count_type(1, 20_000),
+        metavar="CELLS",
+        help="with --command: each map also in the middle of CELLS x CELLS unknown cells, as "
+        "a SLAM package saves it (gmapping: 4000)",
+    )
     maps_bench.set_defaults(func=cmd_bench_maps)
     online_bench = bench_sub.add_parser("online", help="online segmentation: latency, agreement")
     add_output_options(online_bench, "out/bench-online")
@@ -184,7 +191,7 @@ def cmd_bench_maps(args: argparse.Namespace) -> int:
 
     if args.command is not None:
         refuse_existing(Path(args.out), ["command.json"], args.force)
-        records = bench_command(args.command, args.out, progress=args.progress)
+        records = bench_command(args.command, args.out, progress=args.progress, canvas=args.canvas)
         columns = ["map", "seconds", "cpu_s", "startup_s", "segmentation_s", "outputs_s"]
         mean = {c: round(sum(r[c] for r in records) / len(records), 3) for c in columns[1:]}
         print(markdown_table([*records, {"map": "mean", **mean}], columns))
