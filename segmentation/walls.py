@@ -428,10 +428,13 @@ def wall_stubs(
     near = cv2.dilate(np.where(stub[pieces], pieces, 0).astype(np.float32), square)
     walls = _within(grid.occupied & ~clutter, reach)
     on_line = np.zeros(count, bool)
-    for xs, ys in _wall_lines(surface, resolution, gap, MIN_LENGTH):
-        crossed = near[ys, xs].astype(np.int64)
-        if not crossed.any():
-            continue
+    lines = _main_directions(_hough_lines(surface, resolution, MIN_LENGTH, gap))
+    every_x, every_y, ends = _line_cells(lines)  # the cells of _wall_lines, one array
+    every_crossed = near[every_y, every_x].astype(np.int64)
+    starts = ends - np.diff(ends, prepend=0)
+    crossing = np.add.reduceat(every_crossed > 0, starts) > 0 if len(starts) else np.zeros(0, bool)
+    for start, end in zip(starts[crossing].tolist(), ends[crossing].tolist(), strict=True):
+        xs, ys, crossed = every_x[start:end], every_y[start:end], every_crossed[start:end]
         support = np.cumsum(walls[ys, xs] & (crossed == 0)) * resolution  # metres of wall
         for piece in np.unique(crossed[crossed > 0]).tolist():
             at = np.flatnonzero(crossed == piece)
@@ -453,13 +456,36 @@ def _wall_lines(
     found = _hough_lines(surface, resolution, min_length, gap)
     if len(found) == 0:
         return []
+    xs, ys, ends = _line_cells(_main_directions(found))
+    return list(zip(np.split(xs, ends[:-1]), np.split(ys, ends[:-1]), strict=True))
+
+
+def _line_cells(
+    lines: NDArray[np.int32],
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
+    """The cells (x, y) along every line (x0, y0, x1, y1), one after the other, and where
+    each line's cells end: those of ``np.rint(np.linspace(x0, x1, n))`` (and of y) with ``n``
+    the line's longer side in cells, plus one, computed for all lines at once as
+    ``np.linspace`` computes them (start + i * step, the end exact).
+
+    Examples
+    --------
+    >>> xs, ys, ends = _line_cells(np.array([[0, 0, 4, 2], [3, 3, 3, 1]]))
+    >>> xs.tolist(), ys.tolist(), ends.tolist()
+    ([0, 1, 2, 3, 4, 3, 3, 3], [0, 0, 1, 2, 2, 3, 2, 1], [5, 8])
+    """
+    x0, y0, x1, y1 = lines.astype(np.int64).T
+    n = np.maximum(np.abs(x1 - x0), np.abs(y1 - y0)) + 1
+    ends = np.cumsum(n)
+    line = np.repeat(np.arange(len(lines)), n)
+    first = (ends - n)[line]
+    along = np.arange(int(ends[-1]) if len(ends) else 0, dtype=np.float64) - first
     cells = []
-    for x0, y0, x1, y1 in _main_directions(found).tolist():
-        n = max(abs(x1 - x0), abs(y1 - y0)) + 1
-        xs = np.rint(np.linspace(x0, x1, n)).astype(int)
-        ys = np.rint(np.linspace(y0, y1, n)).astype(int)
-        cells.append((xs, ys))
-    return cells
+    for start, stop in ((x0, x1), (y0, y1)):
+        values = along * ((stop - start) / np.maximum(n - 1, 1))[line] + start[line]
+        values[ends - 1] = stop
+        cells.append(np.rint(values).astype(np.intp))
+    return cells[0], cells[1], ends
 
 
 def _within(cells: NDArray[np.bool_], reach: int) -> NDArray[np.bool_]:
