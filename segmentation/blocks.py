@@ -22,7 +22,7 @@ from scipy.spatial import cKDTree
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
 from segmentation.base import Estimator, is_count
-from segmentation.distinct import label_counts
+from segmentation.distinct import label_counts, nonzero_cells
 from segmentation.errors import ParameterError
 from segmentation.spectral import SpectralSegmenter, at_most, kmeans
 
@@ -44,10 +44,8 @@ def keyframe_blocks(
     sizes = label_counts(basin)
     ids = np.flatnonzero(sizes * grid.resolution**2 >= min_area)
     ids = ids[ids > 0]
-    rows, cols = np.nonzero(basin)
-    owner = basin[rows, cols]
-    centre = np.zeros((len(sizes), 2))
-    np.add.at(centre, owner, np.column_stack([rows, cols]).astype(float))
+    rows, cols = nonzero_cells(basin > 0)
+    centre = _cell_sums(basin[rows, cols], rows, cols, len(sizes))
     centre[ids] /= sizes[ids, None]
     count = max(1, math.ceil(len(ids) / places))
     block_of_basin = np.zeros(len(sizes), np.int64)
@@ -73,12 +71,18 @@ def keyframe_blocks(
 
 
 def _centres(basin: NDArray[np.int32], which: NDArray[np.int64]) -> NDArray[np.float64]:
-    rows, cols = np.nonzero(np.isin(basin, which))
-    owner = basin[rows, cols]
-    order = np.searchsorted(which, owner)
-    total = np.zeros((len(which), 2))
-    np.add.at(total, order, np.column_stack([rows, cols]).astype(float))
+    rows, cols = nonzero_cells(np.isin(basin, which))
+    order = np.searchsorted(which, basin[rows, cols])
+    total = _cell_sums(order, rows, cols, len(which))
     return total / np.maximum(np.bincount(order, minlength=len(which)), 1)[:, None]
+
+
+def _cell_sums(
+    owner: NDArray[np.integer], rows: NDArray[np.intp], cols: NDArray[np.intp], count: int
+) -> NDArray[np.float64]:
+    """The sums of the ``rows`` and ``cols`` of the cells of each ``owner`` ``0 .. count - 1``,
+    shape ``(count, 2)``: sums of integers, exact in floats in any order."""
+    return np.column_stack([np.bincount(owner, rows, count), np.bincount(owner, cols, count)])
 
 
 @dataclass(eq=False)

@@ -34,7 +34,7 @@ from scipy.spatial import cKDTree
 from maps.grid import OccupancyGrid
 from segmentation.coverage import DOOR_WIDTH
 from segmentation.refine import OPEN
-from segmentation.regions import boundary_pairs, consecutive
+from segmentation.regions import boundary_pairs, relabelled
 from segmentation.walls import CHANNEL
 
 #: The narrowest corridor, metres: building codes' least (1.1-1.2 m); a narrower passage is a
@@ -96,7 +96,7 @@ def join_corridor_cuts(places: NDArray[np.int32], grid: OccupancyGrid) -> NDArra
     count = int(places.max()) + 1
     links = sparse.coo_matrix((np.ones(len(a)), (a, b)), shape=(count, count))
     _, component = connected_components(links, directed=False)
-    return consecutive(np.where(places > 0, component[places] + 1, 0))
+    return relabelled(places, np.r_[0, component[1:] + 1])
 
 
 def _cut_piece(middle: NDArray[np.float64], open_at: NDArray[np.float32]) -> NDArray[np.intp]:

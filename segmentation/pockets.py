@@ -21,7 +21,7 @@ from scipy.sparse.csgraph import connected_components
 
 from maps.grid import OccupancyGrid
 from segmentation.distinct import label_counts
-from segmentation.regions import consecutive
+from segmentation.regions import relabelled
 from segmentation.transitions import find_transitions
 
 #: The narrowest door, metres: door leaves of closets and WC stalls are 0.6-0.7 m. An opening
@@ -89,7 +89,7 @@ def join_pockets(
     for group in _chains(pockets, len(sizes)):
         target[group] = max(group, key=lambda region: (sizes[region], -region))
     lost = (target != np.arange(len(sizes))) & (sizes > 0)
-    return consecutive(target[labels]), int(lost[1:].sum())
+    return relabelled(labels, target), int(lost[1:].sum())
 
 
 def _chains(pockets: dict[int, int], count: int) -> list[list[int]]:

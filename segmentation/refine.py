@@ -19,7 +19,7 @@ from skimage.segmentation import watershed
 from maps.grid import OccupancyGrid
 from segmentation.distinct import label_counts
 from segmentation.errors import ParameterError
-from segmentation.regions import boundary_pairs, consecutive
+from segmentation.regions import boundary_pairs, consecutive, relabelled
 
 #: A passage at least this share of the open space on both sides of it is no door.
 OPEN = 0.8
@@ -86,7 +86,7 @@ def basins(grid: OccupancyGrid, depth: float = PLACE_DEPTH) -> NDArray[np.int32]
         if peak[low] - passage[edge] < depth:
             parent[low] = high
     roots = np.array([root(x) for x in range(count + 1)])
-    return consecutive(roots[seeds])
+    return relabelled(seeds, roots)
 
 
 def count_basins(grid: OccupancyGrid, basin: NDArray[np.int32], min_area: float = 1.0) -> int:

@@ -124,6 +124,26 @@ def consecutive(labels: NDArray[np.integer]) -> NDArray[np.int32]:
     return rank[labels]
 
 
+def relabelled(labels: NDArray[np.integer], table: NDArray[np.integer]) -> NDArray[np.int32]:
+    """``consecutive(table[labels])`` for ``labels`` >= 0 (ids into ``table``): the table
+    made consecutive over the values ``labels`` holds, then looked up once, so no map of
+    ``table``'s values is made and relabelled whole (a third of the time on a campus).
+
+    Examples
+    --------
+    >>> relabelled(np.array([[0, 3, 3], [1, 0, 2]]), np.array([0, 9, 9, 4])).tolist()
+    [[0, 1, 1], [2, 0, 2]]
+    """
+    present = label_counts(labels, len(table)) > 0
+    values = np.maximum(table, 0)
+    kept = np.zeros(int(values.max(initial=0)) + 1, bool)
+    kept[values[present]] = True
+    kept[0] = False
+    rank = np.cumsum(kept).astype(np.int32)
+    rank[0] = 0
+    return rank[values][labels]
+
+
 def dense_labels(
     grid: OccupancyGrid,
     rows: NDArray[np.int64],

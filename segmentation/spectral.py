@@ -181,18 +181,18 @@ def kmeans(
     weight = np.ones(n) if weights is None else np.asarray(weights, float)
     squared = (points**2).sum(axis=1)
     chosen = [_draw(weight / weight.sum(), rng)]
-    nearest = np.maximum(squared - 2 * points @ points[chosen[0]] + squared[chosen[0]], 0.0)
+    nearest = np.maximum(squared - 2 * (points @ points[chosen[0]]) + squared[chosen[0]], 0.0)
     for _ in range(1, k):
         total = (weight * nearest).sum()
         chance = weight * nearest / total if total > 0 else weight / weight.sum()
         pick = _draw(chance, rng)
         chosen.append(pick)
-        distance = np.maximum(squared - 2 * points @ points[pick] + squared[pick], 0.0)
+        distance = np.maximum(squared - 2 * (points @ points[pick]) + squared[pick], 0.0)
         nearest = np.minimum(nearest, distance)
     centres = points[chosen].copy()
     labels = np.full(n, -1, np.int64)
     for _ in range(max_iter):
-        distances = (centres**2).sum(axis=1)[None, :] - 2 * points @ centres.T
+        distances = (centres**2).sum(axis=1)[None, :] - 2 * (points @ centres.T)
         new = np.argmin(distances, axis=1)
         if np.array_equal(new, labels):
             break

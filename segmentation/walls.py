@@ -145,28 +145,37 @@ def wall_gaps(
     reach = _reach(resolution)
     surface = walls & _within(free, reach)  # what scans saw of them
     near = _within(surface, reach)  # jagged walls
-    for xs, ys in _wall_lines(surface, resolution, gap, min_length):
-        n = len(xs)
-        on = near[ys, xs]
-        starts = np.flatnonzero(np.r_[True, on[1:] != on[:-1]])
-        ends = np.r_[starts[1:], n]
-        for run in np.flatnonzero(~on[starts[1:-1]]) + 1:  # gaps with wall on both sides
-            i, j = starts[run], ends[run]
-            wall_ends = (xs[i - 1], ys[i - 1]), (xs[j], ys[j])
-            if (
-                HOLE + 2 * resolution < (j - i) * resolution <= gap  # a narrower gap is a door
-                and min(ends[run - 1] - starts[run - 1], ends[run + 1] - starts[run + 1])
-                * resolution
-                >= flank
-                and free[ys[i:j], xs[i:j]].mean() > 0.5
-                and not _through_channel(
-                    near,
-                    (xs[i - 1 - reach], ys[i - 1 - reach]),  # on the walls' faces
-                    (xs[j + reach], ys[j + reach]),
-                    CHANNEL / resolution,
-                )
-            ):
-                _close(out, *wall_ends, HOLE / resolution)
+    xs, ys, line_ends = _wall_lines(surface, resolution, gap, min_length)
+    on = near[ys, xs]
+    # the runs of cells on and off the walls along each line (a line's first cell starts one)
+    change = np.zeros(len(xs), bool)
+    change[line_ends[:-1]] = True
+    change[:1] = True
+    change[1:] |= on[1:] != on[:-1]
+    starts = np.flatnonzero(change)
+    ends = np.r_[starts[1:], len(xs)]
+    line = np.searchsorted(line_ends, starts, side="right")
+    inner = np.zeros(len(starts), bool)  # a run with another of its line on both sides
+    inner[1:-1] = (line[:-2] == line[1:-1]) & (line[2:] == line[1:-1])
+    run = np.flatnonzero(inner & ~on[starts])  # gaps with wall on both sides
+    first, stop = starts[run], ends[run]  # a gap's cells: first .. stop - 1
+    flanks = np.minimum(ends[run - 1] - starts[run - 1], ends[run + 1] - starts[run + 1])
+    free_cells = np.r_[0, np.cumsum(free[ys, xs])]
+    width = (stop - first) * resolution
+    candidate = (
+        (HOLE + 2 * resolution < width)  # a narrower gap is a door
+        & (width <= gap)
+        & (flanks * resolution >= flank)
+        & ((free_cells[stop] - free_cells[first]) / (stop - first) > 0.5)
+    )
+    for i, j in zip(first[candidate].tolist(), stop[candidate].tolist(), strict=True):
+        if not _through_channel(
+            near,
+            (xs[i - 1 - reach], ys[i - 1 - reach]),  # on the walls' faces
+            (xs[j + reach], ys[j + reach]),
+            CHANNEL / resolution,
+        ):
+            _close(out, (xs[i - 1], ys[i - 1]), (xs[j], ys[j]), HOLE / resolution)
     return out.astype(bool) & free
 
 
@@ -428,10 +437,12 @@ def wall_stubs(
     near = cv2.dilate(np.where(stub[pieces], pieces, 0).astype(np.float32), square)
     walls = _within(grid.occupied & ~clutter, reach)
     on_line = np.zeros(count, bool)
-    for xs, ys in _wall_lines(surface, resolution, gap, MIN_LENGTH):
-        crossed = near[ys, xs].astype(np.int64)
-        if not crossed.any():
-            continue
+    every_x, every_y, ends = _wall_lines(surface, resolution, gap, MIN_LENGTH)
+    every_crossed = near[every_y, every_x].astype(np.int64)
+    starts = ends - np.diff(ends, prepend=0)
+    crossing = np.add.reduceat(every_crossed > 0, starts) > 0 if len(starts) else np.zeros(0, bool)
+    for start, end in zip(starts[crossing].tolist(), ends[crossing].tolist(), strict=True):
+        xs, ys, crossed = every_x[start:end], every_y[start:end], every_crossed[start:end]
         support = np.cumsum(walls[ys, xs] & (crossed == 0)) * resolution  # metres of wall
         for piece in np.unique(crossed[crossed > 0]).tolist():
             at = np.flatnonzero(crossed == piece)
@@ -446,20 +457,40 @@ def _reach(resolution: float) -> int:
 
 def _wall_lines(
     surface: NDArray[np.bool_], resolution: float, gap: float, min_length: float
-) -> list[tuple[NDArray[np.intp], NDArray[np.intp]]]:
-    """The cells (x, y) along each wall line of ``surface`` (walls' faces): probabilistic
-    Hough lines at least ``min_length`` long across gaps of up to ``gap`` metres, kept along
-    the building's main directions (:func:`_main_directions`)."""
-    found = _hough_lines(surface, resolution, min_length, gap)
-    if len(found) == 0:
-        return []
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
+    """The cells (x, y) along the wall lines of ``surface`` (walls' faces), one line after
+    the other, and where each line's cells end (:func:`_line_cells`): probabilistic Hough
+    lines at least ``min_length`` long across gaps of up to ``gap`` metres, kept along the
+    building's main directions (:func:`_main_directions`)."""
+    return _line_cells(_main_directions(_hough_lines(surface, resolution, min_length, gap)))
+
+
+def _line_cells(
+    lines: NDArray[np.int32],
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
+    """The cells (x, y) along every line (x0, y0, x1, y1), one after the other, and where
+    each line's cells end: those of ``np.rint(np.linspace(x0, x1, n))`` (and of y) with ``n``
+    the line's longer side in cells, plus one, computed for all lines at once as
+    ``np.linspace`` computes them (start + i * step, the end exact).
+
+    Examples
+    --------
+    >>> xs, ys, ends = _line_cells(np.array([[0, 0, 4, 2], [3, 3, 3, 1]]))
+    >>> xs.tolist(), ys.tolist(), ends.tolist()
+    ([0, 1, 2, 3, 4, 3, 3, 3], [0, 0, 1, 2, 2, 3, 2, 1], [5, 8])
+    """
+    x0, y0, x1, y1 = lines.astype(np.int64).T
+    n = np.maximum(np.abs(x1 - x0), np.abs(y1 - y0)) + 1
+    ends = np.cumsum(n)
+    line = np.repeat(np.arange(len(lines)), n)
+    first = (ends - n)[line]
+    along = np.arange(int(ends[-1]) if len(ends) else 0, dtype=np.float64) - first
     cells = []
-    for x0, y0, x1, y1 in _main_directions(found).tolist():
-        n = max(abs(x1 - x0), abs(y1 - y0)) + 1
-        xs = np.rint(np.linspace(x0, x1, n)).astype(int)
-        ys = np.rint(np.linspace(y0, y1, n)).astype(int)
-        cells.append((xs, ys))
-    return cells
+    for start, stop in ((x0, x1), (y0, y1)):
+        values = along * ((stop - start) / np.maximum(n - 1, 1))[line] + start[line]
+        values[ends - 1] = stop
+        cells.append(np.rint(values).astype(np.intp))
+    return cells[0], cells[1], ends
 
 
 def _within(cells: NDArray[np.bool_], reach: int) -> NDArray[np.bool_]:
