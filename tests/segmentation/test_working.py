@@ -5,7 +5,7 @@ from collections import deque
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -115,6 +115,7 @@ def _rooms(draw):
     down=st.integers(0, 2),
     right=st.integers(0, 2),
 )
+@example(space=np.pad(np.ones((2, 2), bool), ((0, 4), (0, 4))), factor=2, down=0, right=1)
 def test_a_map_one_cell_over_pools_to_the_same_working_grid(space, factor, down, right):
     """The blocks fall where the space keeps the most of them whole (block_phase), so the
     same space padded above and left pools to the same working grid and labels come back to
@@ -132,7 +133,10 @@ def test_a_map_one_cell_over_pools_to_the_same_working_grid(space, factor, down,
     ]
     first, second = (_trimmed(p.free) for p in pooled)
     assert first.shape == second.shape and (first == second).all()
-    labels = [np.arange(p.free.size, dtype=np.int32).reshape(p.free.shape) * p.free for p in pooled]
+    # every working cell a label of its own, 1 up: a label 0 would be no region
+    labels = [
+        np.arange(1, p.free.size + 1, dtype=np.int32).reshape(p.free.shape) * p.free for p in pooled
+    ]
     back = [
         unpool(found, factor, cells, block_phase(cells, factor))
         for found, cells in zip(labels, (space, moved), strict=True)
