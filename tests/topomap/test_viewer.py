@@ -156,3 +156,16 @@ def test_page_in_chromium_names_hover_route_and_zoom(chrome, page, tmp_path):
     assert math.dist(before[1:], after[1:]) < 3 / after[0] + 3 / before[0]
     chrome.save_screenshot(str(tmp_path / "viewer-zoomed.png"))
     assert chrome.get_log("browser") == []
+
+
+def test_the_page_shows_the_known_part_of_a_slam_canvas(page):
+    from segmentation.regions import CANVAS_MARGIN
+
+    topo, _ = page
+    canvas = TopoMap.from_grid(topo.grid.padded(800, 700, 900, 600), random_state=0)
+    data, tight = viewer_data(canvas, max_paths=0), viewer_data(topo, max_paths=0)
+    (x0, y0, x1, y1), (u0, v0, u1, v1) = data["bounds"], tight["bounds"]
+    assert x0 >= u0 - CANVAS_MARGIN - 0.1 and x1 <= u1 + CANVAS_MARGIN + 0.1  # not 85 m wider
+    assert y0 >= v0 - CANVAS_MARGIN - 0.1 and y1 <= v1 + CANVAS_MARGIN + 0.1
+    assert data["height"] * data["resolution"] == pytest.approx(y1 - y0)
+    assert len(data["regions"]) >= 3 and data["image_step"] == 1

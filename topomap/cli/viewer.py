@@ -2,7 +2,9 @@
 
 The page needs no network and no server: its script and style are inlined and the map is an
 embedded PNG (data URI) of the cells, regions coloured by place type
-(:data:`topomap.graph_layout.LABEL_COLOURS`), at most :data:`MAX_IMAGE_SIDE` pixels a side.
+(:data:`topomap.graph_layout.LABEL_COLOURS`), at most :data:`MAX_IMAGE_SIDE` pixels a side,
+of the map's known part (:meth:`~segmentation.regions.Regions.known_part`: not a SLAM
+package's empty canvas round it).
 The regions (name, label, area, neighbours, most open point, polygon simplified to half a
 cell), the doors, the graph's edges door to door and the region graph's weights ride along
 as JSON. Hovering a region shows its name, label, area and doors; clicking two regions draws
@@ -39,18 +41,18 @@ MAX_PATHS = 400
 _DIGITS = 3  # coordinates in the page: millimetres
 
 
-def _png_uri(topo: Any) -> tuple[str, int]:
-    """The map with its regions in their label's colour as a PNG data URI, and the number of
-    cells per pixel."""
+def _png_uri(regions: Any, graph: Any) -> tuple[str, int]:
+    """The map of ``regions`` with them in their label's colour (``graph``'s) as a PNG data
+    URI, and the number of cells per pixel."""
     import cv2
 
     from topomap.cli.drawing import map_image
 
-    labels = topo.regions.labels
+    labels = regions.labels
     colours = np.zeros((int(labels.max(initial=0)) + 1, 4))
-    for region, label in topo.graph.nodes(data="label"):
+    for region, label in graph.nodes(data="label"):
         colours[region] = (*label_colour(label), 1.0)
-    image = map_image(topo.grid, labels, alpha=0.55, colours=colours)
+    image = map_image(regions.grid, labels, alpha=0.55, colours=colours)
     step = max(1, math.ceil(max(image.shape[:2]) / MAX_IMAGE_SIDE))
     image = np.ascontiguousarray(image[::step, ::step])
     ok, encoded = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA))
@@ -87,9 +89,10 @@ def viewer_data(topo: Any, *, robot_radius: float = 0.2, max_paths: int = MAX_PA
     """Everything the page shows, as JSON-ready data (see the module's text)."""
     from planners.route_graph import region_point
 
-    graph, grid = topo.graph, topo.grid
+    known = topo.regions.known_part()  # not a SLAM package's empty canvas round it
+    graph, grid = topo.graph, known.grid
     planner = topo.planner(robot_radius)
-    image, step = _png_uri(topo)
+    image, step = _png_uri(known, graph)
     points = {r: p for r in graph.nodes if (p := region_point(planner, r)) is not None}
     regions = []
     for region in sorted(graph.nodes):
