@@ -83,12 +83,28 @@ def align(
     >>> align(old, np.array([[1, 2], [3, 4]]), new).tolist()
     [[0, 1, 2], [0, 3, 4]]
     """
-    rows, cols = np.indices(grid.shape)
-    x, y = grid.cell_to_world(rows, cols)
-    r, c = previous.world_to_cell(x, y)
+    out, labels = np.zeros(grid.shape, np.int32), np.asarray(labels)
+    labelled = np.flatnonzero(labels.any(axis=1)), np.flatnonzero(labels.any(axis=0))
+    if len(labelled[0]) == 0:
+        return out
+    # only the cells of grid over the previous labels' box (a SLAM canvas: a small part)
+    part = (
+        slice(int(labelled[0][0]), int(labelled[0][-1]) + 1),
+        slice(int(labelled[1][0]), int(labelled[1][-1]) + 1),
+    )
+    previous, labels = previous.cropped(*part), labels[part]
+    corners = np.array([[0, 0], [0, 1], [1, 0], [1, 1]]) * previous.shape  # cell edges
+    x, y = previous.cell_to_world(corners[:, 0] - 0.5, corners[:, 1] - 0.5)
+    r, c = grid.world_to_cell(x, y)
+    top, bottom = max(int(r.min()) - 1, 0), min(int(r.max()) + 2, grid.shape[0])
+    left, right = max(int(c.min()) - 1, 0), min(int(c.max()) + 2, grid.shape[1])
+    if top >= bottom or left >= right:
+        return out
+    rows, cols = np.mgrid[top:bottom, left:right]
+    r, c = previous.world_to_cell(*grid.cell_to_world(rows, cols))
     inside = previous.contains(r, c)
-    out = np.zeros(grid.shape, np.int32)
-    out[inside] = labels[r[inside], c[inside]]
+    window = out[top:bottom, left:right]
+    window[inside] = labels[r[inside], c[inside]]
     return out
 
 
@@ -196,6 +212,12 @@ def carry_ids(
     labels = np.asarray(labels, np.int64)
     if previous.shape != labels.shape:
         raise SegmentationError(f"previous regions {previous.shape} on a {labels.shape} map")
+    whole = labels
+    some = (previous > 0) | (labels > 0)  # the box of either's regions (on a SLAM canvas: small)
+    rows, cols = np.flatnonzero(some.any(axis=1)), np.flatnonzero(some.any(axis=0))
+    if len(rows):
+        box = slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1)
+        previous, labels = previous[box], labels[box]
     old_ids = [int(v) for v in np.unique(previous) if v > 0]
     new_ids = [int(v) for v in np.unique(labels) if v > 0]
     fresh = max(old_ids, default=0) + 1 if next_id is None else int(next_id)
@@ -244,6 +266,6 @@ def carry_ids(
     lookup = np.zeros(max(new_ids, default=0) + 1, np.int64)
     for r, carried in ids.items():
         lookup[r] = carried
-    out = np.where(labels > 0, lookup[np.maximum(labels, 0)], 0).astype(np.int32)
+    out = np.where(whole > 0, lookup[np.maximum(whole, 0)], 0).astype(np.int32)
     events.sort(key=lambda e: (e["region"], e["event"]))
     return Carried(out, {int(k): int(v) for k, v in ids.items()}, events, fresh)

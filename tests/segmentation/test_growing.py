@@ -67,3 +67,41 @@ def test_align_follows_the_map_frame_at_any_resolution_and_yaw():
     # it, its first cell lowest (rows count down)
     turned = OccupancyGrid(old.cells, 0.5, (1.0, 2.0, np.pi / 2))
     assert align(turned, previous, new)[1:, 1].tolist() == previous[2, ::-1].tolist()
+
+
+def _align_everywhere(previous, labels, grid):
+    """align's reference: every cell of ``grid`` looked up in ``previous``."""
+    rows, cols = np.indices(grid.shape)
+    r, c = previous.world_to_cell(*grid.cell_to_world(rows, cols))
+    inside = previous.contains(r, c)
+    out = np.zeros(grid.shape, np.int32)
+    out[inside] = labels[r[inside], c[inside]]
+    return out
+
+
+@given(
+    arrays(np.int32, (6, 7), elements=st.integers(0, 4)),
+    st.sampled_from([0.05, 0.1, 0.2]),
+    st.floats(-1.0, 1.0),
+    st.floats(-3.0, 3.0),
+    st.floats(-np.pi, np.pi),
+)
+def test_align_looks_at_the_previous_regions_box_only_and_finds_what_every_cell_would(
+    labels, resolution, x, y, yaw
+):
+    previous = OccupancyGrid(np.zeros((6, 7), np.int8), 0.1, (0.3, -0.2, 0.4))
+    grid = OccupancyGrid(np.zeros((40, 50), np.int8), resolution, (x - 1.0, y - 1.0, yaw))
+    np.testing.assert_array_equal(
+        align(previous, labels, grid), _align_everywhere(previous, labels, grid)
+    )
+
+
+def test_ids_are_carried_the_same_on_a_canvas_round_the_regions():
+    previous = np.zeros((300, 400), np.int64)
+    labels = np.zeros((300, 400), np.int64)
+    previous[100:120, 150:170], previous[100:120, 170:200] = 4, 9
+    labels[100:120, 150:185], labels[100:120, 185:200], labels[130:135, 150:160] = 1, 2, 3
+    tight = carry_ids(previous[95:140, 145:205], labels[95:140, 145:205], next_id=12)
+    wide = carry_ids(previous, labels, next_id=12)
+    assert np.array_equal(wide.labels[95:140, 145:205], tight.labels)
+    assert not wide.labels[:95].any() and (wide.ids, wide.events) == (tight.ids, tight.events)
