@@ -230,8 +230,10 @@ class MapSegmenter(Estimator):
         ParameterError
             A setting out of its range.
         SegmentationError
-            A map with no free space the robot fits in, fewer than two keyframes that saw a
-            wall, or keyframes none of which stands in or beside that space (another frame).
+            A map with no free space the robot fits in, fewer than two of the given
+            keyframes that saw a wall (none of the virtual ones: every place gets one, so
+            one is a map of one place, one region), or keyframes none of which stands in or
+            beside that space (another frame).
         """
         self._validate_params()
         if not isinstance(grid, OccupancyGrid):
@@ -283,6 +285,8 @@ class MapSegmenter(Estimator):
         stage("places")
         conditioned, space, places = self._places(conditioned, phase)
         lap("places")
+        # every place gets a virtual keyframe: one is a map of one place, one region
+        needed = 2 if keyframes is not None else 1
         if keyframes is None:
             stage("keyframes")
             keyframes = virtual_keyframes(
@@ -297,10 +301,10 @@ class MapSegmenter(Estimator):
         keyframes = keyframe_list(keyframes)
         stage("spectral")
         seen = seeing(keyframes)  # a scan that hit nothing: no place
-        if len(seen) < 2:
+        if len(seen) < needed:
             raise SegmentationError(
                 f"{len(seen)} of {len(keyframes)} keyframes saw a wall within their laser's "
-                "range: at least 2 are needed to cluster"
+                f"range: at least {needed} {'are' if needed > 1 else 'is'} needed to cluster"
             )
         if len(seen) < len(keyframes):
             log.info("%d keyframes saw no wall and are not clustered", len(keyframes) - len(seen))

@@ -262,6 +262,22 @@ def test_degenerate_keyframes_give_a_typed_error_or_a_defined_result():
     assert parted.n_regions_ == (1 if parted.affinity_.nnz else 2)
 
 
+@pytest.mark.parametrize(("shape", "pad"), [((80, 1240), 20), ((20, 2000), 0), ((2000, 20), 0)])
+def test_a_lone_corridor_the_lattice_misses_is_one_region(shape, pad):
+    """A 60 m x 1.7 m corridor in unknown space (or a 100 m x 0.7 m map of a corridor alone,
+    either way round) whose middle falls between the rows of the virtual keyframes' lattice:
+    its one place gets one keyframe, and a map of one place is one region (it was refused:
+    "1 of 1 keyframes saw a wall ...: at least 2 are needed to cluster")."""
+    cells = np.full(shape, -1, np.int8)
+    cells[pad : shape[0] - pad, pad : shape[1] - pad] = 100  # walls 3 cells thick
+    cells[pad + 3 : shape[0] - pad - 3, pad + 3 : shape[1] - pad - 3] = 0
+    grid = OccupancyGrid(cells, 0.05)
+    found = MapSegmenter(spectral=SpectralSegmenter(random_state=0)).segment(grid)
+    assert len(found.keyframes) == 1
+    assert list(found.regions.ids) == [1]
+    assert (found.regions.labels[grid.free] == 1).all()
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_a_robots_run_leaves_each_room_in_one_region(seed):
     """Places no keyframe stands in (behind furniture, in a corner the robot never drove to)

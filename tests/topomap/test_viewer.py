@@ -158,14 +158,48 @@ def test_page_in_chromium_names_hover_route_and_zoom(chrome, page, tmp_path):
     assert chrome.get_log("browser") == []
 
 
-def test_the_page_shows_the_known_part_of_a_slam_canvas(page):
-    from segmentation.regions import CANVAS_MARGIN
+def test_the_page_shows_a_canvas_maps_known_part_where_its_cells_are():
+    """A SLAM package's canvas (here 3 x the flat's size, the origin turned 0.3 rad): the page
+    opens on the building and its picture is of the known part and 1 m round it (it was the
+    whole canvas: the building small in a corner, and 2 GB to draw an 8000 x 8000 canvas);
+    each pixel still lands on its own cell (the page's transform, from the data)."""
+    import base64
 
-    topo, _ = page
-    canvas = TopoMap.from_grid(topo.grid.padded(800, 700, 900, 600), random_state=0)
-    data, tight = viewer_data(canvas, max_paths=0), viewer_data(topo, max_paths=0)
-    (x0, y0, x1, y1), (u0, v0, u1, v1) = data["bounds"], tight["bounds"]
-    assert x0 >= u0 - CANVAS_MARGIN - 0.1 and x1 <= u1 + CANVAS_MARGIN + 0.1  # not 85 m wider
-    assert y0 >= v0 - CANVAS_MARGIN - 0.1 and y1 <= v1 + CANVAS_MARGIN + 0.1
-    assert data["height"] * data["resolution"] == pytest.approx(y1 - y0)
-    assert len(data["regions"]) >= 3 and data["image_step"] == 1
+    import cv2
+    import numpy as np
+
+    from maps.grid import OccupancyGrid
+    from topomap.cli.drawing import FRAME, map_image
+    from topomap.graph_layout import label_colour
+
+    flat = generate_floor_plan("flat", random_state=0).grid
+    cells = np.full((3 * flat.shape[0], 3 * flat.shape[1]), -1, np.int8)
+    top, left = flat.shape[0] // 2, 2 * flat.shape[1]
+    cells[top : top + flat.shape[0], left : left + flat.shape[1]] = flat.cells
+    grid = OccupancyGrid(cells, flat.resolution, (-50.0, 20.0, 0.3))
+    topo = TopoMap.from_grid(grid, random_state=0)
+    data = viewer_data(topo, max_paths=0)
+    rows, cols = grid.known_box(FRAME)
+    assert data["bounds"] == list(grid.cropped(rows, cols).bounds())
+    encoded = base64.b64decode(data["image"].split(",", 1)[1])
+    image = cv2.imdecode(np.frombuffer(encoded, np.uint8), cv2.IMREAD_UNCHANGED)
+    assert data["image_step"] == 1 and image.shape[:2] == (
+        rows.stop - rows.start,
+        cols.stop - cols.start,
+    )
+    colours = np.zeros((len(topo.graph) + 1, 4))
+    for region, label in topo.graph.nodes(data="label"):
+        colours[region] = (*label_colour(label), 1.0)
+    whole = map_image(grid, topo.regions.labels, alpha=0.55, colours=colours)
+    whole = cv2.cvtColor(whole, cv2.COLOR_RGBA2BGRA)
+    assert len({tuple(c) for c in whole[topo.regions.labels > 0]}) >= 2  # rooms, corridors
+    ox, oy, yaw = data["origin"]
+    cell, height = data["resolution"], data["height"]
+    free_rows, free_cols = np.nonzero(topo.regions.labels > 0)
+    pick = np.random.default_rng(0).choice(len(free_rows), 500, replace=False)
+    x, y = grid.cell_to_world(free_rows[pick], free_cols[pick])
+    c, s = math.cos(yaw), math.sin(yaw)  # the page: translate(ox, oy), rotate(yaw), flip rows
+    u, v = c * (x - ox) + s * (y - oy), -s * (x - ox) + c * (y - oy)
+    px, py = np.floor(u / cell).astype(int), np.floor((height * cell - v) / cell).astype(int)
+    drawn = image[py, px]  # the page's colour there: the region of that cell, in its colour
+    assert np.array_equal(drawn, whole[free_rows[pick], free_cols[pick]])

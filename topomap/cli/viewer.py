@@ -1,10 +1,9 @@
 """``topomap view``: one self-contained HTML page of a map, its regions, doors and routes.
 
 The page needs no network and no server: its script and style are inlined and the map is an
-embedded PNG (data URI) of the cells, regions coloured by place type
-(:data:`topomap.graph_layout.LABEL_COLOURS`), at most :data:`MAX_IMAGE_SIDE` pixels a side,
-of the map's known part (:meth:`~segmentation.regions.Regions.known_part`: not a SLAM
-package's empty canvas round it).
+embedded PNG (data URI) of the cells of its known part and a metre round it (the page opens on
+it, not on a SLAM package's mostly unknown canvas), regions coloured by place type
+(:data:`topomap.graph_layout.LABEL_COLOURS`), at most :data:`MAX_IMAGE_SIDE` pixels a side.
 The regions (name, label, area, neighbours, most open point, polygon simplified to half a
 cell), the doors, the graph's edges door to door and the region graph's weights ride along
 as JSON. Hovering a region shows its name, label, area and doors; clicking two regions draws
@@ -30,6 +29,7 @@ import numpy as np
 import shapely
 
 from maps.files import OutputFolder, check_output_file, write_text
+from maps.grid import OccupancyGrid
 from planners.errors import PlanningError
 from topomap.errors import ExportError
 from topomap.graph_layout import edge_segments, label_colour
@@ -41,24 +41,27 @@ MAX_PATHS = 400
 _DIGITS = 3  # coordinates in the page: millimetres
 
 
-def _png_uri(regions: Any, graph: Any) -> tuple[str, int]:
-    """The map of ``regions`` with them in their label's colour (``graph``'s) as a PNG data
-    URI, and the number of cells per pixel."""
+def _png_uri(topo: Any) -> tuple[str, int, OccupancyGrid]:
+    """The map's known part and :data:`~topomap.cli.drawing.FRAME` metres round it (a SLAM
+    package's canvas is mostly unknown), its regions in their label's colour, as a PNG data
+    URI; the number of cells per pixel; the part of the map the picture shows."""
     import cv2
 
-    from topomap.cli.drawing import map_image
+    from topomap.cli.drawing import FRAME, map_image
 
-    labels = regions.labels
-    colours = np.zeros((int(labels.max(initial=0)) + 1, 4))
-    for region, label in graph.nodes(data="label"):
+    rows, cols = topo.grid.known_box(FRAME)
+    shown = topo.grid.cropped(rows, cols)
+    step = max(1, math.ceil(max(shown.shape) / MAX_IMAGE_SIDE))
+    labels = topo.regions.labels[rows, cols][::step, ::step]
+    picture = OccupancyGrid(shown.cells[::step, ::step], shown.resolution * step, shown.origin)
+    colours = np.zeros((int(topo.regions.labels.max(initial=0)) + 1, 4))
+    for region, label in topo.graph.nodes(data="label"):
         colours[region] = (*label_colour(label), 1.0)
-    image = map_image(regions.grid, labels, alpha=0.55, colours=colours)
-    step = max(1, math.ceil(max(image.shape[:2]) / MAX_IMAGE_SIDE))
-    image = np.ascontiguousarray(image[::step, ::step])
+    image = map_image(picture, labels, alpha=0.55, colours=colours)
     ok, encoded = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGBA2BGRA))
     if not ok:
         raise OSError("could not encode the map picture")
-    return "data:image/png;base64," + base64.b64encode(encoded.tobytes()).decode(), step
+    return "data:image/png;base64," + base64.b64encode(encoded.tobytes()).decode(), step, shown
 
 
 def _xy(points: Any) -> list[list[float]]:
@@ -89,10 +92,9 @@ def viewer_data(topo: Any, *, robot_radius: float = 0.2, max_paths: int = MAX_PA
     """Everything the page shows, as JSON-ready data (see the module's text)."""
     from planners.route_graph import region_point
 
-    known = topo.regions.known_part()  # not a SLAM package's empty canvas round it
-    graph, grid = topo.graph, known.grid
+    graph, grid = topo.graph, topo.grid
     planner = topo.planner(robot_radius)
-    image, step = _png_uri(known, graph)
+    image, step, shown = _png_uri(topo)
     points = {r: p for r in graph.nodes if (p := region_point(planner, r)) is not None}
     regions = []
     for region in sorted(graph.nodes):
@@ -121,12 +123,12 @@ def viewer_data(topo: Any, *, robot_radius: float = 0.2, max_paths: int = MAX_PA
     every_pair = len(pairs) <= max_paths
     if not every_pair:
         pairs = sorted((min(a, b), max(a, b)) for a, b in graph.edges)
-    xmin, ymin, xmax, ymax = grid.bounds()
+    xmin, ymin, xmax, ymax = shown.bounds()  # the page opens on the picture
     return {
         "bounds": [xmin, ymin, xmax, ymax],
-        "origin": list(grid.origin),
-        "resolution": grid.resolution,
-        "height": grid.shape[0],
+        "origin": list(shown.origin),
+        "resolution": shown.resolution,
+        "height": shown.shape[0],
         "image": image,
         "image_step": step,
         "regions": regions,
