@@ -262,18 +262,28 @@ def _hough_lines(
     surface: NDArray[np.bool_], resolution: float, min_length: float, gap: float
 ) -> NDArray[np.int32]:
     """Probabilistic Hough lines (x0, y0, x1, y1) of ``surface`` (walls' faces) in any
-    direction, at least ``min_length`` long across breaks of up to ``gap`` metres."""
+    direction, at least ``min_length`` long across breaks of up to ``gap`` metres.
+
+    The transform runs on the box round the walls' cells: OpenCV measures each line's
+    distance from the image's corner and draws its points in an order fixed by their count,
+    so the same walls in another image (a map cropped or padded otherwise, a SLAM package's
+    canvas) give the same lines.
+    """
+    rows, cols = np.flatnonzero(surface.any(axis=1)), np.flatnonzero(surface.any(axis=0))
+    if len(rows) == 0:
+        return np.zeros((0, 4), np.int32)
+    top, left = int(rows[0]), int(cols[0])
     found = cv2.HoughLinesP(
-        surface.astype(np.uint8),
+        surface[top : int(rows[-1]) + 1, left : int(cols[-1]) + 1].astype(np.uint8),
         1,
         math.pi / 180,
         threshold=max(3, round(min_length / resolution / 2)),
         minLineLength=min_length / resolution,
         maxLineGap=gap / resolution,
     )
-    return (
-        np.zeros((0, 4), np.int32) if found is None else np.asarray(found, np.int32).reshape(-1, 4)
-    )
+    if found is None:
+        return np.zeros((0, 4), np.int32)
+    return np.asarray(found, np.int32).reshape(-1, 4) + np.array([left, top, left, top], np.int32)
 
 
 def _mouths(
