@@ -176,3 +176,26 @@ def test_a_saved_canvas_map_is_checked_on_its_known_part(flat, tmp_path, monkeyp
     write_graphml(graph, tmp_path / "canvas" / "graph.graphml", overwrite=True)
     with pytest.raises(ExportFormatError, match="region 1 field 'polygon'"):
         TopoMap.load(tmp_path / "canvas")
+
+
+@pytest.mark.parametrize(
+    ("left", "top", "right", "bottom"), [(1, 0, 0, 0), (0, 1, 0, 0), (1, 1, 0, 0), (7, 13, 40, 3)]
+)
+def test_a_real_slam_map_in_another_image_gives_the_same_regions(
+    data_dir, left, top, right, bottom
+):
+    """ROSE²'s map9 (a gmapping map with its wall lines broken by doors and rays) one cell
+    over or padded otherwise, under the canvas margin: the wall lines, and so the regions,
+    are the same (the Hough transform runs on the box round the walls)."""
+    from topomap.cli.evaluate import floor_plans
+
+    (plan,) = [p for p in floor_plans(data_dir / "rose2_partial") if p.name == "map9"]
+    grid = plan.grid()
+    pipeline = MapSegmenter(SpectralSegmenter(random_state=0))
+    found = pipeline.segment(grid, random_state=0).regions.labels
+    moved = pipeline.segment(grid.padded(left, top, right, bottom), random_state=0)
+    height, width = grid.shape
+    np.testing.assert_array_equal(
+        moved.regions.labels[top : top + height, left : left + width], found
+    )
+    assert len(np.unique(found)) > 10
