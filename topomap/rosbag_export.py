@@ -201,7 +201,7 @@ def _region_markers(build: _Messages, topo: TopoMap) -> list[Any]:
     markers = []
     for region in sorted(graph.nodes):
         data = graph.nodes[region]
-        pieces = shapely.get_parts(topo.regions.polygons[region])
+        pieces = shapely.get_parts(data["polygon"])  # the graph holds it
         rgb = label_colour(data.get("label"))
         triangles = shapely.get_parts(shapely.constrained_delaunay_triangles(pieces))
         corners = [xy for t in triangles for xy in t.exterior.coords[:3]]

@@ -110,7 +110,7 @@ def viewer_data(topo: Any, *, robot_radius: float = 0.2, max_paths: int = MAX_PA
                 "y": round(float(data["y"]), _DIGITS),
                 "doors": sum(len(graph.edges[region, n].get("doors") or ()) for n in neighbours),
                 "neighbours": [str(graph.nodes[n].get("name", n)) for n in neighbours],
-                "rings": _rings(topo.regions.polygons[region], grid.resolution / 2),
+                "rings": _rings(data["polygon"], grid.resolution / 2),  # the graph holds it
             }
         )
     edges = []
