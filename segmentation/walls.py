@@ -52,6 +52,9 @@ MIN_LENGTH = 2.5
 #: degrees) carrying less than ``SHARE`` of all line length is a ray's end or clutter's edge.
 TOLERANCE = 3
 SHARE = 0.1
+#: The directions tried for wall lines, degrees apart: a 30 m wall along a direction half a
+#: step off runs at most 0.07 m (half :data:`JAGGED`) off its line.
+STEP = 0.25
 #: The widest mouth of a hall closed, metres: twice the widest door (:data:`GAP`). A mouth is
 #: a gap between two walls' ends in any direction, the walls going on roughly straight across
 #: it, between a hall and the corridor it opens onto (:func:`hall_mouths`).
@@ -238,7 +241,7 @@ def mouth_lines(
     >>> free[10:110, 10:150] = True
     >>> free[40:43, 10:70] = free[40:43, 100:150] = False  # a 3 m mouth in the wall between
     >>> [(a.round().tolist(), b.round().tolist()) for a, b in mouth_lines(~free, free, 0.1)]
-    [([99.0, 42.0], [70.0, 42.0])]
+    [([99.0, 41.0], [70.0, 41.0])]
     """
     reach = _reach(resolution)
     surface = walls & _within(free, reach)
@@ -247,7 +250,7 @@ def mouth_lines(
     face = surface & (cv2.dilate(free.astype(np.uint8), cross) > 0)  # beside a free cell
     return [
         (a, b)
-        for a, b in _mouths(near, _hough_lines(face, resolution, PIECE, HOLE), free, resolution)
+        for a, b in _mouths(near, _straight_lines(face, resolution, PIECE, HOLE), free, resolution)
         if _hall_beside_corridor(free, a, b, resolution)
     ]
 
@@ -258,32 +261,111 @@ def _cell(point: NDArray) -> tuple[int, int]:
     return x, y
 
 
-def _hough_lines(
+def _straight_lines(
     surface: NDArray[np.bool_], resolution: float, min_length: float, gap: float
 ) -> NDArray[np.int32]:
-    """Probabilistic Hough lines (x0, y0, x1, y1) of ``surface`` (walls' faces) in any
-    direction, at least ``min_length`` long across breaks of up to ``gap`` metres.
+    """Straight lines (x0, y0, x1, y1) of ``surface`` (walls' faces), at least ``min_length``
+    long across breaks of up to ``gap`` metres, each face cell on one line at most.
 
-    The transform runs on the box round the walls' cells: OpenCV measures each line's
-    distance from the image's corner and draws its points in an order fixed by their count,
-    so the same walls in another image (a map cropped or padded otherwise, a SLAM package's
-    canvas) give the same lines.
+    The lines lie along the directions the faces' cells line up along
+    (:func:`_line_directions`). Along each, the cells within :data:`JAGGED` of a row (rows one
+    cell apart, counted from the faces' own first row) make runs across breaks of up to
+    ``gap``; a run is a line where it is at least ``min_length`` long and the wall seen along
+    it, within a cell of its row (a face wanders a cell), is at least half ``min_length``.
+    The runs are taken longest first (most cells; the narrowest of equal ones), each where its
+    cells not on a line yet make a line of their own; a line runs through the middle of its
+    cells. Every step depends on the faces' cells alone and measures from them, so the same
+    walls give the same lines wherever they lie in an image.
+
+    Examples
+    --------
+    >>> faces = np.zeros((30, 80), bool)
+    >>> faces[10, 5:30] = faces[11, 5:75:3] = faces[10, 45:75] = True  # a jagged wall, a door
+    >>> _straight_lines(faces, 0.1, 2.5, 1.8).tolist()
+    [[5, 10, 74, 11]]
     """
-    rows, cols = np.flatnonzero(surface.any(axis=1)), np.flatnonzero(surface.any(axis=0))
-    if len(rows) == 0:
-        return np.zeros((0, 4), np.int32)
-    top, left = int(rows[0]), int(cols[0])
-    found = cv2.HoughLinesP(
-        surface[top : int(rows[-1]) + 1, left : int(cols[-1]) + 1].astype(np.uint8),
-        1,
-        math.pi / 180,
-        threshold=max(3, round(min_length / resolution / 2)),
-        minLineLength=min_length / resolution,
-        maxLineGap=gap / resolution,
-    )
-    if found is None:
-        return np.zeros((0, 4), np.int32)
-    return np.asarray(found, np.int32).reshape(-1, 4) + np.array([left, top, left, top], np.int32)
+    rows, columns = np.nonzero(surface)
+    xs, ys = columns.astype(float), rows.astype(float)
+    reach = _reach(resolution)
+    bridge, shortest = gap / resolution + 2 * reach, min_length / resolution
+    band = np.arange(-reach, reach + 1)
+    point = np.repeat(np.arange(len(xs)), len(band))  # each point in the rows within reach
+    near_row = np.tile(np.abs(band) <= 1, len(xs))  # and whether within a cell of the row
+    frames, runs = [], []
+    for angle in _line_directions(xs, ys) if len(xs) else []:
+        along, across = _frame(xs, ys, angle)
+        own = np.floor(across - across.min()).astype(np.int64)  # rows from the points' first
+        row = (own[:, None] + band).ravel()
+        order, starts, stops = _runs(along[point], row, near_row, bridge, shortest)
+        for first, stop in zip(starts.tolist(), stops.tolist(), strict=True):
+            members = point[order[first:stop]]
+            spread = float(across[members].var())
+            runs.append((first - stop, spread, len(frames), int(row[order[first]]), members))
+        frames.append((angle, along, across, own))
+    claimed = np.zeros(len(xs), bool)
+    found = []
+    for _, _, j, at, members in sorted(runs, key=lambda run: (*run[:4], run[4][0])):
+        angle, along, across, own = frames[j]
+        fresh = members[(np.abs(own[members] - at) <= 1) & ~claimed[members]]
+        if len(np.unique(np.floor(along[fresh]))) >= shortest / 2:
+            claimed[members] = True
+            way = np.array([math.cos(angle), math.sin(angle)])
+            middle = float(across[members].mean()) * np.array([-way[1], way[0]])
+            found.append([t * way + middle for t in (along[members].min(), along[members].max())])
+    return np.rint(np.reshape(found, (-1, 4))).astype(np.int32)
+
+
+def _frame(
+    xs: NDArray[np.float64], ys: NDArray[np.float64], angle: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The points' (x, y) coordinates along the direction ``angle`` (radians) and across it."""
+    cos, sin = math.cos(angle), math.sin(angle)
+    return xs * cos + ys * sin, ys * cos - xs * sin
+
+
+def _line_directions(xs: NDArray[np.float64], ys: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The directions (radians, every :data:`STEP` degrees) along which the points (x, y)
+    line up best within :data:`TOLERANCE` degrees either way: where the sum of squares of
+    their counts in rows one unit apart peaks (the projection's energy, as a standard Hough
+    accumulator's peaks, its rows counted from the points' own first)."""
+    angles = np.arange(0.0, 180.0, STEP)
+    energy = np.zeros(len(angles))
+    for i, angle in enumerate(np.radians(angles)):
+        across = _frame(xs, ys, float(angle))[1]
+        counts = np.bincount(np.floor(across - across.min()).astype(np.int64))
+        energy[i] = np.dot(counts, counts)
+    window = round(TOLERANCE / STEP)
+    peak = np.ones(len(angles), bool)
+    for shift in range(1, window + 1):  # the first of equal ones
+        peak &= (energy >= np.roll(energy, shift)) & (energy > np.roll(energy, -shift))
+    return np.radians(angles[peak & (energy > 0)])
+
+
+def _runs(
+    along: NDArray[np.float64],
+    row: NDArray[np.int64],
+    seen: NDArray[np.bool_],
+    bridge: float,
+    shortest: float,
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
+    """The runs of points along their rows across breaks of up to ``bridge``: the order of
+    the points by row and ``along``, and each run's first and last but one point in it, for
+    the runs at least ``shortest`` long with their ``seen`` points on at least half
+    ``shortest`` cells along."""
+    order = np.lexsort((along, row))
+    ahead, rows = along[order], row[order]
+    if not len(order):
+        return order, order, order
+    new = np.ones(len(order), bool)
+    new[1:] = (rows[1:] != rows[:-1]) | (ahead[1:] - ahead[:-1] > bridge + 1)
+    starts = np.flatnonzero(new)
+    stops = np.r_[starts[1:], len(order)]
+    column = np.floor(ahead)
+    counted = seen[order].copy()
+    counted[1:] &= new[1:] | (column[1:] != column[:-1])  # each cell along once
+    cells = np.add.reduceat(counted, starts)
+    keep = (ahead[stops - 1] - ahead[starts] >= shortest) & (cells >= shortest / 2)
+    return order, starts[keep], stops[keep]
 
 
 def _mouths(
@@ -472,7 +554,7 @@ def _wall_lines(
     the other, and where each line's cells end (:func:`_line_cells`): probabilistic Hough
     lines at least ``min_length`` long across gaps of up to ``gap`` metres, kept along the
     building's main directions (:func:`_main_directions`)."""
-    return _line_cells(_main_directions(_hough_lines(surface, resolution, min_length, gap)))
+    return _line_cells(_main_directions(_straight_lines(surface, resolution, min_length, gap)))
 
 
 def _line_cells(
