@@ -2,14 +2,15 @@
 line, the gap between is where people draw the room's edge.
 
 A SLAM map rarely shows a room's wall whole: an open door, a wide opening onto a corridor, a
-glass wall the laser saw through leave a gap in a straight wall. The clearance alone cannot
-tell a corridor beside a wide opening from the room behind it (the space only widens), so the
-places found in it straddle the opening. A wall that goes on past the gap, on the same line,
-says where the edge is. :func:`wall_gaps` finds such gaps (the walls' lines by a probabilistic
-Hough transform, kept along the building's main directions) and returns the free cells that
-close them but for a hole in the middle; the places are then found with these cells as wall,
-so a gap is a passage narrower than a door: the places end there, and the partition decides
-whether to cut there. Gaps where corridors meet (a crossing, a T junction) stay open.
+glass wall the laser saw through leave a gap in a straight wall. The clearance alone cannot tell
+a corridor beside a wide opening from the room behind it (the space only widens), so the places
+found in it straddle the opening. A wall that goes on past the gap, on the same line, says where
+the edge is. :func:`wall_gaps` finds such gaps (the walls' lines from the runs of their faces'
+cells along the building's main directions, :func:`_straight_lines`: the same walls give the
+same lines wherever they lie) and returns the free cells that close them but for a hole in the
+middle; the places are then found with these cells as wall, so a gap is a passage narrower than
+a door: the places end there, and the partition decides whether to cut there. Gaps where
+corridors meet (a crossing, a T junction) stay open.
 
 Every length is in metres: a gap at most as wide as double doors (``gap``), walls at least
 ``flank`` long on both sides of it, lines at least ``min_length`` long.
@@ -52,7 +53,7 @@ MIN_LENGTH = 2.5
 #: degrees) carrying less than ``SHARE`` of all line length is a ray's end or clutter's edge.
 TOLERANCE = 3
 SHARE = 0.1
-#: The directions tried for wall lines, degrees apart: a 30 m wall along a direction half a
+#: How finely wall lines' directions are found, degrees: a 30 m wall along a direction half a
 #: step off runs at most 0.07 m (half :data:`JAGGED`) off its line.
 STEP = 0.25
 #: The widest mouth of a hall closed, metres: twice the widest door (:data:`GAP`). A mouth is
@@ -192,8 +193,9 @@ def hall_mouths(
     basin with it: the space only widens into the hall, and the gap may be wider than double
     doors and its walls off the building's main directions, where :func:`wall_gaps` does not
     look. A mouth (:func:`mouth_lines`) is a gap of :data:`GAP` to :data:`MOUTH` metres
-    between the ends of two straight walls (probabilistic Hough lines of any direction, at
-    least :data:`PIECE` long, each followed to where its wall ends) that go on across it
+    between the ends of two straight walls (lines of the walls' faces along any direction
+    they line up along, :func:`_straight_lines`, at least :data:`PIECE` long, each followed
+    to where its wall ends) that go on across it
     within :data:`BEND` degrees, where the two sides differ in kind: straight in from the
     gap, the clearance on one side rises to :data:`HALL` times the other's (a hall beside a
     corridor), both sides are at least a corridor deep all along the gap (:data:`CORRIDOR`:
@@ -250,69 +252,92 @@ def mouth_lines(
     face = surface & (cv2.dilate(free.astype(np.uint8), cross) > 0)  # beside a free cell
     return [
         (a, b)
-        for a, b in _mouths(near, _straight_lines(face, resolution, PIECE, HOLE), free, resolution)
+        for a, b in _mouths(
+            near, _straight_lines(face, resolution, PIECE, HOLE, 1), free, resolution
+        )
         if _hall_beside_corridor(free, a, b, resolution)
     ]
 
 
 def _cell(point: NDArray) -> tuple[int, int]:
-    """The nearest cell (x, y) of a point."""
-    x, y = np.rint(point).astype(int).tolist()
+    """The nearest cell (x, y) of a point, halves rounded up (so one cell over, the same)."""
+    x, y = np.floor(np.asarray(point) + 0.5).astype(int).tolist()
     return x, y
 
 
 def _straight_lines(
-    surface: NDArray[np.bool_], resolution: float, min_length: float, gap: float
+    surface: NDArray[np.bool_], resolution: float, min_length: float, gap: float, window: int
 ) -> NDArray[np.int32]:
     """Straight lines (x0, y0, x1, y1) of ``surface`` (walls' faces), at least ``min_length``
-    long across breaks of up to ``gap`` metres, each face cell on one line at most.
+    long across breaks of up to ``gap`` metres between the faces' jagged bands, along the
+    directions the faces line up along best within ``window`` degrees either way
+    (:func:`_line_directions`).
 
-    The lines lie along the directions the faces' cells line up along
-    (:func:`_line_directions`). Along each, the cells within :data:`JAGGED` of a row (rows one
-    cell apart, counted from the faces' own first row) make runs across breaks of up to
-    ``gap``; a run is a line where it is at least ``min_length`` long and the wall seen along
-    it, within a cell of its row (a face wanders a cell), is at least half ``min_length``.
-    The runs are taken longest first (most cells; the narrowest of equal ones), each where its
-    cells not on a line yet make a line of their own; a line runs through the middle of its
-    cells. Every step depends on the faces' cells alone and measures from them, so the same
-    walls give the same lines wherever they lie in an image.
+    Along each direction, the face cells within :data:`JAGGED` of a row (rows one cell apart,
+    counted from the faces' own first) make runs across breaks of up to ``gap`` plus twice
+    :data:`JAGGED` (the gap :func:`wall_gaps` measures between the bands the faces wander in); a
+    run is a line where it is at least ``min_length`` long and the wall seen along it within a
+    cell of its row (a face wanders a cell) covers at least half ``min_length``. The runs of all
+    directions are taken in turn, the most cells first (the narrowest of equal ones): each is a
+    line unless its cells on no line yet cover less than that (a wall's face jagged over several
+    rows gives one line; the cells a crossing wall's line took still join a line's pieces). A
+    line is its cells' least-squares line, from the first of them along to the last: the
+    direction (the whole map's) only picks its cells, so the same walls give the same line
+    wherever they lie in an image, whatever lies beyond its reach.
 
     Examples
     --------
-    >>> faces = np.zeros((30, 80), bool)
-    >>> faces[10, 5:30] = faces[11, 5:75:3] = faces[10, 45:75] = True  # a jagged wall, a door
-    >>> _straight_lines(faces, 0.1, 2.5, 1.8).tolist()
-    [[5, 10, 74, 11]]
+    >>> faces = np.zeros((30, 80), bool)  # 0.1 m cells: a wall with a 1.5 m door
+    >>> faces[10, 5:30] = faces[10, 45:75] = True
+    >>> faces[11, 12:20] = faces[9, 50:55] = True  # where its face wanders a cell
+    >>> _straight_lines(faces, 0.1, 2.5, 1.8, 3).tolist()
+    [[5, 10, 74, 10]]
     """
     rows, columns = np.nonzero(surface)
-    xs, ys = columns.astype(float), rows.astype(float)
+    # measured from the faces' first column and row: the same sums wherever the walls lie
+    corner = np.array([columns.min(), rows.min()] * 2) if len(rows) else np.zeros(4, int)
+    xs, ys = (columns - corner[0]).astype(float), (rows - corner[1]).astype(float)
     reach = _reach(resolution)
     bridge, shortest = gap / resolution + 2 * reach, min_length / resolution
     band = np.arange(-reach, reach + 1)
     point = np.repeat(np.arange(len(xs)), len(band))  # each point in the rows within reach
     near_row = np.tile(np.abs(band) <= 1, len(xs))  # and whether within a cell of the row
     frames, runs = [], []
-    for angle in _line_directions(xs, ys) if len(xs) else []:
+    for angle in _line_directions(xs, ys, window) if len(xs) else []:
         along, across = _frame(xs, ys, angle)
         own = np.floor(across - across.min()).astype(np.int64)  # rows from the points' first
         row = (own[:, None] + band).ravel()
         order, starts, stops = _runs(along[point], row, near_row, bridge, shortest)
-        for first, stop in zip(starts.tolist(), stops.tolist(), strict=True):
+        sums = [np.r_[0.0, np.cumsum(across[point[order]] ** power)] for power in (1, 2)]
+        count = stops - starts
+        mean, square = ((total[stops] - total[starts]) / count for total in sums)
+        spread = square - mean**2  # the variance of each run's offsets across
+        for first, stop, width in zip(
+            starts.tolist(), stops.tolist(), spread.tolist(), strict=True
+        ):
             members = point[order[first:stop]]
-            spread = float(across[members].var())
-            runs.append((first - stop, spread, len(frames), int(row[order[first]]), members))
+            runs.append((first - stop, width, len(frames), int(row[order[first]]), members))
         frames.append((angle, along, across, own))
     claimed = np.zeros(len(xs), bool)
     found = []
     for _, _, j, at, members in sorted(runs, key=lambda run: (*run[:4], run[4][0])):
         angle, along, across, own = frames[j]
         fresh = members[(np.abs(own[members] - at) <= 1) & ~claimed[members]]
-        if len(np.unique(np.floor(along[fresh]))) >= shortest / 2:
+        if len(fresh) >= shortest / 2 and len(np.unique(np.floor(along[fresh]))) >= shortest / 2:
             claimed[members] = True
-            way = np.array([math.cos(angle), math.sin(angle)])
-            middle = float(across[members].mean()) * np.array([-way[1], way[0]])
-            found.append([t * way + middle for t in (along[members].min(), along[members].max())])
-    return np.rint(np.reshape(found, (-1, 4))).astype(np.int32)
+            found.append(_fitted(along[members], across[members], angle))
+    return (np.rint(np.reshape(found, (-1, 4))) + corner).astype(np.int32)
+
+
+def _fitted(along: NDArray[np.float64], across: NDArray[np.float64], angle: float) -> list[float]:
+    """The line (x0, y0, x1, y1) of points at ``along`` and ``across`` the direction ``angle``
+    (radians): their least-squares line (``across`` on ``along``), from the first of them
+    along to the last."""
+    slope, offset = np.polyfit(along, across, 1)
+    way = np.array([math.cos(angle), math.sin(angle)])
+    normal = np.array([-way[1], way[0]])
+    ends = [t * way + (slope * t + offset) * normal for t in (along.min(), along.max())]
+    return np.concatenate(ends).tolist()
 
 
 def _frame(
@@ -323,22 +348,35 @@ def _frame(
     return xs * cos + ys * sin, ys * cos - xs * sin
 
 
-def _line_directions(xs: NDArray[np.float64], ys: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The directions (radians, every :data:`STEP` degrees) along which the points (x, y)
-    line up best within :data:`TOLERANCE` degrees either way: where the sum of squares of
-    their counts in rows one unit apart peaks (the projection's energy, as a standard Hough
-    accumulator's peaks, its rows counted from the points' own first)."""
-    angles = np.arange(0.0, 180.0, STEP)
-    energy = np.zeros(len(angles))
-    for i, angle in enumerate(np.radians(angles)):
-        across = _frame(xs, ys, float(angle))[1]
-        counts = np.bincount(np.floor(across - across.min()).astype(np.int64))
-        energy[i] = np.dot(counts, counts)
-    window = round(TOLERANCE / STEP)
-    peak = np.ones(len(angles), bool)
+def _line_directions(xs: NDArray[np.float64], ys: NDArray[np.float64], window: int) -> list[float]:
+    """The directions (radians) along which the points (x, y) line up best: whole degrees where
+    the sum of squares of their counts in rows one unit apart (the projection's energy, as a
+    standard Hough accumulator's peaks; its rows counted from the points' own first) peaks
+    within ``window`` degrees either way, each refined to its best direction less than a
+    degree off, in steps of :data:`STEP` degrees."""
+    whole = np.arange(180.0)
+    energy = _energy(xs, ys, whole)
+    peak = np.ones(len(whole), bool)
     for shift in range(1, window + 1):  # the first of equal ones
         peak &= (energy >= np.roll(energy, shift)) & (energy > np.roll(energy, -shift))
-    return np.radians(angles[peak & (energy > 0)])
+    steps = np.arange(STEP - 1, 1, STEP)
+    return [
+        math.radians(float(near[np.argmax(_energy(xs, ys, near))]))
+        for near in whole[peak & (energy > 0)][:, None] + steps
+    ]
+
+
+def _energy(
+    xs: NDArray[np.float64], ys: NDArray[np.float64], degrees: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The sum of squares of the points' (x, y) counts in rows one unit apart across each
+    direction (``degrees``), the rows counted from the points' own first."""
+    energy = np.zeros(len(degrees))
+    for i, angle in enumerate(np.radians(degrees)):
+        across = ys * math.cos(angle) - xs * math.sin(angle)
+        counts = np.bincount((across - across.min()).astype(np.int64))  # floor, as >= 0
+        energy[i] = np.dot(counts, counts)
+    return energy
 
 
 def _runs(
@@ -349,21 +387,24 @@ def _runs(
     shortest: float,
 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
     """The runs of points along their rows across breaks of up to ``bridge``: the order of
-    the points by row and ``along``, and each run's first and last but one point in it, for
-    the runs at least ``shortest`` long with their ``seen`` points on at least half
-    ``shortest`` cells along."""
-    order = np.lexsort((along, row))
-    ahead, rows = along[order], row[order]
-    if not len(order):
-        return order, order, order
+    the points by row and ``along``, and each run's first point in that order and the one
+    after its last, for the runs at least ``shortest`` long with their ``seen`` points on at
+    least half ``shortest`` cells along."""
+    if not len(along):
+        return np.zeros((3, 0), np.intp)
+    ahead = along - along.min()
+    order = np.argsort(row * (np.ceil(ahead.max()) + 1) + ahead)  # by row, then along
+    ahead, rows = ahead[order], row[order]
     new = np.ones(len(order), bool)
     new[1:] = (rows[1:] != rows[:-1]) | (ahead[1:] - ahead[:-1] > bridge + 1)
+    run = np.cumsum(new) - 1
     starts = np.flatnonzero(new)
     stops = np.r_[starts[1:], len(order)]
-    column = np.floor(ahead)
-    counted = seen[order].copy()
-    counted[1:] &= new[1:] | (column[1:] != column[:-1])  # each cell along once
-    cells = np.add.reduceat(counted, starts)
+    # the cells along that hold a seen point, each once
+    counted, column = run[seen[order]], np.floor(ahead[seen[order]])
+    first = np.ones(len(counted), bool)
+    first[1:] = (counted[1:] != counted[:-1]) | (column[1:] != column[:-1])
+    cells = np.bincount(counted[first], minlength=len(starts))
     keep = (ahead[stops - 1] - ahead[starts] >= shortest) & (cells >= shortest / 2)
     return order, starts[keep], stops[keep]
 
@@ -496,8 +537,9 @@ def wall_stubs(
     grid: OccupancyGrid, clutter: NDArray[np.bool_], *, gap: float = GAP, flank: float = FLANK
 ) -> NDArray[np.bool_]:
     """The ``clutter`` cells of the free-standing obstacles that are stretches of wall between
-    two doors: at least ``flank`` long, on a wall line (a Hough line of the walls' faces, along
-    the building's main directions, across gaps of up to ``gap``) that runs on over at least
+    two doors: at least ``flank`` long, on a wall line (a line of the walls' faces along the
+    building's main directions, :func:`_straight_lines`, across gaps of up to ``gap``) that
+    runs on over at least
     ``flank`` metres of other wall on both sides of them. They stand as free as a table;
     furniture does not stand in the line of the walls with walls on both hands.
 
@@ -551,10 +593,13 @@ def _wall_lines(
     surface: NDArray[np.bool_], resolution: float, gap: float, min_length: float
 ) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
     """The cells (x, y) along the wall lines of ``surface`` (walls' faces), one line after
-    the other, and where each line's cells end (:func:`_line_cells`): probabilistic Hough
-    lines at least ``min_length`` long across gaps of up to ``gap`` metres, kept along the
-    building's main directions (:func:`_main_directions`)."""
-    return _line_cells(_main_directions(_straight_lines(surface, resolution, min_length, gap)))
+    the other, and where each line's cells end (:func:`_line_cells`): the lines
+    (:func:`_straight_lines`) at least ``min_length`` long across gaps of up to ``gap`` metres
+    along the directions the faces line up along best within :data:`TOLERANCE` degrees, kept
+    along the building's main directions (:func:`_main_directions`)."""
+    return _line_cells(
+        _main_directions(_straight_lines(surface, resolution, min_length, gap, TOLERANCE))
+    )
 
 
 def _line_cells(
@@ -660,13 +705,7 @@ def _close(
     a, b = np.array(start, float), np.array(end, float)
     middle, along = (a + b) / 2, (b - a) / max(float(np.hypot(*(b - a))), 1e-9)
     for tip, near_middle in ((a, middle - along * hole / 2), (b, middle + along * hole / 2)):
-        cv2.line(
-            out,
-            tuple(np.rint(tip).astype(int).tolist()),
-            tuple(np.rint(near_middle).astype(int).tolist()),
-            1,
-            2,
-        )
+        cv2.line(out, _cell(tip), _cell(near_middle), 1, 2)
 
 
 def _main_directions(lines: NDArray[np.int32]) -> NDArray[np.int32]:
