@@ -302,7 +302,8 @@ def _straight_lines(
     band = np.arange(-reach, reach + 1)
     point = np.repeat(np.arange(len(xs)), len(band))  # each point in the rows within reach
     near_row = np.tile(np.abs(band) <= 1, len(xs))  # and whether within a cell of the row
-    frames, runs = [], []
+    frames: list[tuple[float, NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]] = []
+    runs: list[tuple[int, float, int, int, NDArray[np.intp]]] = []  # of every direction
     for angle in _line_directions(xs, ys, window) if len(xs) else []:
         along, across = _frame(xs, ys, angle)
         own = np.floor(across - across.min()).astype(np.int64)  # rows from the points' first
@@ -326,7 +327,9 @@ def _straight_lines(
         if len(fresh) >= shortest / 2 and len(np.unique(np.floor(along[fresh]))) >= shortest / 2:
             claimed[members] = True
             found.append(_fitted(along[members], across[members], angle))
-    return (np.rint(np.reshape(found, (-1, 4))) + corner).astype(np.int32)
+    ends = np.rint(np.reshape(found, (-1, 4))).astype(np.int32) + corner
+    height, width = surface.shape
+    return np.clip(ends, 0, [width - 1, height - 1] * 2).astype(np.int32)  # a fit may lean out
 
 
 def _fitted(along: NDArray[np.float64], across: NDArray[np.float64], angle: float) -> list[float]:
@@ -391,7 +394,8 @@ def _runs(
     after its last, for the runs at least ``shortest`` long with their ``seen`` points on at
     least half ``shortest`` cells along."""
     if not len(along):
-        return np.zeros((3, 0), np.intp)
+        none = np.zeros(0, np.intp)
+        return none, none, none
     ahead = along - along.min()
     order = np.argsort(row * (np.ceil(ahead.max()) + 1) + ahead)  # by row, then along
     ahead, rows = ahead[order], row[order]
