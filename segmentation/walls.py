@@ -298,7 +298,7 @@ def _straight_lines(
     corner = np.array([columns.min(), rows.min()] * 2) if len(rows) else np.zeros(4, int)
     xs, ys = (columns - corner[0]).astype(float), (rows - corner[1]).astype(float)
     reach = _reach(resolution)
-    bridge, shortest = gap / resolution + 2 * reach, min_length / resolution
+    bridge, shortest = gap / resolution, min_length / resolution
     band = np.arange(-reach, reach + 1)
     point = np.repeat(np.arange(len(xs)), len(band))  # each point in the rows within reach
     near_row = np.tile(np.abs(band) <= 1, len(xs))  # and whether within a cell of the row
