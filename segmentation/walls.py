@@ -299,32 +299,39 @@ def _straight_lines(
     xs, ys = (columns - corner[0]).astype(float), (rows - corner[1]).astype(float)
     reach = _reach(resolution)
     bridge, shortest = gap / resolution, min_length / resolution
-    band = np.arange(-reach, reach + 1)
-    point = np.repeat(np.arange(len(xs)), len(band))  # each point in the rows within reach
-    near_row = np.tile(np.abs(band) <= 1, len(xs))  # and whether within a cell of the row
-    frames: list[tuple[float, NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]] = []
-    runs: list[tuple[int, float, int, int, NDArray[np.intp]]] = []  # of every direction
+    band = np.arange(-reach, reach + 1)  # each point in the rows within reach of its own
+    frames: list[tuple[float, NDArray[np.float64], NDArray[np.float64]]] = []
+    places: list[tuple[NDArray[np.intp], NDArray[np.bool_]]] = []  # each direction's, in order
+    keys: list[NDArray[np.float64]] = []  # every run's: -cells, spread, direction, row, point
+    spans: list[NDArray[np.intp]] = []  # every run's direction and places (first, stop)
     for angle in _line_directions(xs, ys, window) if len(xs) else []:
         along, across = _frame(xs, ys, angle)
         own = np.floor(across - across.min()).astype(np.int64)  # rows from the points' first
-        row = (own[:, None] + band).ravel()
-        order, starts, stops = _runs(along[point], row, near_row, bridge, shortest)
-        sums = [np.r_[0.0, np.cumsum(across[point[order]] ** power)] for power in (1, 2)]
+        point, near, row, starts, stops = _runs(along - along.min(), own, band, bridge, shortest)
+        # the variance of each run's offsets across, from the sums over all runs in order
+        offsets = across[point]
+        sums = [np.zeros(len(offsets) + 1), np.zeros(len(offsets) + 1)]
+        np.cumsum(offsets, out=sums[0][1:])
+        np.cumsum(np.square(offsets, out=offsets), out=sums[1][1:])
         count = stops - starts
         mean, square = ((total[stops] - total[starts]) / count for total in sums)
-        spread = square - mean**2  # the variance of each run's offsets across
-        for first, stop, width in zip(
-            starts.tolist(), stops.tolist(), spread.tolist(), strict=True
-        ):
-            members = point[order[first:stop]]
-            runs.append((first - stop, width, len(frames), int(row[order[first]]), members))
-        frames.append((angle, along, across, own))
+        direction = np.full(len(starts), len(frames))
+        keys.append(np.array([-count, square - mean**2, direction, row[starts], point[starts]]))
+        spans.append(np.array([direction, starts, stops]))
+        places.append((point, near))
+        frames.append((angle, along, across))
     claimed = np.zeros(len(xs), bool)
     found = []
-    for _, _, j, at, members in sorted(runs, key=lambda run: (*run[:4], run[4][0])):
-        angle, along, across, own = frames[j]
-        fresh = members[(np.abs(own[members] - at) <= 1) & ~claimed[members]]
-        if len(fresh) >= shortest / 2 and len(np.unique(np.floor(along[fresh]))) >= shortest / 2:
+    every = np.concatenate(keys, axis=1) if keys else np.zeros((5, 0))
+    runs = np.concatenate(spans, axis=1) if spans else np.zeros((3, 0), np.intp)
+    for j, first, stop in runs[:, np.lexsort(every[::-1])].T.tolist():  # by keys, in turn
+        point, near = places[j]
+        members = point[first:stop]
+        fresh = members[near[first:stop] & ~claimed[members]]
+        if len(fresh) < shortest / 2:
+            continue
+        angle, along, across = frames[j]
+        if len(np.unique(np.floor(along[fresh]))) >= shortest / 2:
             claimed[members] = True
             found.append(_fitted(along[members], across[members], angle))
     ends = np.rint(np.reshape(found, (-1, 4))).astype(np.int32) + corner
@@ -375,42 +382,61 @@ def _energy(
     """The sum of squares of the points' (x, y) counts in rows one unit apart across each
     direction (``degrees``), the rows counted from the points' own first."""
     energy = np.zeros(len(degrees))
+    across, step = np.empty_like(xs), np.empty_like(xs)
     for i, angle in enumerate(np.radians(degrees)):
-        across = ys * math.cos(angle) - xs * math.sin(angle)
-        counts = np.bincount((across - across.min()).astype(np.int64))  # floor, as >= 0
+        np.multiply(ys, math.cos(angle), out=across)
+        across -= np.multiply(xs, math.sin(angle), out=step)
+        across -= across.min()
+        counts = np.bincount(across.astype(np.int64))  # floor, as >= 0
         energy[i] = np.dot(counts, counts)
     return energy
 
 
 def _runs(
-    along: NDArray[np.float64],
-    row: NDArray[np.int64],
-    seen: NDArray[np.bool_],
+    ahead: NDArray[np.float64],
+    own: NDArray[np.int64],
+    band: NDArray[np.int64],
     bridge: float,
     shortest: float,
-) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
-    """The runs of points along their rows across breaks of up to ``bridge``: the order of
-    the points by row and ``along``, and each run's first point in that order and the one
-    after its last, for the runs at least ``shortest`` long with their ``seen`` points on at
-    least half ``shortest`` cells along."""
-    if not len(along):
-        none = np.zeros(0, np.intp)
-        return none, none, none
-    ahead = along - along.min()
-    order = np.argsort(row * (np.ceil(ahead.max()) + 1) + ahead)  # by row, then along
-    ahead, rows = ahead[order], row[order]
+) -> tuple[
+    NDArray[np.intp], NDArray[np.bool_], NDArray[np.int64], NDArray[np.intp], NDArray[np.intp]
+]:
+    """The runs of points along rows across breaks of up to ``bridge``, each point (at
+    ``ahead`` along the rows, from 0) in every row ``own`` + ``band``: the places (a point in
+    a row) by row and ``ahead``, as each place's point, whether it is within a row of the
+    point's own and its row, and each run's first place and the one after its last, for the
+    runs at least ``shortest`` long with their places within a row of their own on at least
+    half ``shortest`` cells along.
+
+    Examples
+    --------
+    >>> point, near, row, starts, stops = _runs(
+    ...     np.array([0.0, 1, 2, 3, 4, 9]), np.zeros(6, np.int64), np.arange(-1, 2), 1.0, 3.0
+    ... )
+    >>> point[:6].tolist(), row[starts].tolist(), (stops - starts).tolist()
+    ([0, 1, 2, 3, 4, 5], [-1, 0, 1], [5, 5, 5])
+    """
+    scale = np.ceil(ahead.max(initial=0)) + 1
+    # (own + band) * scale is a whole number: the sums are row * scale + ahead to the bit;
+    # numpy's default sort, as the order of places tied in row and along decides the last
+    # bits of the runs' sums and fits (a stable sort moves a few lines' ends on ipa's plans)
+    order = np.argsort(((own * scale)[:, None] + band * scale + ahead[:, None]).ravel())
+    point = order // len(band)
+    offset = band[order - point * len(band)]
+    ahead, row = ahead[point], own[point] + offset
     new = np.ones(len(order), bool)
-    new[1:] = (rows[1:] != rows[:-1]) | (ahead[1:] - ahead[:-1] > bridge + 1)
+    new[1:] = (row[1:] != row[:-1]) | (ahead[1:] - ahead[:-1] > bridge + 1)
     run = np.cumsum(new) - 1
     starts = np.flatnonzero(new)
     stops = np.r_[starts[1:], len(order)]
-    # the cells along that hold a seen point, each once
-    counted, column = run[seen[order]], np.floor(ahead[seen[order]])
+    # the cells along that hold a place within a row of its own, each once
+    near = np.abs(offset) <= 1
+    counted, column = run[near], np.floor(ahead[near])
     first = np.ones(len(counted), bool)
     first[1:] = (counted[1:] != counted[:-1]) | (column[1:] != column[:-1])
     cells = np.bincount(counted[first], minlength=len(starts))
     keep = (ahead[stops - 1] - ahead[starts] >= shortest) & (cells >= shortest / 2)
-    return order, starts[keep], stops[keep]
+    return point, near, row, starts[keep], stops[keep]
 
 
 def _mouths(

@@ -9,7 +9,7 @@ from maps.grid import OccupancyGrid
 from segmentation import pipeline
 from segmentation.pipeline import MapSegmenter, parted
 from segmentation.spectral import SpectralSegmenter
-from segmentation.walls import hall_mouths, seen_walls, wall_gaps
+from segmentation.walls import _runs, hall_mouths, seen_walls, wall_gaps
 
 
 def _wall_with_gap(gap_cells: int) -> np.ndarray:
@@ -291,3 +291,26 @@ def test_parting_along_a_line_cuts_only_the_places_it_crosses(column, width):
     left, right = found[5, 12], found[5, 28]
     assert {left, right} == {2, 3} and left < right  # pieces in reading order
     assert (found[free] > 0).all() and not found[~free].any()
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_runs_are_each_rows_places_split_at_breaks(seed):
+    rng = np.random.default_rng(seed)
+    count = int(rng.integers(1, 80))
+    ahead, own = rng.integers(0, 40, count) + rng.random(count), rng.integers(0, 6, count)
+    band = np.arange(-2, 3)  # each point in the rows within two of its own
+    point, near, row, starts, stops = _runs(ahead, own, band, 3.0, 6.0)
+    assert np.array_equal(np.lexsort((ahead[point], row)), np.arange(len(point)))
+    assert np.array_equal(near, np.abs(own[point] - row) <= 1)
+    expected = []
+    for at in range(own.min() - 2, own.max() + 3):
+        places = np.flatnonzero(np.abs(own - at) <= 2)
+        places = places[np.argsort(ahead[places])]
+        for run in np.split(places, np.flatnonzero(np.diff(ahead[places]) > 3.0 + 1) + 1):
+            cells = np.unique(np.floor(ahead[run[np.abs(own[run] - at) <= 1]]))
+            if np.ptp(ahead[run]) >= 6.0 and len(cells) >= 3:
+                expected.append((at, run.tolist()))
+    runs = zip(starts.tolist(), stops.tolist(), strict=True)
+    found = [(int(row[first]), point[first:stop].tolist()) for first, stop in runs]
+    assert found == expected
