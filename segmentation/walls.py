@@ -369,6 +369,10 @@ def _line_directions(xs: NDArray[np.float64], ys: NDArray[np.float64], window: i
     peak = np.ones(len(whole), bool)
     for shift in range(1, window + 1):  # the first of equal ones
         peak &= (energy >= np.roll(energy, shift)) & (energy > np.roll(energy, -shift))
+    # a direction along which the points line up: its energy rises above that of the
+    # directions along which nothing does (the median) by at least SHARE of the strongest's
+    excess = energy - np.median(energy)
+    peak &= excess >= SHARE * excess.max()
     steps = np.arange(STEP - 1, 1, STEP)
     return [
         math.radians(float(near[np.argmax(_energy(xs, ys, near))]))
