@@ -420,11 +420,11 @@ def _runs(
     >>> point[:6].tolist(), row[starts].tolist(), (stops - starts).tolist()
     ([0, 1, 2, 3, 4, 5], [-1, 0, 1], [5, 5, 5])
     """
-    scale = np.ceil(ahead.max(initial=0)) + 1
-    # (own + band) * scale is a whole number: the sums are row * scale + ahead to the bit;
-    # numpy's default sort, as the order of places tied in row and along decides the last
-    # bits of the runs' sums and fits (a stable sort moves a few lines' ends on ipa's plans)
-    order = np.argsort(((own * scale)[:, None] + band * scale + ahead[:, None]).ravel())
+    # places by row, then along, then point: whole-number keys, so the order (and the runs'
+    # sums and fits, to the last bit) does not hang on how a sort leaves ties
+    rank = np.empty(len(ahead), np.int64)
+    rank[np.argsort(ahead, kind="stable")] = np.arange(len(ahead))
+    order = np.argsort(((own[:, None] + band) * len(ahead) + rank[:, None]).ravel())
     point = order // len(band)
     offset = band[order - point * len(band)]
     ahead, row = ahead[point], own[point] + offset
