@@ -280,7 +280,10 @@ def _straight_lines(
     cell of its row (a face wanders a cell) covers at least half ``min_length``. The runs of all
     directions are taken in turn, the most cells first (the narrowest of equal ones): each is a
     line unless its cells on no line yet cover less than that (a wall's face jagged over several
-    rows gives one line; the cells a crossing wall's line took still join a line's pieces). A
+    rows gives one line; the cells a crossing wall's line took still join a line's pieces), and
+    the cells of walls that cross its row (:func:`_crossing`) do not count: a row through the
+    faces of walls it crosses (through a building's rooms along the direction of one slanted
+    wall) is no wall's line, a row of walls' ends (a room's cubicles) is. A
     line is its cells' least-squares line, from the first of them along to the last: the
     direction (the whole map's) only picks its cells, so the same walls give the same line
     wherever they lie in an image, whatever lies beyond its reach.
@@ -324,6 +327,7 @@ def _straight_lines(
     found = []
     every = np.concatenate(keys, axis=1) if keys else np.zeros((5, 0))
     runs = np.concatenate(spans, axis=1) if spans else np.zeros((3, 0), np.intp)
+    crossed = [np.full(len(xs), -1, np.int8) for _ in frames]  # each direction's, as found
     for j, first, stop in runs[:, np.lexsort(every[::-1])].T.tolist():  # by keys, in turn
         point, near = places[j]
         members = point[first:stop]
@@ -331,12 +335,57 @@ def _straight_lines(
         if len(fresh) < shortest / 2:
             continue
         angle, along, across = frames[j]
+        unknown = fresh[crossed[j][fresh] < 0]
+        crossed[j][unknown] = _crossing(surface, columns[unknown], rows[unknown], angle, reach)
+        fresh = fresh[crossed[j][fresh] == 0]  # a wall crossing the row is not on it
+        if len(fresh) < shortest / 2:
+            continue
         if len(np.unique(np.floor(along[fresh]))) >= shortest / 2:
             claimed[members] = True
             found.append(_fitted(along[members], across[members], angle))
     ends = np.rint(np.reshape(found, (-1, 4))).astype(np.int32) + corner
     height, width = surface.shape
     return np.clip(ends, 0, [width - 1, height - 1] * 2).astype(np.int32)  # a fit may lean out
+
+
+def _crossing(
+    surface: NDArray[np.bool_], x: NDArray[np.intp], y: NDArray[np.intp], angle: float, reach: int
+) -> NDArray[np.bool_]:
+    """Whether the walls' faces at cells (``x``, ``y``) belong to a wall that crosses the row
+    along ``angle`` (radians) through them: ``surface`` within ``reach`` cells along the row,
+    beyond the band the faces wander in (``reach`` cells across) by up to ``reach`` more, on
+    both sides. A wall that ends at the row (a stub, a room's wall meeting a corridor's) or
+    runs along it has faces on one side at most.
+
+    Examples
+    --------
+    >>> faces = np.zeros((40, 40), bool)
+    >>> faces[5:35, 10] = True  # a wall crossing the row y = 20 ...
+    >>> faces[5:20, 30] = True  # ... and one ending at it
+    >>> _crossing(faces, np.array([10, 30]), np.array([20, 19]), 0.0, 3).tolist()
+    [True, False]
+    """
+    way = np.array([math.cos(angle), math.sin(angle)])
+    normal = np.array([-way[1], way[0]])
+    height, width = surface.shape
+    offsets = [
+        [
+            k * normal * side + t * way
+            for k in range(reach + 1, 2 * reach + 1)
+            for t in range(-2 * reach, 2 * reach + 1)
+        ]
+        for side in (1.0, -1.0)
+    ]
+    sides = []
+    for shifts in offsets:
+        found = np.zeros(len(x), bool)
+        for dx, dy in shifts:
+            cx = np.floor(x + dx + 0.5).astype(np.intp)
+            cy = np.floor(y + dy + 0.5).astype(np.intp)
+            inside = (cx >= 0) & (cx < width) & (cy >= 0) & (cy < height)
+            found[inside] |= surface[cy[inside], cx[inside]]
+        sides.append(found)
+    return sides[0] & sides[1]
 
 
 def _fitted(along: NDArray[np.float64], across: NDArray[np.float64], angle: float) -> list[float]:
