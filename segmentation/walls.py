@@ -368,23 +368,18 @@ def _crossing(
     way = np.array([math.cos(angle), math.sin(angle)])
     normal = np.array([-way[1], way[0]])
     height, width = surface.shape
-    offsets = [
-        [
-            k * normal * side + t * way
-            for k in range(reach + 1, 2 * reach + 1)
-            for t in range(-2 * reach, 2 * reach + 1)
-        ]
-        for side in (1.0, -1.0)
+    steps = [
+        (k, t) for k in range(reach + 1, 2 * reach + 1) for t in range(-2 * reach, 2 * reach + 1)
     ]
     sides = []
-    for shifts in offsets:
-        found = np.zeros(len(x), bool)
-        for dx, dy in shifts:
-            cx = np.floor(x + dx + 0.5).astype(np.intp)
-            cy = np.floor(y + dy + 0.5).astype(np.intp)
-            inside = (cx >= 0) & (cx < width) & (cy >= 0) & (cy < height)
-            found[inside] |= surface[cy[inside], cx[inside]]
-        sides.append(found)
+    for side in (1.0, -1.0):
+        shifts = np.array([k * normal * side + t * way for k, t in steps])  # (offsets, 2)
+        cx = np.floor(x[:, None] + shifts[:, 0] + 0.5).astype(np.intp)
+        cy = np.floor(y[:, None] + shifts[:, 1] + 0.5).astype(np.intp)
+        inside = (cx >= 0) & (cx < width) & (cy >= 0) & (cy < height)
+        hit = np.zeros(cx.shape, bool)
+        hit[inside] = surface[cy[inside], cx[inside]]
+        sides.append(hit.any(axis=1))
     return sides[0] & sides[1]
 
 

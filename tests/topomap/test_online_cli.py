@@ -170,6 +170,7 @@ def test_agreement_is_scikit_learns_adjusted_rand_index(pairs):
 
 def test_online_quality_compares_with_the_offline_partition_at_both_resolutions():
     import maps
+    from segmentation.incremental import IncrementalSegmenter
     from topomap.cli.bench_online import _quality
     from topomap.cli.online import agreement
 
@@ -177,19 +178,20 @@ def test_online_quality_compares_with_the_offline_partition_at_both_resolutions(
     route = maps.wander(plan.grid, plan.labels, random_state=0)
     scans = maps.simulate_scans(plan.grid, route.poses, maps.LaserModel(), random_state=0)
     keyframes = maps.select_keyframes(scans)
-    on_coarse = maps.grid_from_keyframes(keyframes, 0.1)  # the windows' own resolution
-    records, offline, _ = _quality("flat", keyframes, on_coarse, None, 0.5, 0)
+    windows = IncrementalSegmenter().resolution  # what the windows are partitioned on
+    on_windows = maps.grid_from_keyframes(keyframes, windows)
+    records, offline, _ = _quality("flat", keyframes, on_windows, None, 0.5, 0)
     for record in records:  # one offline partition: both figures are the same
         assert record["ari_online_resolution"] == record["ari"]
         assert record["offline_across_resolutions"] == 1.0
-    on_fine = maps.grid_from_keyframes(keyframes, 0.05)
-    fine, fine_offline, labels = _quality("flat", keyframes, on_fine, None, 0.5, 0)
-    windows = next(r for r in fine if r["method"] == "windows")
-    kept = (fine_offline > 0) & (offline > 0)
-    expected = agreement(fine_offline[kept], offline[kept])  # 0.1 m offline = the first run's
-    assert windows["offline_across_resolutions"] == pytest.approx(expected)
-    assert windows["ari"] == agreement(
-        labels["windows"][fine_offline > 0], fine_offline[fine_offline > 0]
+    on_other = maps.grid_from_keyframes(keyframes, 2 * windows)
+    other, other_offline, labels = _quality("flat", keyframes, on_other, None, 0.5, 0)
+    run = next(r for r in other if r["method"] == "windows")
+    kept = (other_offline > 0) & (offline > 0)
+    expected = agreement(other_offline[kept], offline[kept])  # against the first run's offline
+    assert run["offline_across_resolutions"] == pytest.approx(expected)
+    assert run["ari"] == agreement(
+        labels["windows"][other_offline > 0], other_offline[other_offline > 0]
     )
 
 
