@@ -371,7 +371,7 @@ def _crossing(
     steps = [
         (k, t) for k in range(reach + 1, 2 * reach + 1) for t in range(-2 * reach, 2 * reach + 1)
     ]
-    sides = []
+    sides: list[NDArray[np.bool_]] = []
     for side in (1.0, -1.0):
         shifts = np.array([k * normal * side + t * way for k, t in steps])  # (offsets, 2)
         cx = np.floor(x[:, None] + shifts[:, 0] + 0.5).astype(np.intp)
@@ -379,7 +379,7 @@ def _crossing(
         inside = (cx >= 0) & (cx < width) & (cy >= 0) & (cy < height)
         hit = np.zeros(cx.shape, bool)
         hit[inside] = surface[cy[inside], cx[inside]]
-        sides.append(hit.any(axis=1))
+        sides.append(np.asarray(hit.any(axis=1), bool))
     return sides[0] & sides[1]
 
 
