@@ -367,19 +367,15 @@ def _crossing(
     """
     way = np.array([math.cos(angle), math.sin(angle)])
     normal = np.array([-way[1], way[0]])
-    height, width = surface.shape
     steps = [
         (k, t) for k in range(reach + 1, 2 * reach + 1) for t in range(-2 * reach, 2 * reach + 1)
     ]
     sides: list[NDArray[np.bool_]] = []
     for side in (1.0, -1.0):
         shifts = np.array([k * normal * side + t * way for k, t in steps])  # (offsets, 2)
-        cx = np.floor(x[:, None] + shifts[:, 0] + 0.5).astype(np.intp)
-        cy = np.floor(y[:, None] + shifts[:, 1] + 0.5).astype(np.intp)
-        inside = (cx >= 0) & (cx < width) & (cy >= 0) & (cy < height)
-        hit = np.zeros(cx.shape, bool)
-        hit[inside] = surface[cy[inside], cx[inside]]
-        sides.append(np.asarray(hit.any(axis=1), bool))
+        points = np.stack([x[:, None] + shifts[:, 0], y[:, None] + shifts[:, 1]], axis=-1)
+        hit = _hits(surface, np.floor(points.reshape(-1, 2) + 0.5))  # halves rounded up
+        sides.append(np.asarray(hit.reshape(len(x), len(steps)).any(axis=1), bool))
     return sides[0] & sides[1]
 
 
