@@ -18,6 +18,7 @@ Every length is in metres: a gap at most as wide as double doors (``gap``), wall
 
 from __future__ import annotations
 
+import functools
 import math
 
 import cv2
@@ -365,18 +366,30 @@ def _crossing(
     >>> _crossing(faces, np.array([10, 30]), np.array([20, 19]), 0.0, 3).tolist()
     [True, False]
     """
+    height, width = surface.shape
+    sides: list[NDArray[np.bool_]] = []
+    for dx, dy in _beside(angle, reach):
+        cx, cy = x[:, None] + dx, y[:, None] + dy
+        inside = (cx >= 0) & (cx < width) & (cy >= 0) & (cy < height)
+        hit = np.zeros(cx.shape, bool)
+        hit[inside] = surface[cy[inside], cx[inside]]
+        sides.append(np.asarray(hit.any(axis=1), bool))
+    return sides[0] & sides[1]
+
+
+@functools.lru_cache(maxsize=64)
+def _beside(angle: float, reach: int) -> tuple[tuple[NDArray[np.intp], NDArray[np.intp]], ...]:
+    """The offsets (x, y whole cells, halves rounded up, each once) :func:`_crossing` looks
+    at on each side of a row along ``angle`` (radians)."""
     way = np.array([math.cos(angle), math.sin(angle)])
     normal = np.array([-way[1], way[0]])
-    steps = [
-        (k, t) for k in range(reach + 1, 2 * reach + 1) for t in range(-2 * reach, 2 * reach + 1)
-    ]
-    sides: list[NDArray[np.bool_]] = []
+    k, t = np.meshgrid(np.arange(reach + 1, 2 * reach + 1), np.arange(-2 * reach, 2 * reach + 1))
+    offsets = []
     for side in (1.0, -1.0):
-        shifts = np.array([k * normal * side + t * way for k, t in steps])  # (offsets, 2)
-        points = np.stack([x[:, None] + shifts[:, 0], y[:, None] + shifts[:, 1]], axis=-1)
-        hit = _hits(surface, np.floor(points.reshape(-1, 2) + 0.5))  # halves rounded up
-        sides.append(np.asarray(hit.reshape(len(x), len(steps)).any(axis=1), bool))
-    return sides[0] & sides[1]
+        shifts = k.reshape(-1, 1) * normal * side + t.reshape(-1, 1) * way
+        dx, dy = np.unique(np.floor(shifts + 0.5).astype(np.intp), axis=0).T
+        offsets.append((dx, dy))
+    return tuple(offsets)
 
 
 def _fitted(along: NDArray[np.float64], across: NDArray[np.float64], angle: float) -> list[float]:
@@ -462,12 +475,17 @@ def _runs(
     """
     # places by row, then along, then point: whole-number keys, so the order (and the runs'
     # sums and fits, to the last bit) does not hang on how a sort leaves ties
-    rank = np.empty(len(ahead), np.int64)
-    rank[np.argsort(ahead, kind="stable")] = np.arange(len(ahead))
-    order = np.argsort(((own[:, None] + band) * len(ahead) + rank[:, None]).ravel())
-    point = order // len(band)
-    offset = band[order - point * len(band)]
-    ahead, row = ahead[point], own[point] + offset
+    by_ahead = np.argsort(ahead, kind="stable")
+    lowest = int(own.min()) + int(band.min()) if len(own) else 0
+    rows = (own[by_ahead][:, None] + (band - lowest)).ravel()  # from 0, the points by ahead
+    counts = np.bincount(rows)
+    # a stable sort by row keeps them by ahead (a radix sort where rows fit in 16 bits)
+    wide = len(counts) > 1 << 16
+    order = np.argsort(rows if wide else rows.astype(np.uint16), kind="stable")
+    point = by_ahead[order // len(band)]
+    row = np.repeat(np.arange(lowest, lowest + len(counts)), counts)
+    offset = row - own[point]
+    ahead = ahead[point]
     new = np.ones(len(order), bool)
     new[1:] = (row[1:] != row[:-1]) | (ahead[1:] - ahead[:-1] > bridge + 1)
     run = np.cumsum(new) - 1
