@@ -35,7 +35,7 @@ from maps.grid import OccupancyGrid
 from segmentation.coverage import DOOR_WIDTH
 from segmentation.refine import OPEN
 from segmentation.regions import boundary_pairs, relabelled
-from segmentation.walls import CHANNEL
+from segmentation.walls import CHANNEL, FLANK
 
 #: The narrowest corridor, metres: building codes' least (1.1-1.2 m); a narrower passage is a
 #: door or a gap between furniture.
@@ -78,7 +78,7 @@ def corridor_cuts(
     for p, end, n in zip(pair.tolist(), ends.tolist(), cells.tolist(), strict=True):
         if n < 3:
             continue
-        cut = _cut_piece(middle[end - n : end], open_at[end - n : end])
+        cut = _cut_piece(middle[end - n : end], open_at[end - n : end], resolution)
         if len(cut) >= 3 and _across_corridor(
             middle[end - n : end][cut], open_at[end - n : end][cut], clearance, resolution
         ):
@@ -99,19 +99,26 @@ def join_corridor_cuts(places: NDArray[np.int32], grid: OccupancyGrid) -> NDArra
     return relabelled(places, np.r_[0, component[1:] + 1])
 
 
-def _cut_piece(middle: NDArray[np.float64], open_at: NDArray[np.float32]) -> NDArray[np.intp]:
-    """The boundary cells (midpoints, x and y in cells) in one piece with its most open one,
-    when the other pieces lie off its line (two places may also touch elsewhere, through a
-    gap between clutter: another passage, not part of the cut); all of them when one lies on
-    it, within two cells (a dotted wall's gaps, which together are no cut from wall to wall).
+def _cut_piece(
+    middle: NDArray[np.float64], open_at: NDArray[np.float32], resolution: float
+) -> NDArray[np.intp]:
+    """The boundary cells (midpoints, x and y in cells of ``resolution`` metres) in one piece
+    with its most open one, when the other pieces lie off its line (two places may also touch
+    elsewhere, through a gap between clutter, or at another corridor's junction farther along
+    the same line: another passage, not part of the cut); all of them when one lies on it,
+    within two cells across and :data:`~segmentation.walls.FLANK` along (a dotted wall's
+    gaps, which together are no cut from wall to wall).
 
     Examples
     --------
     >>> cut = [[5.5, 0.0], [5.5, 1.0], [5.5, 2.0]]
-    >>> _cut_piece(np.array([*cut, [30.0, 9.5]]), np.array([0.1, 0.3, 0.1, 0.1])).tolist()
+    >>> open_at = np.array([0.1, 0.3, 0.1, 0.1])
+    >>> _cut_piece(np.array([*cut, [30.0, 9.5]]), open_at, 0.1).tolist()
     [0, 1, 2]
-    >>> _cut_piece(np.array([*cut, [5.5, 9.0]]), np.array([0.1, 0.3, 0.1, 0.1])).tolist()
+    >>> _cut_piece(np.array([*cut, [5.5, 9.0]]), open_at, 0.1).tolist()
     [0, 1, 2, 3]
+    >>> _cut_piece(np.array([*cut, [5.5, 40.0]]), open_at, 0.1).tolist()  # 3.8 m on
+    [0, 1, 2]
     """
     near = cKDTree(middle).query_pairs(1.5, output_type="ndarray")
     links = sparse.coo_matrix(
@@ -123,8 +130,11 @@ def _cut_piece(middle: NDArray[np.float64], open_at: NDArray[np.float32]) -> NDA
         return np.flatnonzero(cut)
     centre = middle[cut].mean(axis=0)
     axis = np.linalg.svd(middle[cut] - centre, full_matrices=False)[2][0]
-    off_line = np.abs((middle[~cut] - centre) @ np.array([-axis[1], axis[0]]))
-    return np.flatnonzero(cut) if (off_line > 2).all() else np.arange(len(middle))
+    along, others = (middle[cut] - centre) @ axis, middle[~cut] - centre
+    off_line = np.abs(others @ np.array([-axis[1], axis[0]]))
+    beyond = np.maximum(along.min() - others @ axis, others @ axis - along.max())
+    on_line = (off_line <= 2) & (beyond * resolution <= FLANK)
+    return np.arange(len(middle)) if on_line.any() else np.flatnonzero(cut)
 
 
 def _across_corridor(
