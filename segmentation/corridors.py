@@ -166,7 +166,7 @@ def _across_corridor(
     holds = _keeps_width(clearance, points, across, width, resolution)
     half = len(STEPS)
     both_sides = holds.sum() >= 2 * half - 1 and holds[:half].any() and holds[half:].any()
-    if length >= CORRIDOR_WIDTH and both_sides:
+    if both_sides:
         return True
     return _corridor_into_wider(
         middle[most], normal, width, clearance, resolution
