@@ -78,9 +78,10 @@ def corridor_cuts(
     for p, end, n in zip(pair.tolist(), ends.tolist(), cells.tolist(), strict=True):
         if n < 3:
             continue
-        cut = _cut_piece(middle[end - n : end], open_at[end - n : end], resolution)
-        if len(cut) >= 3 and _across_corridor(
-            middle[end - n : end][cut], open_at[end - n : end][cut], clearance, resolution
+        here, opens = middle[end - n : end], open_at[end - n : end]
+        if any(
+            len(cut) >= 3 and _across_corridor(here[cut], opens[cut], clearance, resolution)
+            for cut in _cut_pieces(here, opens, resolution)
         ):
             found.append(p)
     a, b = np.divmod(np.array(found, np.int64), count)
@@ -99,42 +100,51 @@ def join_corridor_cuts(places: NDArray[np.int32], grid: OccupancyGrid) -> NDArra
     return relabelled(places, np.r_[0, component[1:] + 1])
 
 
-def _cut_piece(
+def _cut_pieces(
     middle: NDArray[np.float64], open_at: NDArray[np.float32], resolution: float
-) -> NDArray[np.intp]:
-    """The boundary cells (midpoints, x and y in cells of ``resolution`` metres) in one piece
-    with its most open one, when the other pieces lie off its line (two places may also touch
-    elsewhere, through a gap between clutter, or at another corridor's junction farther along
-    the same line: another passage, not part of the cut); all of them when one lies on it,
-    within two cells across and :data:`~segmentation.walls.FLANK` along (a dotted wall's
-    gaps, which together are no cut from wall to wall).
+) -> list[NDArray[np.intp]]:
+    """The cuts a boundary (midpoints of its cell pairs, x and y in cells of ``resolution``
+    metres) may be, most open first: each of its pieces (two places may touch at several
+    passages: through a gap between clutter, at another corridor's junction farther along),
+    or all of it where another piece lies on a piece's line, within two cells across and
+    :data:`~segmentation.walls.FLANK` along (a dotted wall's gaps, which together are no cut
+    from wall to wall).
 
     Examples
     --------
     >>> cut = [[5.5, 0.0], [5.5, 1.0], [5.5, 2.0]]
     >>> open_at = np.array([0.1, 0.3, 0.1, 0.1])
-    >>> _cut_piece(np.array([*cut, [30.0, 9.5]]), open_at, 0.1).tolist()
-    [0, 1, 2]
-    >>> _cut_piece(np.array([*cut, [5.5, 9.0]]), open_at, 0.1).tolist()
-    [0, 1, 2, 3]
-    >>> _cut_piece(np.array([*cut, [5.5, 40.0]]), open_at, 0.1).tolist()  # 3.8 m on
-    [0, 1, 2]
+    >>> [c.tolist() for c in _cut_pieces(np.array([*cut, [30.0, 9.5]]), open_at, 0.1)]
+    [[0, 1, 2], [3]]
+    >>> [c.tolist() for c in _cut_pieces(np.array([*cut, [5.5, 9.0]]), open_at, 0.1)]
+    [[0, 1, 2, 3]]
+    >>> [c.tolist() for c in _cut_pieces(np.array([*cut, [5.5, 40.0]]), open_at, 0.1)]
+    [[0, 1, 2], [3]]
     """
     near = cKDTree(middle).query_pairs(1.5, output_type="ndarray")
     links = sparse.coo_matrix(
         (np.ones(len(near)), (near[:, 0], near[:, 1])), shape=(len(middle), len(middle))
     )
-    _, piece = connected_components(links, directed=False)
-    cut = piece == piece[int(np.argmax(open_at))]
-    if cut.all() or cut.sum() < 2:
-        return np.flatnonzero(cut)
-    centre = middle[cut].mean(axis=0)
-    axis = np.linalg.svd(middle[cut] - centre, full_matrices=False)[2][0]
-    along, others = (middle[cut] - centre) @ axis, middle[~cut] - centre
-    off_line = np.abs(others @ np.array([-axis[1], axis[0]]))
-    beyond = np.maximum(along.min() - others @ axis, others @ axis - along.max())
-    on_line = (off_line <= 2) & (beyond * resolution <= FLANK)
-    return np.arange(len(middle)) if on_line.any() else np.flatnonzero(cut)
+    count, piece = connected_components(links, directed=False)
+    most = np.full(count, -np.inf)
+    np.maximum.at(most, piece, open_at.astype(np.float64))
+    cuts: list[NDArray[np.intp]] = []
+    taken = np.zeros(len(middle), bool)
+    for seed in np.argsort(-most, kind="stable").tolist():
+        cut = piece == seed
+        if taken[cut].all():
+            continue  # part of a dotted wall's cut already
+        if cut.sum() >= 2 and not cut.all():
+            centre = middle[cut].mean(axis=0)
+            axis = np.linalg.svd(middle[cut] - centre, full_matrices=False)[2][0]
+            along, others = (middle[cut] - centre) @ axis, middle[~cut] - centre
+            off_line = np.abs(others @ np.array([-axis[1], axis[0]]))
+            beyond = np.maximum(along.min() - others @ axis, others @ axis - along.max())
+            if ((off_line <= 2) & (beyond * resolution <= FLANK)).any():
+                cut[:] = True
+        taken |= cut
+        cuts.append(np.flatnonzero(cut))
+    return cuts
 
 
 def _across_corridor(

@@ -167,18 +167,24 @@ def wall_gaps(
     flanks = np.minimum(ends[run - 1] - starts[run - 1], ends[run + 1] - starts[run + 1])
     free_cells = np.r_[0, np.cumsum(free[ys, xs])]
     width = (stop - first) * resolution
+    walled = (width <= gap) & (flanks * resolution >= flank)  # a door or a wider gap
     candidate = (
-        (HOLE + 2 * resolution < width)  # a narrower gap is a door
-        & (width <= gap)
-        & (flanks * resolution >= flank)
+        walled
+        & (HOLE + 2 * resolution < width)  # a narrower gap is a door
         & ((free_cells[stop] - free_cells[first]) / (stop - first) > 0.5)
     )
+    # a wall runs on through its doors: a corridor with doors in its walls is still one
+    doors = np.zeros(free.shape, np.uint8)
+    for i, j in zip(first[walled].tolist(), stop[walled].tolist(), strict=True):
+        cv2.line(doors, (int(xs[i - 1]), int(ys[i - 1])), (int(xs[j]), int(ys[j])), 1)
+    walls_on = near | _within(doors > 0, reach)
     for i, j in zip(first[candidate].tolist(), stop[candidate].tolist(), strict=True):
         if not _through_channel(
             near,
             (xs[i - 1 - reach], ys[i - 1 - reach]),  # on the walls' faces
             (xs[j + reach], ys[j + reach]),
             CHANNEL / resolution,
+            walls_on,
         ):
             _close(out, (xs[i - 1], ys[i - 1]), (xs[j], ys[j]), HOLE / resolution)
     return out.astype(bool) & free
@@ -730,7 +736,11 @@ def _within(cells: NDArray[np.bool_], reach: int) -> NDArray[np.bool_]:
 
 
 def _through_channel(
-    near: NDArray[np.bool_], start: tuple[int, int], end: tuple[int, int], depth: float
+    near: NDArray[np.bool_],
+    start: tuple[int, int],
+    end: tuple[int, int],
+    depth: float,
+    walls_on: NDArray[np.bool_] | None = None,
 ) -> bool:
     """Whether the gap from ``start`` to ``end`` (x, y cells) is where corridors meet: walls
     run on from both its ends, across the line, for ``depth`` cells on one side (a channel)
@@ -739,18 +749,21 @@ def _through_channel(
     the channel's walls runs on into the other side (a corridor going on past an open area
     beside it, which people draw as part of the corridor). A channel opening into a deep
     space with neither wall going on (a passage leaving a hall) is closed like any gap. The
-    ends given are on the walls' faces, not at the edge of the band they wander in."""
+    ends given are on the walls' faces, not at the edge of the band they wander in. Walls run
+    on where ``walls_on`` is set (``near`` by default; :func:`wall_gaps` adds the lines of the
+    doors and gaps in the walls: a corridor's wall with doors in it still runs on)."""
     a, b = np.array(start, float), np.array(end, float)
     span = max(float(np.hypot(*(b - a))), 1e-9)
     along = (b - a) / span
     normal = np.array([-along[1], along[0]])
-    channel = [_walls_run_on(near, a, b, side * normal, depth) for side in (1.0, -1.0)]
+    walls_on = near if walls_on is None else walls_on
+    channel = [_walls_run_on(walls_on, a, b, side * normal, depth) for side in (1.0, -1.0)]
     if all(channel):
         return True
     if not any(channel):
         return False
     across = -normal if channel[0] else normal  # from the gap, away from the channel
-    if any(_wall_runs_on(near, tip, across, depth) for tip in (a, b)):
+    if any(_wall_runs_on(walls_on, tip, across, depth) for tip in (a, b)):
         return True  # a corridor going on past an open space beside it, along one wall
     steps = (a + b) / 2 + np.arange(1, round(2 * span) + 1)[:, None] * across
     return bool(_hits(near, steps).any())
