@@ -34,6 +34,22 @@ def test_the_basins_of_a_corridor_grid_are_joined_into_one_place():
     assert (joined[~free] == 0).all()
 
 
+def test_places_meeting_at_a_corridor_cut_and_elsewhere_are_joined():
+    # a 1.5 m corridor and, 3 m beyond it on the same line, a 5 m room: both split at x = 10 m
+    # between places 1 and 2. The room's boundary is the more open one but no corridor cut,
+    # and lies too far along the corridor cut's line to be one dotted wall with it.
+    free = np.zeros((110, 202), bool)
+    free[10:25, 1:201] = True
+    free[55:105, 80:120] = True
+    places = np.where(free, 1 + (np.arange(202) >= 100), 0)
+    a, b = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert (a.tolist(), b.tolist()) == ([1], [2])
+    free[30:50, 80:120] = True  # the room reaches to 0.5 m of the corridor's wall line
+    places = np.where(free, 1 + (np.arange(202) >= 100), 0)
+    a, _ = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert len(a) == 0  # the two boundaries are on one line, a dotted wall's gaps: no cut
+
+
 def test_rooms_behind_doors_stay_apart():
     free = np.zeros((100, 210), bool)
     free[10:90, 10:100] = free[10:90, 110:200] = True  # two 8 x 9 m rooms

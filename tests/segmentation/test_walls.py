@@ -77,6 +77,18 @@ def test_a_corridor_crossing_the_line_of_the_rooms_walls_is_not_cut():
     assert not wall_gaps(~free, free, 0.1).any()
 
 
+def test_a_corridor_with_doors_beside_the_crossing_is_not_cut():
+    free = np.zeros((120, 200), bool)  # 0.1 m cells
+    free[50:65, 5:195] = True  # a 1.5 m corridor
+    for rows in (np.s_[5:49], np.s_[66:115]):  # rooms above and below it, two by two,
+        free[rows, 20:99] = free[rows, 101:180] = True  # their walls on one line across it
+    for row in (49, 65):  # and each room's 0.9 m door 0.8 m from the crossing
+        free[row, 82:91] = free[row, 109:118] = True
+    closed = wall_gaps(~free, free, 0.1)
+    assert not closed[50:65, 95:106].any()  # the corridor, where the rooms' walls cross it
+    assert closed[49, 82:91].any()  # the doors are gaps of the corridor's straight walls
+
+
 def test_a_corridor_branching_off_stays_open_but_a_room_opening_of_its_width_is_closed():
     free = np.zeros((120, 200), bool)  # 0.1 m cells
     free[50:65, 5:195] = True  # a 1.5 m corridor
