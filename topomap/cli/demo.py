@@ -61,7 +61,8 @@ class DemoRun:
     plan_topo: TopoMap | None = None
     summary: dict[str, Any] = field(default_factory=dict)
     offline: NDArray[np.int64] | None = None  # region of each keyframe (segment_log)
-    truth: NDArray[np.int32] | None = None  # the plan's rooms on the built map
+    truth: NDArray[np.int32] | None = None  # the plan's rooms on the built map, a corridor
+    # system one room (:meth:`~maps.sim.floorplan.FloorPlan.corridor_systems`), as the issue asks
     offline_spectral: dict[str, float | int] | None = None  # the offline keyframes' scores
     online: dict[str, Any] | None = None  # what online_run found
     paths: dict[str, list[PlannedPath]] = field(default_factory=dict)
@@ -157,11 +158,12 @@ def _rounded(scores: dict[str, float | int]) -> dict[str, float | int]:
 
 
 def segment_log(run: DemoRun) -> None:
-    """Segment the robot's keyframes on the map built from them; score against the plan."""
+    """Segment the robot's keyframes on the map built from them; score against the plan's
+    rooms, each corridor system one."""
     assert run.plan is not None and run.grid is not None
     topo = TopoMap.from_keyframes(run.keyframes, run.grid, random_state=run.seed)
     doors = MapSegmenter(method="doors").segment(run.grid, run.keyframes, random_state=run.seed)
-    run.truth = run.plan.rooms_on(run.grid)
+    run.truth = run.plan.rooms_on(run.grid, run.plan.corridor_systems())
     _segment(run, topo, "segment_log", run.truth, doors.regions.labels)
     run.offline = topo.keyframe_regions()
 
@@ -175,11 +177,13 @@ def offline_scores(run: DemoRun) -> None:
 
 
 def segment_plan(run: DemoRun) -> None:
-    """Segment the true plan alone (virtual keyframes), as floor plans are segmented."""
+    """Segment the true plan alone (virtual keyframes), as floor plans are segmented; score
+    against its rooms, each corridor system one."""
     assert run.plan is not None
     run.plan_topo = TopoMap.from_grid(run.plan.grid, random_state=run.seed)
     doors = MapSegmenter(method="doors").segment(run.plan.grid, random_state=run.seed)
-    _segment(run, run.plan_topo, "segment_plan", run.plan.labels, doors.regions.labels)
+    truth = run.plan.corridor_systems()
+    _segment(run, run.plan_topo, "segment_plan", truth, doors.regions.labels)
 
 
 def _queries(space: Workspace, run: DemoRun) -> list[tuple[Point, Point]]:
