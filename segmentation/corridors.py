@@ -6,9 +6,11 @@ raises a peak and seeds a basin (:func:`~segmentation.refine.basins`); the basin
 somewhere on the plateau, at a cut that is no door. Compared with the basins' peaks (a
 crossing of two corridors rises to sqrt(2) times their half width) such a cut looks like one,
 so the places, and the partition that votes with them, would cut the corridor system at every
-junction. :func:`join_corridor_cuts` joins two places where their boundary is a cut across a
+junction. :func:`join_corridor_cuts` joins two places where their boundary (any of its
+pieces, where they touch at several passages) is a cut across a
 channel: straight across the free space from wall to wall, at least a corridor wide
-(:data:`CORRIDOR_WIDTH`; the way across read from the walls, not from the boundary, which
+(:data:`CORRIDOR_WIDTH` less two cells, which a mapper's coarse cells take off the walls; the
+way across read from the walls, not from the boundary, which
 on a plateau follows the cells), the space keeping that width (its clearance within
 :data:`~segmentation.refine.OPEN` of the cut's, and the inverse, with a cell of slack for
 jagged walls) between walls on both hands for :data:`~segmentation.walls.CHANNEL` metres on

@@ -372,13 +372,10 @@ def _crossing(
     >>> _crossing(faces, np.array([10, 30]), np.array([20, 19]), 0.0, 3).tolist()
     [True, False]
     """
-    height, width = surface.shape
     sides: list[NDArray[np.bool_]] = []
     for dx, dy in _beside(angle, reach):
-        cx, cy = x[:, None] + dx, y[:, None] + dy
-        inside = (cx >= 0) & (cx < width) & (cy >= 0) & (cy < height)
-        hit = np.zeros(cx.shape, bool)
-        hit[inside] = surface[cy[inside], cx[inside]]
+        cells = np.stack([x[:, None] + dx, y[:, None] + dy], axis=-1)  # (points, offsets, 2)
+        hit = _hits(surface, cells.reshape(-1, 2)).reshape(cells.shape[:2])
         sides.append(np.asarray(hit.any(axis=1), bool))
     return sides[0] & sides[1]
 
@@ -740,7 +737,7 @@ def _through_channel(
     start: tuple[int, int],
     end: tuple[int, int],
     depth: float,
-    walls_on: NDArray[np.bool_] | None = None,
+    walls_on: NDArray[np.bool_],
 ) -> bool:
     """Whether the gap from ``start`` to ``end`` (x, y cells) is where corridors meet: walls
     run on from both its ends, across the line, for ``depth`` cells on one side (a channel)
@@ -750,13 +747,13 @@ def _through_channel(
     beside it, which people draw as part of the corridor). A channel opening into a deep
     space with neither wall going on (a passage leaving a hall) is closed like any gap. The
     ends given are on the walls' faces, not at the edge of the band they wander in. Walls run
-    on where ``walls_on`` is set (``near`` by default; :func:`wall_gaps` adds the lines of the
-    doors and gaps in the walls: a corridor's wall with doors in it still runs on)."""
+    on where ``walls_on`` is set (``near`` and the lines of the doors and gaps in the walls,
+    :func:`wall_gaps`: a corridor's wall with doors in it still runs on); the far wall of a T
+    junction is looked for in ``near`` alone."""
     a, b = np.array(start, float), np.array(end, float)
     span = max(float(np.hypot(*(b - a))), 1e-9)
     along = (b - a) / span
     normal = np.array([-along[1], along[0]])
-    walls_on = near if walls_on is None else walls_on
     channel = [_walls_run_on(walls_on, a, b, side * normal, depth) for side in (1.0, -1.0)]
     if all(channel):
         return True

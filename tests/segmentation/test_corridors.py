@@ -50,6 +50,16 @@ def test_places_meeting_at_a_corridor_cut_and_elsewhere_are_joined():
     assert len(a) == 0  # the two boundaries are on one line, a dotted wall's gaps: no cut
 
 
+def test_a_corridor_a_cell_under_the_least_width_is_still_one_place():
+    # 1.1 m between walls: a 1.2 m corridor whose walls a mapper's coarse cells thickened; 6 m
+    # long, too short to be a corridor entering or crossing another (its width holds for 2 m)
+    free = np.zeros((13, 62), bool)
+    free[1:12, 1:61] = True
+    places = np.where(free, 1 + (np.arange(62) >= 31), 0)
+    a, b = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert (a.tolist(), b.tolist()) == ([1], [2])
+
+
 def test_rooms_behind_doors_stay_apart():
     free = np.zeros((100, 210), bool)
     free[10:90, 10:100] = free[10:90, 110:200] = True  # two 8 x 9 m rooms
