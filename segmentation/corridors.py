@@ -47,6 +47,8 @@ STEPS = (0.25, 0.5, 0.75, 1.0)
 #: A corridor is at least this many times as long as it is wide; a room is rarely over 2.5
 #: times (the names' ``corridor_length``, :class:`topomap.classifiers.RuleClassifier`).
 CORRIDOR_LENGTH = 4.0
+#: How far a corridor's own walls may turn it off a cut's normal, degrees.
+LEAN = 15
 
 
 def corridor_cuts(
@@ -260,11 +262,33 @@ def _corridor_on(
     samples), one in eight may miss, as a curved corridor leaves the straight line. A room is
     rarely over 2.5 times as long as wide: this is a corridor, not a narrow room entered
     through its full width."""
+    way = _own_way(start, way, width, clearance, resolution)
     offsets = np.arange(1, int(CORRIDOR_LENGTH * width / 0.25) + 1) * 0.25 / resolution
     sides = np.array([way[1], -way[0]]) * width / 2 / resolution
     door = round(DOOR_WIDTH / 0.25)
     holds = _keeps_width(clearance, start + offsets[:, None] * way, sides, width, resolution, door)
     return bool(holds.sum() >= len(holds) - len(holds) // 8)
+
+
+def _own_way(
+    start: NDArray[np.float64],
+    way: NDArray[np.float64],
+    width: float,
+    clearance: NDArray[np.float32],
+    resolution: float,
+) -> NDArray[np.float64]:
+    """The unit way along a corridor that leaves a cut at ``start`` (x, y cells) along about
+    ``way``: across the walls one ``width`` in (:func:`_across_walls`), turned to ``way``,
+    where that is within :data:`LEAN` degrees of it; else ``way``. At a junction the walls
+    round the cut lean the way across it; the corridor's own walls, a width in, do not."""
+    inside = start + way * width / resolution
+    normal = np.array([way[1], -way[0]])
+    across = _across_walls(clearance, inside, normal, (width + 0.5) / resolution)
+    if across is None:
+        return way
+    along = np.array([-across[1], across[0]])
+    along = along if along @ way >= 0 else -along
+    return along if along @ way >= np.cos(np.radians(LEAN)) else way
 
 
 def _corridor_into_corridor(
