@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid
-from segmentation.corridors import corridor_cuts, join_corridor_cuts
+from segmentation.corridors import _corridor_on, corridor_cuts, join_corridor_cuts
 from segmentation.refine import basins
 
 RESOLUTION = 0.1
@@ -230,3 +230,17 @@ def test_a_corridor_ending_at_a_narrower_channel_across_it_stays_apart():
     # 1.9 m of corridor meeting a 1.5 m row of open bays across its end (ipa lab_c)
     places, grid = _corridor_turning_into(slice(2, 17), slice(40, 59))
     assert [v.tolist() for v in corridor_cuts(places, grid)] == [[], []]
+
+
+def test_a_corridor_is_followed_along_its_own_walls_not_the_cuts_leaning_way():
+    # at a junction the walls round a cut lean the way across it (ACES's round hub: 5
+    # degrees); 8.8 m along, 8 degrees off, a straight line would leave a 2.2 m corridor
+    free = np.zeros((120, 260), bool)
+    free[50:72, 2:258] = True
+    clearance = ndimage.distance_transform_edt(free).astype(np.float32) * RESOLUTION
+    start = np.array([20.0, 60.5])
+    for degrees in (-8, 8):
+        way = np.array([np.cos(np.radians(degrees)), np.sin(np.radians(degrees))])
+        assert _corridor_on(start, way, 2.2, clearance, RESOLUTION)
+    way = np.array([np.cos(np.radians(40)), np.sin(np.radians(40))])  # no corridor that way
+    assert not _corridor_on(start, way, 2.2, clearance, RESOLUTION)
