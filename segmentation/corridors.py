@@ -16,7 +16,8 @@ on a plateau follows the cells), the space keeping that width (its clearance wit
 jagged walls) between walls on both hands for :data:`~segmentation.walls.CHANNEL` metres on
 both sides; or where a corridor enters a wider space: on one side the space keeps the cut's
 width so for :data:`CORRIDOR_LENGTH` times that width (longer than a room is for its width;
-its walls broken only by doors, up to double doors wide), and on the other it never
+its walls broken only by doors, up to double doors wide; followed along its own walls, a
+width in, as the walls round a junction lean the way across its cut), and on the other it never
 narrows; or where a corridor (so long for its width) turns into or branches off a corridor
 at least as wide that runs across it (an L or a T: the other keeps its own width along the
 cut for the channel's length, :func:`_corridor_into_corridor`). A door, a room opening onto
