@@ -15,14 +15,12 @@ from numpy.typing import ArrayLike, NDArray
 from maps.grid import OccupancyGrid
 from maps.limits import MAX_ROBOT_RADIUS, finite_in
 from maps.mapping import grid_from_keyframes
-from maps.registration import Placement
 from maps.scan import Keyframe, keyframe_list
 from maps.seeding import RandomState
 from segmentation.blocks import BlockSpectralSegmenter
 from segmentation.conditioning import ConditionedMap
 from segmentation.errors import ParameterError, SegmentationError
 from segmentation.graph import region_graph
-from segmentation.growing import align, carry_ids, lay
 from segmentation.pipeline import MAP_CRITERION, MapSegmenter, Segmentation
 from segmentation.regions import Regions
 from segmentation.spectral import SpectralSegmenter
@@ -32,6 +30,7 @@ from topomap.labels import Classifier, carry_names, find_region, label_graph, re
 from topomap.saving import SavedPartition
 
 if TYPE_CHECKING:
+    from maps.registration import Placement
     from planners.hierarchical import HierarchicalPlanner
     from planners.kinematic_hierarchical import KinematicHierarchicalPlanner
     from planners.path import PlannedPath
@@ -207,6 +206,9 @@ class TopoMap:
             )
         if not isinstance(aligned, bool):  # "no" is truthy: the search skipped
             raise ParameterError(f"aligned must be True or False, got {aligned!r:.80}")
+        # imported here: only an update lays one map on another (the registration's FFT)
+        from segmentation.growing import align, carry_ids, lay
+
         placement = lay(self.grid, grid, aligned=aligned)
         previous = align(placement.moved(self.grid), self.regions.labels, grid)
         pipeline = _pipeline(pipeline, options)

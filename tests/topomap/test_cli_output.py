@@ -244,12 +244,14 @@ def test_pictures_are_drawn_without_pyplot(tmp_path):
 def test_segment_loads_only_the_libraries_it_uses(tmp_path):
     # its wall time is half imports: the parser loads no library (nor the batch driver), the
     # command none of those only other commands use (plotting, learning, classifier files,
-    # planning, bags, clusters, progress bars)
+    # planning, bags, clusters, progress bars) nor what only --previous does (the FFT that
+    # lays one map on another)
     generate_floor_plan("flat", random_state=0).grid.save(tmp_path / "flat.yaml")
     parser = ("numpy", "scipy", "networkx", "cv2", "topomap.cli.batch")
     others = (
         *("matplotlib", "PIL", "sklearn", "joblib", "skops", "ompl"),
         *("rosbags", "dask", "distributed", "selenium", "tqdm"),
+        *("maps.registration", "scipy.fft"),
     )
     code = (
         "import sys; from topomap.cli.main import build_parser, main; "
