@@ -186,9 +186,8 @@ def write_png(path: str | Path, image: NDArray[Any]) -> Path:
 
     The rows are stored unfiltered and deflated with zlib's default strategy (OpenCV's
     default is the Sub filter with run-length matches): pictures of maps are runs of flat
-    colour that zlib finds as they are, and the filter costs more than it saves. Over the
-    ``segmentation.png`` of the 28 ipa maps: encoded in 38 ms rather than 48 ms on average,
-    and 25 % smaller (211 kB rather than 280 kB); the same pixels.
+    colour that zlib finds as they are, and the filter costs more than it saves (the ipa
+    plans' pictures a fifth faster to encode and a quarter smaller, the same pixels).
     """
     import cv2
 
