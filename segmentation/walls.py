@@ -77,6 +77,9 @@ CORRIDOR = 1.2
 #: megabytes, where those of every place of a large map (tens of millions) cost more to
 #: allocate than to fill.
 BLOCK = 1 << 18
+#: How many points :func:`_energy` projects at a time: arrays that stay in the processor's
+#: cache.
+CHUNK = 1 << 15
 
 
 def seen_walls(
@@ -421,8 +424,7 @@ def _frame(
     xs: NDArray[np.float64], ys: NDArray[np.float64], angle: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The points' (x, y) coordinates along the direction ``angle`` (radians) and across it."""
-    cos, sin = math.cos(angle), math.sin(angle)
-    return xs * cos + ys * sin, ys * cos - xs * sin
+    return xs * math.cos(angle) + ys * math.sin(angle), _across(xs, ys, angle)
 
 
 def _line_directions(xs: NDArray[np.float64], ys: NDArray[np.float64], window: int) -> list[float]:
@@ -451,16 +453,52 @@ def _energy(
     xs: NDArray[np.float64], ys: NDArray[np.float64], degrees: NDArray[np.float64]
 ) -> NDArray[np.float64]:
     """The sum of squares of the points' (x, y) counts in rows one unit apart across each
-    direction (``degrees``), the rows counted from the points' own first."""
+    direction (``degrees``), the rows counted from the points' own first. The points are
+    counted :data:`CHUNK` at a time, from their first and last rows (those of
+    :func:`_extremes`).
+
+    Examples
+    --------
+    >>> xs, ys = np.array([0.0, 1, 2, 0]), np.array([0.0, 0, 0, 3])
+    >>> _energy(xs, ys, np.array([0.0, 90.0])).tolist()  # rows of 3 and 1; of 2, 1 and 1
+    [10.0, 6.0]
+    """
+    edge_xs, edge_ys = _extremes(xs, ys)
     energy = np.zeros(len(degrees))
-    across, step = np.empty_like(xs), np.empty_like(xs)
     for i, angle in enumerate(np.radians(degrees)):
-        np.multiply(ys, math.cos(angle), out=across)
-        across -= np.multiply(xs, math.sin(angle), out=step)
-        across -= across.min()
-        counts = np.bincount(across.astype(np.int64))  # floor, as >= 0
+        edges = _across(edge_xs, edge_ys, angle)
+        lowest = edges.min()
+        counts = np.zeros(int(edges.max() - lowest) + 1, np.int64)
+        for start in range(0, len(xs), CHUNK):
+            part = slice(start, start + CHUNK)
+            rows = np.bincount((_across(xs[part], ys[part], angle) - lowest).astype(np.int64))
+            counts[: len(rows)] += rows  # floor, as >= 0
         energy[i] = np.dot(counts, counts)
     return energy
+
+
+def _extremes(
+    xs: NDArray[np.float64], ys: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The points (x, y) with the least and the most x of each y: their least and greatest
+    coordinate across any direction (:func:`_across`) are all the points', to the last bit (a
+    product's and a difference's rounding keep their order).
+
+    Examples
+    --------
+    >>> [e.tolist() for e in _extremes(np.array([3.0, 1, 2, 5]), np.array([1.0, 0, 1, 1]))]
+    [[1.0, 2.0, 1.0, 5.0], [0.0, 1.0, 0.0, 1.0]]
+    """
+    order = np.argsort(ys, kind="stable")  # the points of np.nonzero are by y already
+    xs, ys = xs[order], ys[order]
+    first = np.flatnonzero(np.r_[True, ys[1:] != ys[:-1]])
+    least, most = np.minimum.reduceat(xs, first), np.maximum.reduceat(xs, first)
+    return np.r_[least, most], np.r_[ys[first], ys[first]]
+
+
+def _across(xs: NDArray[np.float64], ys: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
+    """The points' (x, y) coordinates across the direction ``angle`` (radians)."""
+    return ys * math.cos(angle) - xs * math.sin(angle)
 
 
 def _runs(
