@@ -781,11 +781,16 @@ def wall_stubs(
     reach = _reach(resolution)
     surface = grid.occupied & _within(grid.free, reach)
     square = np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)
-    near = cv2.dilate(np.where(stub[pieces], pieces, 0).astype(np.float32), square)
+    # the stubs numbered in order from 1 (the greatest near a cell is the same stub)
+    stubs = np.r_[0, np.flatnonzero(stub)]
+    kind = np.uint16 if len(stubs) <= 1 << 16 else np.float32
+    numbers = np.zeros(count, kind)
+    numbers[stubs] = np.arange(len(stubs))
+    near = cv2.dilate(numbers[pieces], square)
     walls = _within(grid.occupied & ~clutter, reach)
     on_line = np.zeros(count, bool)
     every_x, every_y, ends = _wall_lines(surface, resolution, gap, MIN_LENGTH)
-    every_crossed = near[every_y, every_x].astype(np.int64)
+    every_crossed = stubs[near[every_y, every_x].astype(np.int64)]
     starts = ends - np.diff(ends, prepend=0)
     crossing = np.add.reduceat(every_crossed > 0, starts) > 0 if len(starts) else np.zeros(0, bool)
     for start, end in zip(starts[crossing].tolist(), ends[crossing].tolist(), strict=True):
