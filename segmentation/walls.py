@@ -392,7 +392,7 @@ def _any_at(
     size = 2 * int(max(np.abs(dx).max(), np.abs(dy).max())) + 1
     kernel = np.zeros((size, size), np.uint8)
     kernel[dy + size // 2, dx + size // 2] = 1
-    return cv2.dilate(image, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    return np.asarray(cv2.dilate(image, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0))
 
 
 def _beside(angle: float, reach: int) -> tuple[tuple[NDArray[np.intp], NDArray[np.intp]], ...]:
@@ -471,8 +471,9 @@ def _energy(
         counts = np.zeros(int(edges.max() - lowest) + 1, np.int64)
         for start in range(0, len(xs), CHUNK):
             part = slice(start, start + CHUNK)
-            rows = np.bincount((_across(xs[part], ys[part], angle) - lowest).astype(np.int64))
-            counts[: len(rows)] += rows  # floor, as >= 0
+            across = _across(xs[part], ys[part], angle) - lowest
+            rows = np.bincount(across.astype(np.int64))  # floor, as >= 0
+            counts[: len(rows)] += rows
         energy[i] = np.dot(counts, counts)
     return energy
 
@@ -524,8 +525,8 @@ def _runs(
     after its last and the variance of its places' ``across``, from the sums over the places
     of all runs in order (kept or not, so to the last bit the same wherever the runs lie).
 
-    The rows are taken in blocks of about :data:`BLOCK` places (:func:`_split`): on a large
-    map, arrays of every place cost more to allocate than to fill.
+    The rows are taken in blocks of about :data:`BLOCK` places: on a large map, arrays of
+    every place cost more to allocate than to fill.
 
     Examples
     --------
@@ -545,7 +546,7 @@ def _runs(
     by_row = _stable_order(first_row)  # the points in a block's rows are a slice of these
     from_row = np.r_[0, np.cumsum(per_row)]
     cuts = np.searchsorted(ends, np.arange(BLOCK, ends[-1], BLOCK), side="right")
-    blocks = []
+    blocks: list[tuple[NDArray, ...]] = []
     sums = np.zeros(2)  # of the places' across and its square, before the block's
     for low, high in itertools.pairwise(np.unique(np.r_[0, cuts, len(ends)]).tolist()):
         points = by_row[from_row[max(low - 2 * reach, 0)] : from_row[min(high, len(per_row))]]
