@@ -18,7 +18,7 @@ Every length is in metres: a gap at most as wide as double doors (``gap``), wall
 
 from __future__ import annotations
 
-import functools
+import itertools
 import math
 
 import cv2
@@ -73,6 +73,13 @@ BEND = 20.0
 HALL = 2.0
 #: The least corridor, metres: building codes' least width (the corridors' cuts' too).
 CORRIDOR = 1.2
+#: How many places (a point in a row) :func:`_runs` takes at a time: arrays of a few
+#: megabytes, where those of every place of a large map (tens of millions) cost more to
+#: allocate than to fill.
+BLOCK = 1 << 18
+#: How many points :func:`_energy` projects at a time: arrays that stay in the processor's
+#: cache.
+CHUNK = 1 << 15
 
 
 def seen_walls(
@@ -309,42 +316,34 @@ def _straight_lines(
     xs, ys = (columns - corner[0]).astype(float), (rows - corner[1]).astype(float)
     reach = _reach(resolution)
     bridge, shortest = gap / resolution, min_length / resolution
-    band = np.arange(-reach, reach + 1)  # each point in the rows within reach of its own
-    frames: list[tuple[float, NDArray[np.float64], NDArray[np.float64]]] = []
+    frames: list[tuple[float, NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]] = []
     places: list[tuple[NDArray[np.intp], NDArray[np.bool_]]] = []  # each direction's, in order
     keys: list[NDArray[np.float64]] = []  # every run's: -cells, spread, direction, row, point
     spans: list[NDArray[np.intp]] = []  # every run's direction and places (first, stop)
     for angle in _line_directions(xs, ys, window) if len(xs) else []:
         along, across = _frame(xs, ys, angle)
-        own = np.floor(across - across.min()).astype(np.int64)  # rows from the points' first
-        point, near, row, starts, stops = _runs(along - along.min(), own, band, bridge, shortest)
-        # the variance of each run's offsets across, from the sums over all runs in order
-        offsets = across[point]
-        sums = [np.zeros(len(offsets) + 1), np.zeros(len(offsets) + 1)]
-        np.cumsum(offsets, out=sums[0][1:])
-        np.cumsum(np.square(offsets, out=offsets), out=sums[1][1:])
-        count = stops - starts
-        mean, square = ((total[stops] - total[starts]) / count for total in sums)
+        point, near, row, starts, stops, spread = _runs(
+            along - along.min(), across, reach, bridge, shortest
+        )
         direction = np.full(len(starts), len(frames))
-        keys.append(np.array([-count, square - mean**2, direction, row[starts], point[starts]]))
+        keys.append(np.array([starts - stops, spread, direction, row, point[starts]]))
         spans.append(np.array([direction, starts, stops]))
         places.append((point, near))
-        frames.append((angle, along, across))
+        # the faces of walls crossing their own row along the direction
+        crossing = _crossing(surface, columns, rows, angle, reach)
+        frames.append((angle, along, across, crossing))
     claimed = np.zeros(len(xs), bool)
     found = []
     every = np.concatenate(keys, axis=1) if keys else np.zeros((5, 0))
     runs = np.concatenate(spans, axis=1) if spans else np.zeros((3, 0), np.intp)
-    crossed = [np.full(len(xs), -1, np.int8) for _ in frames]  # each direction's, as found
     for j, first, stop in runs[:, np.lexsort(every[::-1])].T.tolist():  # by keys, in turn
         point, near = places[j]
         members = point[first:stop]
         fresh = members[near[first:stop] & ~claimed[members]]
         if len(fresh) < shortest / 2:
             continue
-        angle, along, across = frames[j]
-        unknown = fresh[crossed[j][fresh] < 0]
-        crossed[j][unknown] = _crossing(surface, columns[unknown], rows[unknown], angle, reach)
-        fresh = fresh[crossed[j][fresh] == 0]  # a wall crossing the row is not on it
+        angle, along, across, crossing = frames[j]
+        fresh = fresh[~crossing[fresh]]  # a wall crossing the row is not on it
         if len(fresh) < shortest / 2:
             continue
         if len(np.unique(np.floor(along[fresh]))) >= shortest / 2:
@@ -372,15 +371,30 @@ def _crossing(
     >>> _crossing(faces, np.array([10, 30]), np.array([20, 19]), 0.0, 3).tolist()
     [True, False]
     """
-    sides: list[NDArray[np.bool_]] = []
-    for dx, dy in _beside(angle, reach):
-        cells = np.stack([x[:, None] + dx, y[:, None] + dy], axis=-1)  # (points, offsets, 2)
-        hit = _hits(surface, cells.reshape(-1, 2)).reshape(cells.shape[:2])
-        sides.append(np.asarray(hit.any(axis=1), bool))
+    image = surface.astype(np.uint8)
+    sides = [_any_at(image, dx, dy)[y, x] > 0 for dx, dy in _beside(angle, reach)]
     return sides[0] & sides[1]
 
 
-@functools.lru_cache(maxsize=64)
+def _any_at(
+    image: NDArray[np.uint8], dx: NDArray[np.intp], dy: NDArray[np.intp]
+) -> NDArray[np.uint8]:
+    """Whether ``image`` is set at any of the offsets (``dx``, ``dy`` cells) from each cell (a
+    dilation; nothing is set beyond the grid).
+
+    Examples
+    --------
+    >>> image = np.zeros((3, 5), np.uint8)
+    >>> image[1, 2] = 1
+    >>> _any_at(image, np.array([1, 2]), np.array([0, 0])).tolist()
+    [[0, 0, 0, 0, 0], [1, 1, 0, 0, 0], [0, 0, 0, 0, 0]]
+    """
+    size = 2 * int(max(np.abs(dx).max(), np.abs(dy).max())) + 1
+    kernel = np.zeros((size, size), np.uint8)
+    kernel[dy + size // 2, dx + size // 2] = 1
+    return np.asarray(cv2.dilate(image, kernel, borderType=cv2.BORDER_CONSTANT, borderValue=0))
+
+
 def _beside(angle: float, reach: int) -> tuple[tuple[NDArray[np.intp], NDArray[np.intp]], ...]:
     """The offsets (x, y whole cells, halves rounded up, each once) :func:`_crossing` looks
     at on each side of a row along ``angle`` (radians)."""
@@ -410,8 +424,7 @@ def _frame(
     xs: NDArray[np.float64], ys: NDArray[np.float64], angle: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The points' (x, y) coordinates along the direction ``angle`` (radians) and across it."""
-    cos, sin = math.cos(angle), math.sin(angle)
-    return xs * cos + ys * sin, ys * cos - xs * sin
+    return xs * math.cos(angle) + ys * math.sin(angle), _across(xs, ys, angle)
 
 
 def _line_directions(xs: NDArray[np.float64], ys: NDArray[np.float64], window: int) -> list[float]:
@@ -440,68 +453,174 @@ def _energy(
     xs: NDArray[np.float64], ys: NDArray[np.float64], degrees: NDArray[np.float64]
 ) -> NDArray[np.float64]:
     """The sum of squares of the points' (x, y) counts in rows one unit apart across each
-    direction (``degrees``), the rows counted from the points' own first."""
+    direction (``degrees``), the rows counted from the points' own first. The points are
+    counted :data:`CHUNK` at a time, from their first and last rows (those of
+    :func:`_extremes`).
+
+    Examples
+    --------
+    >>> xs, ys = np.array([0.0, 1, 2, 0]), np.array([0.0, 0, 0, 3])
+    >>> _energy(xs, ys, np.array([0.0, 90.0])).tolist()  # rows of 3 and 1; of 2, 1 and 1
+    [10.0, 6.0]
+    """
+    edge_xs, edge_ys = _extremes(xs, ys)
     energy = np.zeros(len(degrees))
-    across, step = np.empty_like(xs), np.empty_like(xs)
     for i, angle in enumerate(np.radians(degrees)):
-        np.multiply(ys, math.cos(angle), out=across)
-        across -= np.multiply(xs, math.sin(angle), out=step)
-        across -= across.min()
-        counts = np.bincount(across.astype(np.int64))  # floor, as >= 0
+        edges = _across(edge_xs, edge_ys, angle)
+        lowest = edges.min()
+        counts = np.zeros(int(edges.max() - lowest) + 1, np.int64)
+        for start in range(0, len(xs), CHUNK):
+            part = slice(start, start + CHUNK)
+            across = _across(xs[part], ys[part], angle) - lowest
+            rows = np.bincount(across.astype(np.int64))  # floor, as >= 0
+            counts[: len(rows)] += rows
         energy[i] = np.dot(counts, counts)
     return energy
 
 
-def _runs(
-    ahead: NDArray[np.float64],
-    own: NDArray[np.int64],
-    band: NDArray[np.int64],
-    bridge: float,
-    shortest: float,
-) -> tuple[
-    NDArray[np.intp], NDArray[np.bool_], NDArray[np.int64], NDArray[np.intp], NDArray[np.intp]
-]:
-    """The runs of points along rows across breaks of up to ``bridge``, each point (at
-    ``ahead`` along the rows, from 0) in every row ``own`` + ``band``: the places (a point in
-    a row) by row and ``ahead``, as each place's point, whether it is within a row of the
-    point's own and its row, and each run's first place and the one after its last, for the
-    runs at least ``shortest`` long with their places within a row of their own on at least
-    half ``shortest`` cells along.
+def _extremes(
+    xs: NDArray[np.float64], ys: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The points (x, y) with the least and the most x of each y: their least and greatest
+    coordinate across any direction (:func:`_across`) are all the points', to the last bit (a
+    product's and a difference's rounding keep their order).
 
     Examples
     --------
-    >>> point, near, row, starts, stops = _runs(
-    ...     np.array([0.0, 1, 2, 3, 4, 9]), np.zeros(6, np.int64), np.arange(-1, 2), 1.0, 3.0
-    ... )
-    >>> point[:6].tolist(), row[starts].tolist(), (stops - starts).tolist()
-    ([0, 1, 2, 3, 4, 5], [-1, 0, 1], [5, 5, 5])
+    >>> [e.tolist() for e in _extremes(np.array([3.0, 1, 2, 5]), np.array([1.0, 0, 1, 1]))]
+    [[1.0, 2.0, 1.0, 5.0], [0.0, 1.0, 0.0, 1.0]]
     """
+    order = np.argsort(ys, kind="stable")  # the points of np.nonzero are by y already
+    xs, ys = xs[order], ys[order]
+    first = np.flatnonzero(np.r_[True, ys[1:] != ys[:-1]])
+    least, most = np.minimum.reduceat(xs, first), np.maximum.reduceat(xs, first)
+    return np.r_[least, most], np.r_[ys[first], ys[first]]
+
+
+def _across(xs: NDArray[np.float64], ys: NDArray[np.float64], angle: float) -> NDArray[np.float64]:
+    """The points' (x, y) coordinates across the direction ``angle`` (radians)."""
+    return ys * math.cos(angle) - xs * math.sin(angle)
+
+
+def _runs(
+    ahead: NDArray[np.float64],
+    across: NDArray[np.float64],
+    reach: int,
+    bridge: float,
+    shortest: float,
+) -> tuple[
+    NDArray[np.intp],
+    NDArray[np.bool_],
+    NDArray[np.int64],
+    NDArray[np.intp],
+    NDArray[np.intp],
+    NDArray[np.float64],
+]:
+    """The runs of points along rows across breaks of up to ``bridge``, each point (at
+    ``ahead`` along the rows, from 0, and ``across`` them) in every row within ``reach`` of its
+    own (rows one unit apart, counted from the points' first), that are at least ``shortest``
+    long with their places (a point in a row) within a row of their own on at least half
+    ``shortest`` cells along: their places by row and ``ahead``, as each place's point and
+    whether it is within a row of the point's own, and each run's row, first place, the place
+    after its last and the variance of its places' ``across``, from the sums over the places
+    of all runs in order (kept or not, so to the last bit the same wherever the runs lie).
+
+    The rows are taken in blocks of about :data:`BLOCK` places: on a large map, arrays of
+    every place cost more to allocate than to fill.
+
+    Examples
+    --------
+    >>> point, near, row, starts, stops, spread = _runs(
+    ...     np.array([0.0, 1, 2, 3, 4, 9]), np.full(6, 0.5), 1, 1.0, 3.0
+    ... )
+    >>> row.tolist(), starts.tolist(), stops.tolist(), point[:6].tolist(), spread.tolist()
+    ([-1, 0, 1], [0, 5, 10], [5, 10, 15], [0, 1, 2, 3, 4, 0], [0.0, 0.0, 0.0])
+    """
+    own = np.floor(across - across.min()).astype(np.int64)
     # places by row, then along, then point: whole-number keys, so the order (and the runs'
     # sums and fits, to the last bit) does not hang on how a sort leaves ties
     by_ahead = np.argsort(ahead, kind="stable")
-    lowest = int(own.min()) + int(band.min()) if len(own) else 0
-    rows = (own[by_ahead][:, None] + (band - lowest)).ravel()  # from 0, the points by ahead
-    counts = np.bincount(rows)
-    # a stable sort by row keeps them by ahead (a radix sort where rows fit in 16 bits)
-    wide = len(counts) > 1 << 16
-    order = np.argsort(rows if wide else rows.astype(np.uint16), kind="stable")
-    point = by_ahead[order // len(band)]
-    row = np.repeat(np.arange(lowest, lowest + len(counts)), counts)
-    offset = row - own[point]
-    ahead = ahead[point]
-    new = np.ones(len(order), bool)
+    first_row = own[by_ahead]  # each point's first row, the points by ahead
+    per_row = np.bincount(first_row)
+    ends = np.cumsum(np.convolve(per_row, np.ones(2 * reach + 1, np.int64)))  # rows' places
+    by_row = _stable_order(first_row)  # the points in a block's rows are a slice of these
+    from_row = np.r_[0, np.cumsum(per_row)]
+    cuts = np.searchsorted(ends, np.arange(BLOCK, ends[-1], BLOCK), side="right")
+    blocks: list[tuple[NDArray, ...]] = []
+    sums = np.zeros(2)  # of the places' across and its square, before the block's
+    for low, high in itertools.pairwise(np.unique(np.r_[0, cuts, len(ends)]).tolist()):
+        points = by_row[from_row[max(low - 2 * reach, 0)] : from_row[min(high, len(per_row))]]
+        ranks = np.sort(points)  # by ahead
+        place, near, row = _places(first_row[ranks], low, high, reach)
+        point = by_ahead[ranks[place]]
+        starts, stops, keep = _split(ahead[point], row, near, bridge, shortest)
+        spread, sums = _spreads(across[point], starts[keep], stops[keep], sums)
+        taken = np.repeat(keep, stops - starts)
+        counts = (stops - starts)[keep]
+        blocks.append((point[taken], near[taken], row[starts[keep]] - reach, counts, spread))
+    point, near, row, counts, spread = (np.concatenate(part) for part in zip(*blocks, strict=True))
+    stops = np.cumsum(counts)
+    return point, near, row, stops - counts, stops, spread
+
+
+def _stable_order(keys: NDArray[np.integer]) -> NDArray[np.intp]:
+    """``np.argsort(keys, kind="stable")`` of whole numbers from 0: a radix sort where they fit
+    in 16 bits."""
+    fits = not len(keys) or keys.max() < 1 << 16
+    return np.argsort(keys.astype(np.uint16) if fits else keys, kind="stable")
+
+
+def _places(
+    first_rows: NDArray[np.int64], low: int, high: int, reach: int
+) -> tuple[NDArray[np.intp], NDArray[np.bool_], NDArray[np.int64]]:
+    """The places in rows ``low`` to ``high`` - 1 of the points with these ``first_rows`` (each
+    point in its first row and the next 2 ``reach``), by row, then point: each place's point,
+    whether it is within a row of the point's own (its first row + ``reach``) and its row."""
+    width = 2 * reach + 1
+    rows = (first_rows[:, None] + np.arange(width)).ravel()
+    at = np.flatnonzero((rows >= low) & (rows < high))  # a point's rows in turn
+    at = at[_stable_order(rows[at] - low)]
+    return at // width, np.abs(at % width - reach) <= 1, rows[at]
+
+
+def _split(
+    ahead: NDArray[np.float64],
+    row: NDArray[np.int64],
+    near: NDArray[np.bool_],
+    bridge: float,
+    shortest: float,
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.bool_]]:
+    """The runs of places (by ``row``, then ``ahead`` along the rows) across breaks of up to
+    ``bridge``: each run's first place and the one after its last, and whether it is at least
+    ``shortest`` long with its places ``near`` (within a row of their own) on at least half
+    ``shortest`` cells along."""
+    new = np.ones(len(row), bool)
     new[1:] = (row[1:] != row[:-1]) | (ahead[1:] - ahead[:-1] > bridge + 1)
     run = np.cumsum(new) - 1
     starts = np.flatnonzero(new)
-    stops = np.r_[starts[1:], len(order)]
+    stops = np.r_[starts[1:], len(row)]
     # the cells along that hold a place within a row of its own, each once
-    near = np.abs(offset) <= 1
     counted, column = run[near], np.floor(ahead[near])
     first = np.ones(len(counted), bool)
     first[1:] = (counted[1:] != counted[:-1]) | (column[1:] != column[:-1])
     cells = np.bincount(counted[first], minlength=len(starts))
     keep = (ahead[stops - 1] - ahead[starts] >= shortest) & (cells >= shortest / 2)
-    return point, near, row, starts[keep], stops[keep]
+    return starts, stops, keep
+
+
+def _spreads(
+    offsets: NDArray[np.float64],
+    starts: NDArray[np.intp],
+    stops: NDArray[np.intp],
+    before: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The variance of the ``offsets`` of each run (``starts`` to ``stops`` - 1), from the
+    running sums of the offsets and their squares on from ``before`` (those before them), and
+    the sums after them."""
+    total = [np.cumsum(np.r_[before[0], offsets]), np.cumsum(np.r_[before[1], np.square(offsets)])]
+    count = stops - starts
+    mean, square = ((sums[stops] - sums[starts]) / count for sums in total)
+    return square - mean**2, np.array([sums[-1] for sums in total])
 
 
 def _mouths(
@@ -663,11 +782,16 @@ def wall_stubs(
     reach = _reach(resolution)
     surface = grid.occupied & _within(grid.free, reach)
     square = np.ones((2 * reach + 1, 2 * reach + 1), np.uint8)
-    near = cv2.dilate(np.where(stub[pieces], pieces, 0).astype(np.float32), square)
+    # the stubs numbered in order from 1 (the greatest near a cell is the same stub)
+    stubs = np.r_[0, np.flatnonzero(stub)]
+    kind = np.uint16 if len(stubs) <= 1 << 16 else np.float32
+    numbers = np.zeros(count, kind)
+    numbers[stubs] = np.arange(len(stubs))
+    near = cv2.dilate(numbers[pieces], square)
     walls = _within(grid.occupied & ~clutter, reach)
     on_line = np.zeros(count, bool)
     every_x, every_y, ends = _wall_lines(surface, resolution, gap, MIN_LENGTH)
-    every_crossed = near[every_y, every_x].astype(np.int64)
+    every_crossed = stubs[near[every_y, every_x].astype(np.int64)]
     starts = ends - np.diff(ends, prepend=0)
     crossing = np.add.reduceat(every_crossed > 0, starts) > 0 if len(starts) else np.zeros(0, bool)
     for start, end in zip(starts[crossing].tolist(), ends[crossing].tolist(), strict=True):

@@ -1,12 +1,15 @@
 """Gaps of straight walls: closed where a wall goes on past them, never elsewhere."""
 
+from unittest import mock
+
 import numpy as np
+import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid
-from segmentation import pipeline
+from segmentation import pipeline, walls
 from segmentation.pipeline import MapSegmenter, parted
 from segmentation.spectral import SpectralSegmenter
 from segmentation.walls import _runs, hall_mouths, seen_walls, wall_gaps
@@ -306,23 +309,26 @@ def test_parting_along_a_line_cuts_only_the_places_it_crosses(column, width):
 
 
 @settings(max_examples=50, deadline=None)
-@given(st.integers(0, 2**32 - 1))
-def test_runs_are_each_rows_places_split_at_breaks(seed):
+@given(st.integers(0, 2**32 - 1), st.sampled_from([walls.BLOCK, 7]))
+def test_runs_are_each_rows_places_split_at_breaks(seed, block):
     rng = np.random.default_rng(seed)
     count = int(rng.integers(1, 80))
     ahead, own = rng.integers(0, 40, count) + rng.random(count), rng.integers(0, 6, count)
-    band = np.arange(-2, 3)  # each point in the rows within two of its own
-    point, near, row, starts, stops = _runs(ahead, own, band, 3.0, 6.0)
-    assert np.array_equal(np.lexsort((ahead[point], row)), np.arange(len(point)))
-    assert np.array_equal(near, np.abs(own[point] - row) <= 1)
+    across = own + 0.25  # rows from the points' first: own - own.min()
+    with mock.patch.object(walls, "BLOCK", block):  # the rows a block of places at a time
+        point, near, row, starts, stops, spread = _runs(ahead, across, 2, 3.0, 6.0)
     expected = []
-    for at in range(own.min() - 2, own.max() + 3):
+    for at in range(own.min() - 2, own.max() + 3):  # each point in the rows within two
         places = np.flatnonzero(np.abs(own - at) <= 2)
         places = places[np.argsort(ahead[places])]
         for run in np.split(places, np.flatnonzero(np.diff(ahead[places]) > 3.0 + 1) + 1):
             cells = np.unique(np.floor(ahead[run[np.abs(own[run] - at) <= 1]]))
             if np.ptp(ahead[run]) >= 6.0 and len(cells) >= 3:
-                expected.append((at, run.tolist()))
-    runs = zip(starts.tolist(), stops.tolist(), strict=True)
-    found = [(int(row[first]), point[first:stop].tolist()) for first, stop in runs]
+                expected.append((at - own.min(), run.tolist(), np.var(across[run])))
+    found = []
+    runs = zip(row.tolist(), starts.tolist(), stops.tolist(), spread.tolist(), strict=True)
+    for at, first, stop, variance in runs:
+        offset = own[point[first:stop]] - own.min() - at
+        assert np.array_equal(near[first:stop], np.abs(offset) <= 1)
+        found.append((at, point[first:stop].tolist(), pytest.approx(variance, abs=1e-9)))
     assert found == expected
