@@ -257,8 +257,9 @@ def _corridor_on(
     clearance: NDArray[np.float32],
     resolution: float,
 ) -> bool:
-    """Whether the space from ``start`` (x, y cells) along the unit ``way`` keeps ``width``
-    metres between walls (:func:`_keeps_width`, doors along it up to double doors) for
+    """Whether the space from ``start`` (x, y cells) along about the unit ``way`` (along its
+    own walls, :func:`_own_way`) keeps ``width`` metres between walls (:func:`_keeps_width`,
+    doors along it up to double doors) for
     :data:`CORRIDOR_LENGTH` times that width, a sample every 0.25 m: as across a cut (7 of 8
     samples), one in eight may miss, as a curved corridor leaves the straight line. A room is
     rarely over 2.5 times as long as wide: this is a corridor, not a narrow room entered
