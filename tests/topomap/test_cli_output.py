@@ -327,3 +327,20 @@ def test_the_command_line_runs_blas_in_one_thread_unless_told(given):
     value, libraries, most = done.stdout.split()
     assert value == (given or "1") and int(libraries) >= 1
     assert given is not None or most == "1"
+
+
+@pytest.mark.parametrize("given", [None, "1"])
+def test_the_command_line_asks_for_no_huge_pages_unless_told(given):
+    # with transparent huge pages on request, each new large array waited for 2 MB pages
+    env = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    if given is not None:
+        env["NUMPY_MADVISE_HUGEPAGE"] = given
+    code = (
+        "import topomap.cli.main, numpy; "
+        "print(numpy._core.multiarray._set_madvise_hugepage(False))"  # returns the setting
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=env, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split()[-1] == ("True" if given else "False")
