@@ -485,6 +485,30 @@ def _parse_yaml(path: Path) -> dict[str, Any]:
     return doc
 
 
+def _image_of(doc: dict[str, Any], path: Path) -> tuple[str, Path]:
+    """The ``image`` field of the map YAML at ``path`` and the file it names (relative to the
+    YAML, as map_server reads it)."""
+    image = doc.get("image")
+    if not isinstance(image, str) or not image or not image.isprintable():
+        raise MapFormatError(
+            f"expected an image file name, got {image!r}", path=path, field="image"
+        )
+    return image, Path(image) if Path(image).is_absolute() else path.parent / image
+
+
+def map_files(path: str | Path) -> tuple[Path, Path]:
+    """The files a map is read from: the YAML at ``path`` and the image it names (which
+    need not exist yet: :func:`load_map` says so).
+
+    Raises
+    ------
+    MapFileNotFoundError, MapFormatError
+        As :func:`load_map` does for the YAML and its ``image`` field.
+    """
+    path = check_input_file(path, "map YAML")
+    return path, _image_of(_parse_yaml(path), path)[1]
+
+
 def load_map(path: str | Path) -> OccupancyGrid:
     """Read a ROS map_server map: the YAML at ``path`` and the image it names.
 
@@ -498,11 +522,7 @@ def load_map(path: str | Path) -> OccupancyGrid:
     """
     path = check_input_file(path, "map YAML")
     doc = _parse_yaml(path)
-    image = doc.get("image")
-    if not isinstance(image, str) or not image or not image.isprintable():
-        raise MapFormatError(
-            f"expected an image file name, got {image!r}", path=path, field="image"
-        )
+    image, image_path = _image_of(doc, path)
     resolution = _number(doc, "resolution", path, *RESOLUTION_RANGE)
     occupied = _number(doc, "occupied_thresh", path, 0.0, 1.0)
     free = _number(doc, "free_thresh", path, 0.0, 1.0)
@@ -529,7 +549,6 @@ def load_map(path: str | Path) -> OccupancyGrid:
             path=path,
             field="origin",
         )
-    image_path = Path(image) if Path(image).is_absolute() else path.parent / image
     check_input_file(image_path, f"image {image!r} of {path}", field="image")
     pixels = read_image(image_path, field="image")
     cells = cells_from_image(

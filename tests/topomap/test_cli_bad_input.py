@@ -353,6 +353,27 @@ def test_export_and_view_never_write_over_their_inputs_even_with_force(tmp_path,
     assert "an output path cannot be empty" in capsys.readouterr().err
 
 
+def test_plan_and_export_never_write_over_the_map_image_or_regions_even_with_force(
+    tmp_path, capsys, saved
+):
+    folder = _copy(saved, tmp_path / "inputs")
+    image = tmp_path / "lab map.png"  # a map beside its PNG image, as map_server's are
+    cv2.imwrite(str(image), cv2.imread(str(folder / "map.pgm"), cv2.IMREAD_UNCHANGED))
+    map_yaml = tmp_path / "lab.yaml"
+    map_yaml.write_text((folder / "map.yaml").read_text().replace("map.pgm", "'lab map.png'"))
+    before = {p: p.read_bytes() for p in (image, *folder.iterdir())}
+    ends = ["--start", "1", "--goal", "2"]
+    regions = ["--regions", str(folder)]
+    for argv in (
+        ["plan", str(map_yaml), *ends, "--draw", str(image)],
+        ["plan", str(map_yaml), *regions, *ends, "--draw", str(folder / "regions.png")],
+        ["export", str(map_yaml), "--nav2-route", str(image)],
+    ):
+        assert main(["-q", *argv, "--force"]) == 2
+        assert "would be written over the input" in _error_line(capsys)
+    assert {p: p.read_bytes() for p in (image, *folder.iterdir())} == before
+
+
 @pytest.mark.parametrize("files", [None, {}, "drop graph.json"])
 def test_a_folder_whose_digests_are_gone_is_refused(tmp_path, saved, files):
     folder = _copy(saved, tmp_path / "digests")

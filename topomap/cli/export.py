@@ -21,7 +21,7 @@ def run_export(args: argparse.Namespace) -> int:
     """Write every output asked for; all are checked before any work."""
     from planners.nav2_route import write_nav2_route
     from planners.route_graph import building_route_graph, planner_route_graph
-    from topomap.cli.commands.common import load_map, refuse_inputs_as_outputs
+    from topomap.cli.commands.common import load_map, map_inputs, refuse_inputs_as_outputs
     from topomap.rosbag_export import bag_files, write_rosbag
 
     outputs = [args.nav2_route, args.planner_graph, args.rosbag]
@@ -29,7 +29,7 @@ def run_export(args: argparse.Namespace) -> int:
         raise UsageError("export: give --nav2-route, --planner-graph and/or --rosbag")
     if args.path and args.rosbag is None:
         raise UsageError("--path draws planned paths into the bag: give --rosbag too")
-    refuse_inputs_as_outputs(outputs, [args.map, args.regions])
+    refuse_inputs_as_outputs(outputs, map_inputs(args))
     files = [Path(out).resolve() for out in (args.nav2_route, args.planner_graph) if out]
     if args.rosbag is not None:
         bag = Path(args.rosbag).resolve()

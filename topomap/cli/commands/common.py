@@ -373,7 +373,17 @@ def load_map(args: argparse.Namespace) -> Any:
     return TopoMap.from_grid(OccupancyGrid.load(args.map))
 
 
-def refuse_inputs_as_outputs(outputs: Iterable[str | None], inputs: Iterable[str | None]) -> None:
+def map_inputs(args: argparse.Namespace) -> list[Path | str | None]:
+    """The inputs :func:`load_map` reads: the map YAML, the image it names and the regions
+    folder (None when not given)."""
+    from maps.map_server import map_files
+
+    return [*map_files(args.map), args.regions]
+
+
+def refuse_inputs_as_outputs(
+    outputs: Iterable[str | None], inputs: Iterable[str | Path | None]
+) -> None:
     """Refuse an output that would replace an input, even with ``--force``: an output that
     is an input file or a file inside an input folder, or an output folder that is or holds
     an input (a folder written whole would take its files).

@@ -12,7 +12,9 @@ from topomap.cli.commands.common import (
     RADIUS,
     add_robot_options,
     load_map,
+    map_inputs,
     point_or_region,
+    refuse_inputs_as_outputs,
     robot_spec,
 )
 from topomap.errors import UsageError
@@ -51,6 +53,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
             raise UsageError(
                 f"--draw {args.draw!r}: the picture is a PNG, give a name ending in .png"
             )
+        refuse_inputs_as_outputs([args.draw], map_inputs(args))
         check_output_file(args.draw, overwrite=args.force, how="--force")
     spec = robot_spec(args)
     robot = Disc(args.robot_radius) if spec is None else parse_robot(spec)
