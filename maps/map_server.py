@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import stat
 from pathlib import Path
 from typing import Any
@@ -132,6 +133,9 @@ def _cell_table(
 
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+#: How image files begin (PNG, JPEG, TIFF; a PBM/PGM/PPM: ``P1``..``P6`` and a space): a map
+#: given as its image alone is named as such, not read as a YAML that is no text.
+IMAGE_SIGNATURE = re.compile(rb"\x89PNG\r\n\x1a\n|\xff\xd8\xff|II\*\x00|MM\x00\*|P[1-6]\s")
 #: Bytes a map_server YAML may have (a real one has a few hundred).
 MAX_YAML_BYTES = 1 << 20
 #: Bytes of a PBM/PGM/PPM header (its comments included) read to learn the image's size.
@@ -479,6 +483,17 @@ def parse_yaml(path: str | Path, *, limit: int = MAX_YAML_BYTES) -> Any:
 
 
 def _parse_yaml(path: Path) -> dict[str, Any]:
+    try:
+        with path.open("rb") as stream:
+            head = stream.read(8)
+    except OSError as err:
+        raise _unreadable(path, None, err) from None
+    if IMAGE_SIGNATURE.match(head):
+        raise MapFormatError(
+            "an image, not a map YAML: write a map_server YAML that names it with its "
+            "resolution and origin",
+            path=path,
+        )
     doc = parse_yaml(path)
     if not isinstance(doc, dict):
         raise MapFormatError("expected a mapping of map_server fields", path=path)
