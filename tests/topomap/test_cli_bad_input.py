@@ -89,6 +89,8 @@ def _copy(saved: Path, to: Path) -> Path:
         (["bench", "online", "--seed-fraction", "nan"], "--seed-fraction"),
         (["bench", "online", "--offline-up-to", "-5"], "--offline-up-to"),
         (["eval", "runs", "--seeds", "100000000"], "--seeds"),
+        (["segment", "MAP", "--map-topic", "/map", "--stamp", "nan"], "--stamp"),
+        (["batch", "MAP", "--stamp", "inf"], "--stamp"),
     ],
 )
 def test_numbers_out_of_range_are_usage_errors(tmp_path, capsys, argv, shown):
@@ -225,6 +227,16 @@ def test_an_interrupted_forced_segment_keeps_the_old_folder(tmp_path, saved, mon
     assert main(argv) == 130
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
     TopoMap.load(folder)
+
+
+@pytest.mark.parametrize("source", [["MAP"], ["--scans", "LOG"], ["LOG"]])
+def test_a_stamp_for_no_bag_map_is_a_usage_error(tmp_path, capsys, plan_map, source):
+    log = tmp_path / "run.log"
+    log.write_text("")
+    argv = [str(plan_map) if a == "MAP" else str(log) if a == "LOG" else a for a in source]
+    assert main(["segment", *argv, "--stamp", "12.5", "--out", str(tmp_path / "out")]) == 2
+    assert "--stamp goes with a bag's map (--map-topic), not" in _error_line(capsys)
+    assert not (tmp_path / "out").exists()
 
 
 def test_plan_draw_is_never_overwritten_without_force(tmp_path, capsys, plan_map):
