@@ -308,6 +308,17 @@ def test_export_writes_nothing_when_a_path_fails_or_two_outputs_collide(tmp_path
     assert not route.exists()
 
 
+def test_export_refuses_a_route_graph_a_robot_fits_nowhere_in(tmp_path, capsys, saved):
+    route, fine = tmp_path / "route.geojson", tmp_path / "fine.geojson"
+    argv = ["-q", "export", str(saved / "map.yaml"), "--regions", str(saved)]
+    argv += ["--nav2-route", str(route), "--planner-graph", str(fine), "--robot-radius", "9"]
+    assert main(argv) == 2
+    assert "has room for a robot of radius 9 m, the route graph would be empty" in _error_line(
+        capsys
+    )
+    assert not route.exists() and not fine.exists()
+
+
 # ---------------------------------------------------------------- saved folders
 def _graph_edit(folder: Path, old: str, new: str) -> None:
     path = folder / "graph.graphml"

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from maps.files import check_output_file, check_outputs
-from topomap.errors import UsageError
+from topomap.errors import ExportError, UsageError
 
 
 def _point(topo: Any, planner: Any, end: tuple[float, ...] | int | str) -> Any:
@@ -49,8 +49,22 @@ def run_export(args: argparse.Namespace) -> int:
         planner.plan(_point(topo, planner, start), _point(topo, planner, goal))
         for start, goal in args.path or []
     ]
+    graphs = {  # made before anything is written: an empty one leaves no file
+        option: make(planner)
+        for option, out, make in (
+            ("--nav2-route", args.nav2_route, building_route_graph),
+            ("--planner-graph", args.planner_graph, planner_route_graph),
+        )
+        if out is not None
+    }
+    for option, graph in graphs.items():
+        if graph.number_of_nodes() == 0:
+            raise ExportError(
+                f"{option}: no region of {args.map} has room for a robot of radius "
+                f"{args.robot_radius:g} m, the route graph would be empty"
+            )
     if args.nav2_route is not None:
-        route = building_route_graph(planner)
+        route = graphs["--nav2-route"]
         write_nav2_route(route, args.nav2_route, overwrite=args.force)
         kinds = [kind["kind"] for _, kind in route.nodes(data="metadata")]
         doors = sum(len(d) for _, _, d in topo.graph.edges(data="doors"))
@@ -61,7 +75,7 @@ def run_export(args: argparse.Namespace) -> int:
             "straight edges (one per direction)"
         )
     if args.planner_graph is not None:
-        fine = planner_route_graph(planner)
+        fine = graphs["--planner-graph"]
         write_nav2_route(fine, args.planner_graph, overwrite=args.force)
         print(
             f"wrote {args.planner_graph}: the planner's portal graph, {fine.number_of_nodes()} "
