@@ -321,6 +321,15 @@ def test_flaser_with_a_count_that_does_not_match_its_ranges(tmp_path, n):
     assert info.value.line == 1 and info.value.field == "n" and "bad.log" in str(info.value)
 
 
+@pytest.mark.parametrize("n", ["524289", "1e9", "99999999999999999999999"])
+def test_a_beam_count_no_line_can_hold_is_quoted_as_written(tmp_path, n):
+    path = tmp_path / "huge.log"
+    path.write_text(_flaser(3, [1.0, 2.0, 3.0]) + f"FLASER {n} 1 2 3\n")
+    with pytest.raises(LogFormatError, match=f"line 2, field 'n': a count of {n} values") as info:
+        read_carmen(path)
+    assert "does not fit in a line of at most 1048576 characters" in str(info.value)
+
+
 @pytest.mark.parametrize("n", [1, 2, 4, 5])
 def test_flaser_without_host_name_whose_count_is_off_is_refused(tmp_path, n):
     path = tmp_path / "nohost.log"
