@@ -308,6 +308,24 @@ def test_export_writes_nothing_when_a_path_fails_or_two_outputs_collide(tmp_path
     assert not route.exists()
 
 
+@pytest.mark.parametrize(
+    ("argv", "shown"),
+    [
+        (
+            ["export", "MAP", "--nav2-route", "OUT", "--storage", "sqlite3"],
+            "--storage is the bag's",
+        ),
+        (["plan", "MAP", "--start", "1", "--goal", "2", "--compare"], "--compare draws a flat"),
+    ],
+)
+def test_an_option_that_would_do_nothing_is_a_usage_error(tmp_path, capsys, saved, argv, shown):
+    out = tmp_path / "route.geojson"
+    argv = [str(saved / "map.yaml") if a == "MAP" else str(out) if a == "OUT" else a for a in argv]
+    assert main(["-q", *argv]) == 2
+    assert shown in _error_line(capsys)
+    assert not out.exists()
+
+
 def test_export_refuses_a_route_graph_a_robot_fits_nowhere_in(tmp_path, capsys, saved):
     route, fine = tmp_path / "route.geojson", tmp_path / "fine.geojson"
     argv = ["-q", "export", str(saved / "map.yaml"), "--regions", str(saved)]

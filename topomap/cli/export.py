@@ -29,6 +29,9 @@ def run_export(args: argparse.Namespace) -> int:
         raise UsageError("export: give --nav2-route, --planner-graph and/or --rosbag")
     if args.path and args.rosbag is None:
         raise UsageError("--path draws planned paths into the bag: give --rosbag too")
+    if args.storage is not None and args.rosbag is None:
+        raise UsageError("--storage is the bag's: give --rosbag too")
+    storage = args.storage or "mcap"
     refuse_inputs_as_outputs(outputs, map_inputs(args))
     files = [Path(out).resolve() for out in (args.nav2_route, args.planner_graph) if out]
     if args.rosbag is not None:
@@ -41,7 +44,7 @@ def run_export(args: argparse.Namespace) -> int:
         if out is not None:
             check_output_file(out, overwrite=args.force, how="--force")
     if args.rosbag is not None:
-        names = bag_files(args.rosbag, args.storage)
+        names = bag_files(args.rosbag, storage)
         check_outputs(args.rosbag, names, overwrite=args.force, how="--force")
     topo = load_map(args)
     planner = topo.planner(args.robot_radius)
@@ -85,11 +88,11 @@ def run_export(args: argparse.Namespace) -> int:
         written = write_rosbag(
             topo,
             args.rosbag,
-            storage=args.storage,
+            storage=storage,
             paths=paths,
             robot_radius=args.robot_radius,
             overwrite=args.force,
         )
         topics = f"map, regions, markers, route graph, {len(paths)} paths"
-        print(f"wrote {written} ({args.storage}): {topics}")
+        print(f"wrote {written} ({storage}): {topics}")
     return 0

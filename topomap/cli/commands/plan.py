@@ -48,6 +48,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from planners.robots import Disc, parse_robot
     from topomap.labels import find_region
 
+    if args.compare and args.draw is None:
+        raise UsageError("--compare draws a flat RRTConnect path beside this one: give --draw too")
     if args.draw is not None:
         if Path(args.draw).suffix.lower() != ".png":
             raise UsageError(
