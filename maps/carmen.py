@@ -99,6 +99,12 @@ class _Line:
         value = self.number_at(index, field)
         if value != int(value) or value < 0:
             raise self.error(f"expected a count, got {self.tokens[index]!r}", field)
+        if value > MAX_LINE_CHARS // 2:  # each value takes a digit and a space at least
+            raise self.error(
+                f"a count of {self.tokens[index]} values does not fit in a line of at most "
+                f"{MAX_LINE_CHARS} characters",
+                field,
+            )
         return int(value)
 
     def ranges(self, start: int, count: int) -> np.ndarray:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import stat
 from pathlib import Path
 from typing import Any
@@ -132,6 +133,9 @@ def _cell_table(
 
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+#: How image files begin (PNG, JPEG, TIFF; a PBM/PGM/PPM: ``P1``..``P6`` and a space): a map
+#: given as its image alone is named as such, not read as a YAML that is no text.
+IMAGE_SIGNATURE = re.compile(rb"\x89PNG\r\n\x1a\n|\xff\xd8\xff|II\*\x00|MM\x00\*|P[1-6]\s")
 #: Bytes a map_server YAML may have (a real one has a few hundred).
 MAX_YAML_BYTES = 1 << 20
 #: Bytes of a PBM/PGM/PPM header (its comments included) read to learn the image's size.
@@ -479,10 +483,45 @@ def parse_yaml(path: str | Path, *, limit: int = MAX_YAML_BYTES) -> Any:
 
 
 def _parse_yaml(path: Path) -> dict[str, Any]:
+    try:
+        with path.open("rb") as stream:
+            head = stream.read(8)
+    except OSError as err:
+        raise _unreadable(path, None, err) from None
+    if IMAGE_SIGNATURE.match(head):
+        raise MapFormatError(
+            "an image, not a map YAML: write a map_server YAML that names it with its "
+            "resolution and origin",
+            path=path,
+        )
     doc = parse_yaml(path)
     if not isinstance(doc, dict):
         raise MapFormatError("expected a mapping of map_server fields", path=path)
     return doc
+
+
+def _image_of(doc: dict[str, Any], path: Path) -> tuple[str, Path]:
+    """The ``image`` field of the map YAML at ``path`` and the file it names (relative to the
+    YAML, as map_server reads it)."""
+    image = doc.get("image")
+    if not isinstance(image, str) or not image or not image.isprintable():
+        raise MapFormatError(
+            f"expected an image file name, got {image!r}", path=path, field="image"
+        )
+    return image, Path(image) if Path(image).is_absolute() else path.parent / image
+
+
+def map_files(path: str | Path) -> tuple[Path, Path]:
+    """The files a map is read from: the YAML at ``path`` and the image it names (which
+    need not exist yet: :func:`load_map` says so).
+
+    Raises
+    ------
+    MapFileNotFoundError, MapFormatError
+        As :func:`load_map` does for the YAML and its ``image`` field.
+    """
+    path = check_input_file(path, "map YAML")
+    return path, _image_of(_parse_yaml(path), path)[1]
 
 
 def load_map(path: str | Path) -> OccupancyGrid:
@@ -498,11 +537,7 @@ def load_map(path: str | Path) -> OccupancyGrid:
     """
     path = check_input_file(path, "map YAML")
     doc = _parse_yaml(path)
-    image = doc.get("image")
-    if not isinstance(image, str) or not image or not image.isprintable():
-        raise MapFormatError(
-            f"expected an image file name, got {image!r}", path=path, field="image"
-        )
+    image, image_path = _image_of(doc, path)
     resolution = _number(doc, "resolution", path, *RESOLUTION_RANGE)
     occupied = _number(doc, "occupied_thresh", path, 0.0, 1.0)
     free = _number(doc, "free_thresh", path, 0.0, 1.0)
@@ -529,7 +564,6 @@ def load_map(path: str | Path) -> OccupancyGrid:
             path=path,
             field="origin",
         )
-    image_path = Path(image) if Path(image).is_absolute() else path.parent / image
     check_input_file(image_path, f"image {image!r} of {path}", field="image")
     pixels = read_image(image_path, field="image")
     cells = cells_from_image(

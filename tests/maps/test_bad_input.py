@@ -266,6 +266,20 @@ def test_pnm_numbers_too_long_and_headers_too_long_for_4_kb(tmp_path):
     assert read_image(path).tolist() == [[254, 0]]
 
 
+@pytest.mark.parametrize(
+    "head",
+    [b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR", b"\xff\xd8\xff\xe0\0\x10JFIF", b"P5\n2 1\n255\n", b"P2 1 1"],
+)
+def test_an_image_given_as_the_map_yaml_is_named_as_an_image(tmp_path, head):
+    path = tmp_path / "rose_map.png"  # ROSE²'s maps are plain images
+    path.write_bytes(head + bytes(range(256)))
+    with pytest.raises(MapFormatError, match=r"rose_map\.png: an image, not a map YAML"):
+        load_map(path)
+    path.write_text("P5: a word that starts like a PGM\n")
+    with pytest.raises(MapFormatError, match="field 'image'"):
+        load_map(path)
+
+
 def test_a_map_file_that_is_no_regular_file_or_cannot_be_read(tmp_path, monkeypatch):
     yaml = _map(tmp_path)
     image = tmp_path / "img.pgm"
@@ -305,6 +319,15 @@ def test_flaser_with_a_count_that_does_not_match_its_ranges(tmp_path, n):
     with pytest.raises(LogFormatError) as info:
         read_carmen(path)
     assert info.value.line == 1 and info.value.field == "n" and "bad.log" in str(info.value)
+
+
+@pytest.mark.parametrize("n", ["524289", "1e9", "99999999999999999999999"])
+def test_a_beam_count_no_line_can_hold_is_quoted_as_written(tmp_path, n):
+    path = tmp_path / "huge.log"
+    path.write_text(_flaser(3, [1.0, 2.0, 3.0]) + f"FLASER {n} 1 2 3\n")
+    with pytest.raises(LogFormatError, match=f"line 2, field 'n': a count of {n} values") as info:
+        read_carmen(path)
+    assert "does not fit in a line of at most 1048576 characters" in str(info.value)
 
 
 @pytest.mark.parametrize("n", [1, 2, 4, 5])

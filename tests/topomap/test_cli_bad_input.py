@@ -89,6 +89,8 @@ def _copy(saved: Path, to: Path) -> Path:
         (["bench", "online", "--seed-fraction", "nan"], "--seed-fraction"),
         (["bench", "online", "--offline-up-to", "-5"], "--offline-up-to"),
         (["eval", "runs", "--seeds", "100000000"], "--seeds"),
+        (["segment", "MAP", "--map-topic", "/map", "--stamp", "nan"], "--stamp"),
+        (["batch", "MAP", "--stamp", "inf"], "--stamp"),
     ],
 )
 def test_numbers_out_of_range_are_usage_errors(tmp_path, capsys, argv, shown):
@@ -227,6 +229,16 @@ def test_an_interrupted_forced_segment_keeps_the_old_folder(tmp_path, saved, mon
     TopoMap.load(folder)
 
 
+@pytest.mark.parametrize("source", [["MAP"], ["--scans", "LOG"], ["LOG"]])
+def test_a_stamp_for_no_bag_map_is_a_usage_error(tmp_path, capsys, plan_map, source):
+    log = tmp_path / "run.log"
+    log.write_text("")
+    argv = [str(plan_map) if a == "MAP" else str(log) if a == "LOG" else a for a in source]
+    assert main(["segment", *argv, "--stamp", "12.5", "--out", str(tmp_path / "out")]) == 2
+    assert "--stamp goes with a bag's map (--map-topic), not" in _error_line(capsys)
+    assert not (tmp_path / "out").exists()
+
+
 def test_plan_draw_is_never_overwritten_without_force(tmp_path, capsys, plan_map):
     drawing = tmp_path / "path.png"
     drawing.write_bytes(b"mine")
@@ -296,6 +308,35 @@ def test_export_writes_nothing_when_a_path_fails_or_two_outputs_collide(tmp_path
     assert not route.exists()
 
 
+@pytest.mark.parametrize(
+    ("argv", "shown"),
+    [
+        (
+            ["export", "MAP", "--nav2-route", "OUT", "--storage", "sqlite3"],
+            "--storage is the bag's",
+        ),
+        (["plan", "MAP", "--start", "1", "--goal", "2", "--compare"], "--compare draws a flat"),
+    ],
+)
+def test_an_option_that_would_do_nothing_is_a_usage_error(tmp_path, capsys, saved, argv, shown):
+    out = tmp_path / "route.geojson"
+    argv = [str(saved / "map.yaml") if a == "MAP" else str(out) if a == "OUT" else a for a in argv]
+    assert main(["-q", *argv]) == 2
+    assert shown in _error_line(capsys)
+    assert not out.exists()
+
+
+def test_export_refuses_a_route_graph_a_robot_fits_nowhere_in(tmp_path, capsys, saved):
+    route, fine = tmp_path / "route.geojson", tmp_path / "fine.geojson"
+    argv = ["-q", "export", str(saved / "map.yaml"), "--regions", str(saved)]
+    argv += ["--nav2-route", str(route), "--planner-graph", str(fine), "--robot-radius", "9"]
+    assert main(argv) == 2
+    assert "has room for a robot of radius 9 m, the route graph would be empty" in _error_line(
+        capsys
+    )
+    assert not route.exists() and not fine.exists()
+
+
 # ---------------------------------------------------------------- saved folders
 def _graph_edit(folder: Path, old: str, new: str) -> None:
     path = folder / "graph.graphml"
@@ -351,6 +392,27 @@ def test_export_and_view_never_write_over_their_inputs_even_with_force(tmp_path,
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
     assert main(["-q", "export", map_yaml, "--rosbag", ""]) == 2
     assert "an output path cannot be empty" in capsys.readouterr().err
+
+
+def test_plan_and_export_never_write_over_the_map_image_or_regions_even_with_force(
+    tmp_path, capsys, saved
+):
+    folder = _copy(saved, tmp_path / "inputs")
+    image = tmp_path / "lab map.png"  # a map beside its PNG image, as map_server's are
+    cv2.imwrite(str(image), cv2.imread(str(folder / "map.pgm"), cv2.IMREAD_UNCHANGED))
+    map_yaml = tmp_path / "lab.yaml"
+    map_yaml.write_text((folder / "map.yaml").read_text().replace("map.pgm", "'lab map.png'"))
+    before = {p: p.read_bytes() for p in (image, *folder.iterdir())}
+    ends = ["--start", "1", "--goal", "2"]
+    regions = ["--regions", str(folder)]
+    for argv in (
+        ["plan", str(map_yaml), *ends, "--draw", str(image)],
+        ["plan", str(map_yaml), *regions, *ends, "--draw", str(folder / "regions.png")],
+        ["export", str(map_yaml), "--nav2-route", str(image)],
+    ):
+        assert main(["-q", *argv, "--force"]) == 2
+        assert "would be written over the input" in _error_line(capsys)
+    assert {p: p.read_bytes() for p in (image, *folder.iterdir())} == before
 
 
 @pytest.mark.parametrize("files", [None, {}, "drop graph.json"])

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from maps.files import check_output_file, check_outputs
-from topomap.errors import UsageError
+from topomap.errors import ExportError, UsageError
 
 
 def _point(topo: Any, planner: Any, end: tuple[float, ...] | int | str) -> Any:
@@ -21,7 +21,7 @@ def run_export(args: argparse.Namespace) -> int:
     """Write every output asked for; all are checked before any work."""
     from planners.nav2_route import write_nav2_route
     from planners.route_graph import building_route_graph, planner_route_graph
-    from topomap.cli.commands.common import load_map, refuse_inputs_as_outputs
+    from topomap.cli.commands.common import load_map, map_inputs, refuse_inputs_as_outputs
     from topomap.rosbag_export import bag_files, write_rosbag
 
     outputs = [args.nav2_route, args.planner_graph, args.rosbag]
@@ -29,7 +29,10 @@ def run_export(args: argparse.Namespace) -> int:
         raise UsageError("export: give --nav2-route, --planner-graph and/or --rosbag")
     if args.path and args.rosbag is None:
         raise UsageError("--path draws planned paths into the bag: give --rosbag too")
-    refuse_inputs_as_outputs(outputs, [args.map, args.regions])
+    if args.storage is not None and args.rosbag is None:
+        raise UsageError("--storage is the bag's: give --rosbag too")
+    storage = args.storage or "mcap"
+    refuse_inputs_as_outputs(outputs, map_inputs(args))
     files = [Path(out).resolve() for out in (args.nav2_route, args.planner_graph) if out]
     if args.rosbag is not None:
         bag = Path(args.rosbag).resolve()
@@ -41,7 +44,7 @@ def run_export(args: argparse.Namespace) -> int:
         if out is not None:
             check_output_file(out, overwrite=args.force, how="--force")
     if args.rosbag is not None:
-        names = bag_files(args.rosbag, args.storage)
+        names = bag_files(args.rosbag, storage)
         check_outputs(args.rosbag, names, overwrite=args.force, how="--force")
     topo = load_map(args)
     planner = topo.planner(args.robot_radius)
@@ -49,8 +52,22 @@ def run_export(args: argparse.Namespace) -> int:
         planner.plan(_point(topo, planner, start), _point(topo, planner, goal))
         for start, goal in args.path or []
     ]
+    graphs = {  # made before anything is written: an empty one leaves no file
+        option: make(planner)
+        for option, out, make in (
+            ("--nav2-route", args.nav2_route, building_route_graph),
+            ("--planner-graph", args.planner_graph, planner_route_graph),
+        )
+        if out is not None
+    }
+    for option, graph in graphs.items():
+        if graph.number_of_nodes() == 0:
+            raise ExportError(
+                f"{option}: no region of {args.map} has room for a robot of radius "
+                f"{args.robot_radius:g} m, the route graph would be empty"
+            )
     if args.nav2_route is not None:
-        route = building_route_graph(planner)
+        route = graphs["--nav2-route"]
         write_nav2_route(route, args.nav2_route, overwrite=args.force)
         kinds = [kind["kind"] for _, kind in route.nodes(data="metadata")]
         doors = sum(len(d) for _, _, d in topo.graph.edges(data="doors"))
@@ -61,7 +78,7 @@ def run_export(args: argparse.Namespace) -> int:
             "straight edges (one per direction)"
         )
     if args.planner_graph is not None:
-        fine = planner_route_graph(planner)
+        fine = graphs["--planner-graph"]
         write_nav2_route(fine, args.planner_graph, overwrite=args.force)
         print(
             f"wrote {args.planner_graph}: the planner's portal graph, {fine.number_of_nodes()} "
@@ -71,11 +88,11 @@ def run_export(args: argparse.Namespace) -> int:
         written = write_rosbag(
             topo,
             args.rosbag,
-            storage=args.storage,
+            storage=storage,
             paths=paths,
             robot_radius=args.robot_radius,
             overwrite=args.force,
         )
         topics = f"map, regions, markers, route graph, {len(paths)} paths"
-        print(f"wrote {written} ({args.storage}): {topics}")
+        print(f"wrote {written} ({storage}): {topics}")
     return 0

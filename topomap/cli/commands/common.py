@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import math
 import sys
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
@@ -88,7 +89,7 @@ def add_bag_options(parser: argparse.ArgumentParser, *, map_topic: bool) -> None
             "--map-topic", help="segment the bag's nav_msgs/OccupancyGrid on this topic"
         )
         parser.add_argument(
-            "--stamp", type=float, help="with --map-topic: the last map at or before this time, s"
+            "--stamp", type=STAMP, help="with --map-topic: the last map at or before this time, s"
         )
 
 
@@ -220,6 +221,10 @@ LENGTH = number_type(0.0, MAX_LENGTH, low_open=True)
 
 
 DISTANCE = number_type(0.0, MAX_LENGTH)
+
+
+#: ``--stamp``: a time in seconds on a bag's clock, any finite number.
+STAMP = number_type(-math.inf, math.inf, unit="s")
 
 
 #: ``--theta``: a share in [0, 1].
@@ -373,7 +378,17 @@ def load_map(args: argparse.Namespace) -> Any:
     return TopoMap.from_grid(OccupancyGrid.load(args.map))
 
 
-def refuse_inputs_as_outputs(outputs: Iterable[str | None], inputs: Iterable[str | None]) -> None:
+def map_inputs(args: argparse.Namespace) -> list[Path | str | None]:
+    """The inputs :func:`load_map` reads: the map YAML, the image it names and the regions
+    folder (None when not given)."""
+    from maps.map_server import map_files
+
+    return [*map_files(args.map), args.regions]
+
+
+def refuse_inputs_as_outputs(
+    outputs: Iterable[str | None], inputs: Iterable[str | Path | None]
+) -> None:
     """Refuse an output that would replace an input, even with ``--force``: an output that
     is an input file or a file inside an input folder, or an output folder that is or holds
     an input (a folder written whole would take its files).

@@ -25,7 +25,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     export.add_argument(
         "--rosbag", type=output_path, help="OUT: a ROS 2 bag folder (map, regions, markers)"
     )
-    export.add_argument("--storage", default="mcap", choices=["mcap", "sqlite3"])
+    export.add_argument(
+        "--storage", choices=["mcap", "sqlite3"], help="--rosbag: its storage (default mcap)"
+    )
     export.add_argument(
         "--path",
         nargs=2,

@@ -12,7 +12,9 @@ from topomap.cli.commands.common import (
     RADIUS,
     add_robot_options,
     load_map,
+    map_inputs,
     point_or_region,
+    refuse_inputs_as_outputs,
     robot_spec,
 )
 from topomap.errors import UsageError
@@ -46,11 +48,14 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from planners.robots import Disc, parse_robot
     from topomap.labels import find_region
 
+    if args.compare and args.draw is None:
+        raise UsageError("--compare draws a flat RRTConnect path beside this one: give --draw too")
     if args.draw is not None:
         if Path(args.draw).suffix.lower() != ".png":
             raise UsageError(
                 f"--draw {args.draw!r}: the picture is a PNG, give a name ending in .png"
             )
+        refuse_inputs_as_outputs([args.draw], map_inputs(args))
         check_output_file(args.draw, overwrite=args.force, how="--force")
     spec = robot_spec(args)
     robot = Disc(args.robot_radius) if spec is None else parse_robot(spec)

@@ -93,6 +93,9 @@ def cmd_segment(args: argparse.Namespace) -> int:
     if args.map is not None and input_kind(Path(args.map)) == "log":
         args.scans, args.map = args.map, None  # a log's keyframes are the paper's input
     out = Path(args.out)
+    source = args.scans if args.scans is not None else args.map
+    if args.stamp is not None and (args.map is None or not _bag_map(args)):
+        raise UsageError(f"--stamp goes with a bag's map (--map-topic), not {source}")
     if args.online:
         return _segment_online(args, out)
     pictures = [] if args.no_picture else ["segmentation.png"]
@@ -106,7 +109,6 @@ def cmd_segment(args: argparse.Namespace) -> int:
         raise UsageError("--previous-aligned needs --previous DIR")
     refuse_existing(out, written_names, args.force)
     previous = None if args.previous is None else TopoMap.load(args.previous)
-    source = args.scans if args.scans is not None else args.map
     try:
         if args.scans is not None:
             frames = read_keyframes(Path(args.scans), args)
@@ -120,7 +122,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
             else:
                 topo = TopoMap.from_keyframes(keyframes, **options)
         else:
-            if args.map_topic is not None or read_as_bag(Path(args.map)):
+            if _bag_map(args):
                 from maps.rosbag import read_rosbag_map
 
                 grid = read_rosbag_map(args.map, topic=args.map_topic, stamp=args.stamp)
@@ -161,6 +163,11 @@ def cmd_segment(args: argparse.Namespace) -> int:
     print(summary)
     print(f"wrote {', '.join(p.name for p in written)}, summary.json to {out}")
     return 0
+
+
+def _bag_map(args: argparse.Namespace) -> bool:
+    """Whether ``segment``'s map is read from a bag (``--map-topic``, or a bag given as it)."""
+    return args.map_topic is not None or read_as_bag(Path(args.map))
 
 
 def _segment_online(args: argparse.Namespace, out: Path) -> int:
