@@ -80,6 +80,7 @@ def _copy(saved: Path, to: Path) -> Path:
         (["generate", "--furniture", "1000"], "--furniture"),
         (["demo", "--seed", "-1"], "--seed"),
         (["demo", "--jobs", "0"], "--jobs"),
+        (["segment", "MAP", "--jobs", "0"], "--jobs"),
         (["view", "REGIONS", "--max-paths", "-1"], "--max-paths"),
         (["plan", "MAP", "--start", "1,1", "--goal", "2", "--robot-radius", "1000"], "radius"),
         (["bench", "sim", "--scans", "-5"], "--scans"),

@@ -344,3 +344,22 @@ def test_the_command_line_asks_for_no_huge_pages_unless_told(given):
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.split()[-1] == ("True" if given else "False")
+
+
+@pytest.mark.parametrize(("argv", "jobs"), [([], -1), (["--jobs", "3"], 3)])
+def test_segment_partitions_a_large_maps_blocks_on_every_core_unless_told(
+    tmp_path, monkeypatch, argv, jobs
+):
+    from topomap.topomap import TopoMap
+
+    seen = {}
+
+    def from_grid(grid, **options):
+        seen.update(options)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(TopoMap, "from_grid", staticmethod(from_grid))
+    generate_floor_plan("flat", random_state=0).grid.save(tmp_path / "map.yaml")
+    with pytest.raises(SystemExit):
+        main(["-q", "segment", str(tmp_path / "map.yaml"), "--out", str(tmp_path / "o"), *argv])
+    assert seen["n_jobs"] == jobs

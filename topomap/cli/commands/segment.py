@@ -23,6 +23,7 @@ from topomap.cli.commands.common import (
     read_keyframes,
     refuse_existing,
     segmenter_options,
+    worker_count,
 )
 from topomap.errors import UsageError
 
@@ -46,6 +47,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     seg.add_argument("--pose-topic")
     add_bag_options(seg, map_topic=True)
     add_segmenter_options(seg)
+    seg.add_argument(
+        "--jobs",
+        type=worker_count,
+        help="blocks of a large map partitioned this many at a time, in threads (default: one "
+        "per core; the regions are the same)",
+    )
     seg.add_argument(
         "--online", action="store_true", help="with --scans: assign keyframes as they come"
     )
@@ -77,6 +84,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     add_picture_option(seg, "segmentation.png")
     seg.set_defaults(func=cmd_segment)
+
+
+def _options(args: argparse.Namespace) -> dict[str, Any]:
+    """The pipeline's options of the command: the segmentation's, its progress and its jobs
+    (every core unless ``--jobs``)."""
+    jobs = -1 if args.jobs is None else args.jobs
+    return {"on_stage": args.progress.stage, "n_jobs": jobs, **segmenter_options(args)}
 
 
 def cmd_segment(args: argparse.Namespace) -> int:
@@ -113,7 +127,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
         if args.scans is not None:
             frames = read_keyframes(Path(args.scans), args)
             keyframes = select_keyframes(frames, distance=args.distance)
-            options = {"on_stage": args.progress.stage, **segmenter_options(args)}
+            options = _options(args)
             if previous is not None:
                 from maps.mapping import grid_from_keyframes
 
@@ -128,7 +142,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
                 grid = read_rosbag_map(args.map, topic=args.map_topic, stamp=args.stamp)
             else:
                 grid = OccupancyGrid.load(args.map)
-            options = {"on_stage": args.progress.stage, **segmenter_options(args)}
+            options = _options(args)
             topo = (
                 TopoMap.from_grid(grid, **options)
                 if previous is None
