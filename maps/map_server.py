@@ -135,7 +135,9 @@ def _cell_table(
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: How image files begin (PNG, JPEG, TIFF; a PBM/PGM/PPM: ``P1``..``P6`` and a space): a map
 #: given as its image alone is named as such, not read as a YAML that is no text.
-IMAGE_SIGNATURE = re.compile(rb"\x89PNG\r\n\x1a\n|\xff\xd8\xff|II\*\x00|MM\x00\*|P[1-6]\s")
+IMAGE_SIGNATURE = re.compile(
+    re.escape(PNG_SIGNATURE) + rb"|\xff\xd8\xff|II\*\x00|MM\x00\*|P[1-6]\s+[#\d]"
+)
 #: Bytes a map_server YAML may have (a real one has a few hundred).
 MAX_YAML_BYTES = 1 << 20
 #: Bytes of a PBM/PGM/PPM header (its comments included) read to learn the image's size.

@@ -18,10 +18,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
+from threadpoolctl import threadpool_limits
 
 from maps.grid import OccupancyGrid
 from maps.scan import Keyframe, poses_array
-from segmentation.base import Estimator, is_count
+from maps.seeding import RandomState
+from segmentation.base import Estimator, clone, is_count
 from segmentation.distinct import label_counts, nonzero_cells
 from segmentation.errors import ParameterError
 from segmentation.spectral import SpectralSegmenter, at_most, kmeans
@@ -136,12 +138,16 @@ class BlockSpectralSegmenter(Estimator):
         if len(self.blocks) != len(keyframes):
             raise ParameterError(f"{len(self.blocks)} block ids for {len(keyframes)} keyframes")
         members = [np.flatnonzero(self.blocks == block) for block in np.unique(self.blocks)]
+        states = _block_states(self.segmenter.random_state, len(members))
         work = [
             (
-                at_most(self.segmenter, int(min(self.places[block], len(m)))),
+                clone(
+                    at_most(self.segmenter, int(min(self.places[block], len(m)))),
+                    random_state=state,
+                ),
                 [keyframes[int(i)] for i in m],
             )
-            for block, m in zip(np.unique(self.blocks), members, strict=True)
+            for block, m, state in zip(np.unique(self.blocks), members, states, strict=True)
         ]
         parts = fit_blocks(work, self.n_jobs)
         labels = np.zeros(len(keyframes), np.int64)
@@ -156,7 +162,27 @@ class BlockSpectralSegmenter(Estimator):
         return self
 
 
-#: The most worker processes a partition asks for (joblib's own bound is a million).
+def _block_states(random_state: RandomState, count: int) -> list[RandomState]:
+    """The random state of each of ``count`` blocks: a seed or None as it is (each block's
+    partition draws from it alone), a Generator's own independent children (one shared
+    generator drawn from by blocks at once would give other labels each run).
+
+    Examples
+    --------
+    >>> _block_states(7, 2)
+    [7, 7]
+    >>> children = _block_states(np.random.default_rng(0), 2)
+    >>> [int(child.integers(100)) for child in children] == [
+    ...     int(child.integers(100)) for child in _block_states(np.random.default_rng(0), 2)
+    ... ]
+    True
+    """
+    if isinstance(random_state, np.random.Generator):
+        return list(random_state.spawn(count))
+    return [random_state] * count
+
+
+#: The most blocks partitioned at once (joblib's own bound is a million).
 MAX_JOBS = 1024
 
 
@@ -202,7 +228,10 @@ def fit_blocks(
         return [segmenter.fit(keyframes) for segmenter, keyframes in work]
     from joblib import Parallel, delayed
 
-    fits = Parallel(n_jobs=n_jobs, prefer="threads")(
-        delayed(segmenter.fit)(keyframes) for segmenter, keyframes in work
-    )
+    # each fit limits BLAS to one thread while it runs; limited here first, the threads'
+    # limits save and restore one, and the caller's setting comes back whole at the end
+    with threadpool_limits(1):
+        fits = Parallel(n_jobs=n_jobs, prefer="threads")(
+            delayed(segmenter.fit)(keyframes) for segmenter, keyframes in work
+        )
     return list(fits)

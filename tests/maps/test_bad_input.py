@@ -275,9 +275,10 @@ def test_an_image_given_as_the_map_yaml_is_named_as_an_image(tmp_path, head):
     path.write_bytes(head + bytes(range(256)))
     with pytest.raises(MapFormatError, match=r"rose_map\.png: an image, not a map YAML"):
         load_map(path)
-    path.write_text("P5: a word that starts like a PGM\n")
-    with pytest.raises(MapFormatError, match="field 'image'"):
-        load_map(path)
+    for text in ("P5: a word that starts like a PGM\n", "P5 : a key spaced from its colon\n"):
+        path.write_text(text)
+        with pytest.raises(MapFormatError, match="field 'image'"):
+            load_map(path)
 
 
 def test_a_map_file_that_is_no_regular_file_or_cannot_be_read(tmp_path, monkeypatch):

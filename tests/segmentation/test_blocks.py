@@ -27,19 +27,34 @@ def test_blocks_partition_keyframes_and_never_share_a_region():
         model.fit(keyframes[:-1])
 
 
-def test_blocks_in_two_processes_equal_one_after_the_other():
-    from segmentation.base import clone
-
+def _flat_blocks(random_state):
     plan = generate_floor_plan("flat", random_state=2)
     keyframes = virtual_keyframes(plan.grid, 0.8, random_state=0)
     blocks, places = keyframe_blocks(plan.grid, basins(plan.grid), keyframes, places=3)
-    model = BlockSpectralSegmenter(SpectralSegmenter(random_state=0), blocks, places)
+    model = BlockSpectralSegmenter(SpectralSegmenter(random_state=random_state), blocks, places)
+    return model, keyframes, places
+
+
+def test_blocks_in_two_threads_equal_one_after_the_other():
+    from segmentation.base import clone
+
+    model, keyframes, places = _flat_blocks(0)
     one = clone(model, n_jobs=1).fit(keyframes)
     two = clone(model, n_jobs=2).fit(keyframes)
     assert len(places) >= 2 and len(np.unique(one.labels_)) > len(places)
     assert np.array_equal(two.labels_, one.labels_)
     assert [s.n_regions_ for s in two.segmenters_] == [s.n_regions_ for s in one.segmenters_]
     assert model.n_jobs is None and not hasattr(model, "labels_")  # clones were fitted
+
+
+def test_blocks_seeded_by_one_generator_give_the_same_labels_at_once_or_in_turn():
+    from segmentation.base import clone
+
+    fits = []
+    for jobs in (1, 2, 2, 2):
+        model, keyframes, _ = _flat_blocks(np.random.default_rng(5))
+        fits.append(clone(model, n_jobs=jobs).fit(keyframes).labels_)
+    assert all(np.array_equal(labels, fits[0]) for labels in fits[1:])
     with pytest.raises(
         ValueError, match="n_jobs must be None or a nonzero integer within ±1024, got 0"
     ):

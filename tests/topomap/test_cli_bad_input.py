@@ -317,6 +317,10 @@ def test_export_writes_nothing_when_a_path_fails_or_two_outputs_collide(tmp_path
             "--storage is the bag's",
         ),
         (["plan", "MAP", "--start", "1", "--goal", "2", "--compare"], "--compare draws a flat"),
+        (
+            ["segment", "--scans", "MAP", "--online", "--jobs", "2", "--out", "OUT"],
+            "--jobs partitions a large map's blocks",
+        ),
     ],
 )
 def test_an_option_that_would_do_nothing_is_a_usage_error(tmp_path, capsys, saved, argv, shown):

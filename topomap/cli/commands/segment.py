@@ -111,6 +111,8 @@ def cmd_segment(args: argparse.Namespace) -> int:
     if args.stamp is not None and (args.map is None or not _bag_map(args)):
         raise UsageError(f"--stamp goes with a bag's map (--map-topic), not {source}")
     if args.online:
+        if args.jobs is not None:
+            raise UsageError("--jobs partitions a large map's blocks, not --online's windows")
         return _segment_online(args, out)
     pictures = [] if args.no_picture else ["segmentation.png"]
     # the planner is prepared by the first `topomap plan --regions` and kept there
