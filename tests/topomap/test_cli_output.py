@@ -308,23 +308,29 @@ def test_loading_pauses_the_collector_and_freezes_only_in_the_console_script():
     assert gc.isenabled() and gc.get_freeze_count() == frozen
 
 
+def _python_with(name: str, given: str | None, code: str) -> str:
+    """What ``python -c code`` prints with the environment variable ``name`` unset (None) or
+    set to ``given``."""
+    env = {k: v for k, v in os.environ.items() if k != name}
+    if given is not None:
+        env[name] = given
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=env, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
 @pytest.mark.parametrize("given", [None, "2"])
 def test_the_command_line_runs_blas_in_one_thread_unless_told(given):
     # NumPy's, SciPy's and OpenCV's OpenBLAS each start threads that spin (0.1 s of start-up)
-    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
-    if given is not None:
-        env["OPENBLAS_NUM_THREADS"] = given
     code = (
         "import os, topomap.cli.main, topomap.topomap, cv2; "
         "from threadpoolctl import threadpool_info; "
         "print(os.environ['OPENBLAS_NUM_THREADS'], len(threadpool_info()), "
         "max(i['num_threads'] for i in threadpool_info()))"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=env, timeout=120
-    )
-    assert done.returncode == 0, done.stderr
-    value, libraries, most = done.stdout.split()
+    value, libraries, most = _python_with("OPENBLAS_NUM_THREADS", given, code).split()
     assert value == (given or "1") and int(libraries) >= 1
     assert given is not None or most == "1"
 
@@ -332,18 +338,12 @@ def test_the_command_line_runs_blas_in_one_thread_unless_told(given):
 @pytest.mark.parametrize("given", [None, "1"])
 def test_the_command_line_asks_for_no_huge_pages_unless_told(given):
     # with transparent huge pages on request, each new large array waited for 2 MB pages
-    env = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
-    if given is not None:
-        env["NUMPY_MADVISE_HUGEPAGE"] = given
     code = (
         "import topomap.cli.main, numpy; "
         "print(numpy._core.multiarray._set_madvise_hugepage(False))"  # returns the setting
     )
-    done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=env, timeout=120
-    )
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.split()[-1] == ("True" if given else "False")
+    shown = _python_with("NUMPY_MADVISE_HUGEPAGE", given, code)
+    assert shown.split()[-1] == ("True" if given else "False")
 
 
 @pytest.mark.parametrize(("argv", "jobs"), [([], -1), (["--jobs", "3"], 3)])
