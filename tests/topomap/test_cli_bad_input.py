@@ -321,11 +321,22 @@ def test_export_writes_nothing_when_a_path_fails_or_two_outputs_collide(tmp_path
             ["segment", "--scans", "MAP", "--online", "--jobs", "2", "--out", "OUT"],
             "--jobs partitions a large map's blocks",
         ),
+        (["segment", "MAP", "--distance", "0.3", "--out", "OUT"], "--distance spaces a log's"),
+        (
+            ["segment", "--scans", "LOG", "--scan-topic", "/scan", "--out", "OUT"],
+            "--scan-topic name a bag's topics; ",
+        ),
+        (
+            ["map", "LOG", "--scan-topic", "/scan", "--pose-topic", "/odom", "--out", "OUT"],
+            "--scan-topic and --pose-topic name a bag's topics; ",
+        ),
     ],
 )
 def test_an_option_that_would_do_nothing_is_a_usage_error(tmp_path, capsys, saved, argv, shown):
-    out = tmp_path / "route.geojson"
-    argv = [str(saved / "map.yaml") if a == "MAP" else str(out) if a == "OUT" else a for a in argv]
+    out, log = tmp_path / "route.geojson", tmp_path / "run.log"
+    log.write_text("FLASER 3 1.0 1.0 1.0 0 0 0 0 0 0 0 0 robot 0.0\n")
+    names = {"MAP": str(saved / "map.yaml"), "OUT": str(out), "LOG": str(log)}
+    argv = [names.get(a, a) for a in argv]
     assert main(["-q", *argv]) == 2
     assert shown in _error_line(capsys)
     assert not out.exists()

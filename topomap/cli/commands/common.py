@@ -54,16 +54,17 @@ def read_keyframes(source: Path, args: argparse.Namespace) -> list:
     from maps.carmen import read_carmen
     from maps.rosbag import read_bag_scans
 
-    if read_as_bag(source):
-        found = read_bag_scans(
-            source,
-            scan_topic=args.scan_topic,
-            pose_topic=args.pose_topic,
-            fixed_frame=args.fixed_frame,
-        )
-        print(f"{source}: {found.describe()}", file=sys.stderr)
-        return found.keyframes
-    return read_carmen(source)
+    if not read_as_bag(source):
+        given = (("--scan-topic", args.scan_topic), ("--pose-topic", args.pose_topic))
+        topics = " and ".join(flag for flag, value in given if value)
+        if topics:
+            raise UsageError(f"{topics} name a bag's topics; {source} is a CARMEN log")
+        return read_carmen(source)
+    found = read_bag_scans(
+        source, scan_topic=args.scan_topic, pose_topic=args.pose_topic, fixed_frame=args.fixed_frame
+    )
+    print(f"{source}: {found.describe()}", file=sys.stderr)
+    return found.keyframes
 
 
 def read_as_bag(source: Path) -> bool:

@@ -42,7 +42,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     source.add_argument("--scans", help="CARMEN log or ROS bag instead of a map")
     add_output_options(seg, force="overwrite existing files")
-    seg.add_argument("--distance", type=DISTANCE, default=0.5, help="keyframe spacing in a log, m")
+    seg.add_argument(
+        "--distance",
+        type=DISTANCE,
+        help=f"keyframe spacing in a log, m (default {DISTANCE_DEFAULT})",
+    )
     seg.add_argument("--scan-topic")
     seg.add_argument("--pose-topic")
     add_bag_options(seg, map_topic=True)
@@ -86,6 +90,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     seg.set_defaults(func=cmd_segment)
 
 
+#: How far apart a log's keyframes are taken by default, metres (``--distance``).
+DISTANCE_DEFAULT = 0.5
+
+
+def _distance(args: argparse.Namespace) -> float:
+    """``--distance``, or :data:`DISTANCE_DEFAULT`."""
+    return DISTANCE_DEFAULT if args.distance is None else float(args.distance)
+
+
 def _options(args: argparse.Namespace) -> dict[str, Any]:
     """The pipeline's options of the command: the segmentation's, its progress and its jobs
     (every core unless ``--jobs``)."""
@@ -110,6 +123,8 @@ def cmd_segment(args: argparse.Namespace) -> int:
     source = args.scans if args.scans is not None else args.map
     if args.stamp is not None and (args.map is None or not _bag_map(args)):
         raise UsageError(f"--stamp goes with a bag's map (--map-topic), not {source}")
+    if args.distance is not None and args.scans is None:
+        raise UsageError(f"--distance spaces a log's keyframes; {source} is a map")
     if args.online:
         if args.jobs is not None:
             raise UsageError("--jobs partitions a large map's blocks, not --online's windows")
@@ -128,7 +143,7 @@ def cmd_segment(args: argparse.Namespace) -> int:
     try:
         if args.scans is not None:
             frames = read_keyframes(Path(args.scans), args)
-            keyframes = select_keyframes(frames, distance=args.distance)
+            keyframes = select_keyframes(frames, distance=_distance(args))
             options = _options(args)
             if previous is not None:
                 from maps.mapping import grid_from_keyframes
@@ -198,7 +213,7 @@ def _segment_online(args: argparse.Namespace, out: Path) -> int:
     names = online_outputs(picture=not args.no_picture, frames=bool(args.frames))
     refuse_existing(out, names, args.force)
     args.progress.stage(f"reading {args.scans}")
-    keyframes = select_keyframes(read_keyframes(Path(args.scans), args), distance=args.distance)
+    keyframes = select_keyframes(read_keyframes(Path(args.scans), args), distance=_distance(args))
     args.progress.stage(f"online segmentation of {len(keyframes)} keyframes")
     summary = segment_online(
         keyframes,
