@@ -6,6 +6,7 @@ import argparse
 
 from topomap.cli.commands.common import (
     DISTANCE,
+    KEYFRAME_DISTANCE,
     RESOLUTION,
     add_bag_options,
     add_output_options,
@@ -28,7 +29,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     batch.add_argument("--workers", type=worker_count, default=2, help="local worker processes")
     batch.add_argument("--scheduler", help="address of a running Dask scheduler (tcp://host:8786)")
     batch.add_argument(
-        "--distance", type=DISTANCE, default=0.5, help="keyframe spacing in a log, m"
+        "--distance", type=DISTANCE, default=KEYFRAME_DISTANCE, help="keyframe spacing in a log, m"
     )
     batch.add_argument("--resolution", type=RESOLUTION, default=0.05, help="maps from logs, m/cell")
     batch.add_argument("--scan-topic")

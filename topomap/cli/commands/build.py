@@ -8,6 +8,7 @@ from pathlib import Path
 from maps.files import OutputFolder
 from topomap.cli.commands.common import (
     DISTANCE,
+    KEYFRAME_DISTANCE,
     LENGTH,
     RESOLUTION,
     add_bag_options,
@@ -23,7 +24,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     build = sub.add_parser("map", help="build an occupancy map from a laser log or bag")
     build.add_argument("log", help="CARMEN log (.log, .gz) or ROS bag (.bag file, ROS 2 folder)")
     build.add_argument("--resolution", type=RESOLUTION, default=0.05, help="metres per cell")
-    build.add_argument("--distance", type=DISTANCE, default=0.5, help="keyframe spacing, metres")
+    build.add_argument(
+        "--distance", type=DISTANCE, default=KEYFRAME_DISTANCE, help="keyframe spacing, metres"
+    )
     build.add_argument("--max-range", type=LENGTH, default=30.0, help="metres")
     build.add_argument("--scan-topic")
     build.add_argument("--pose-topic")

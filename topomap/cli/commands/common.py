@@ -224,6 +224,10 @@ LENGTH = number_type(0.0, MAX_LENGTH, low_open=True)
 DISTANCE = number_type(0.0, MAX_LENGTH)
 
 
+#: How far apart a log's keyframes are taken by default, metres (``--distance``).
+KEYFRAME_DISTANCE = 0.5
+
+
 #: ``--stamp``: a time in seconds on a bag's clock, any finite number.
 STAMP = number_type(-math.inf, math.inf, unit="s")
 

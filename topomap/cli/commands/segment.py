@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 from maps.files import OutputFolder, write_text
 from topomap.cli.commands.common import (
     DISTANCE,
+    KEYFRAME_DISTANCE,
     ONLINE_METHODS,
     SHARE,
     add_bag_options,
@@ -45,7 +46,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     seg.add_argument(
         "--distance",
         type=DISTANCE,
-        help=f"keyframe spacing in a log, m (default {DISTANCE_DEFAULT})",
+        help=f"keyframe spacing in a log, m (default {KEYFRAME_DISTANCE})",
     )
     seg.add_argument("--scan-topic")
     seg.add_argument("--pose-topic")
@@ -90,13 +91,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     seg.set_defaults(func=cmd_segment)
 
 
-#: How far apart a log's keyframes are taken by default, metres (``--distance``).
-DISTANCE_DEFAULT = 0.5
-
-
 def _distance(args: argparse.Namespace) -> float:
-    """``--distance``, or :data:`DISTANCE_DEFAULT`."""
-    return DISTANCE_DEFAULT if args.distance is None else float(args.distance)
+    """``--distance``, or :data:`~topomap.cli.commands.common.KEYFRAME_DISTANCE`."""
+    return KEYFRAME_DISTANCE if args.distance is None else float(args.distance)
 
 
 def _options(args: argparse.Namespace) -> dict[str, Any]:
