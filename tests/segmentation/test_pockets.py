@@ -5,7 +5,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from maps.grid import OccupancyGrid
-from segmentation.pockets import NARROWEST_DOOR, join_pockets
+from segmentation.pockets import NARROWEST_DOOR, SMALLEST_ROOM, join_pockets
 
 
 def _room_and_side(gap_cells: int, resolution: float = 0.05) -> tuple[OccupancyGrid, np.ndarray]:
@@ -44,6 +44,34 @@ def test_a_space_the_robot_cannot_enter_is_a_room_seen_not_a_pocket():
     grid, labels = _room_and_side(9)  # 0.45 m: the robot passes between the furniture
     joined, count = join_pockets(grid, labels, {1, 2}, robot_radius=0.2)
     assert count == 1 and joined[45, 100] == 1
+
+
+def _room_and_corner(side_cells: int, gap_cells: int) -> tuple[OccupancyGrid, np.ndarray]:
+    """A 4 x 4 m room (region 1, 0.05 m cells) and a square space ``side_cells`` across
+    (region 2) beside it, open onto it over ``gap_cells``."""
+    free = np.zeros((90, 130), bool)
+    free[5:85, 5:85] = True
+    free[45 - side_cells // 2 : 45 + side_cells - side_cells // 2, 87 : 87 + side_cells] = True
+    free[45 - gap_cells // 2 : 45 + gap_cells - gap_cells // 2, 85:87] = True
+    labels = np.where(free, 1, 0).astype(np.int32)
+    labels[:, 86:] *= 2
+    return OccupancyGrid.from_masks(free, 0.05), labels
+
+
+def test_a_space_the_robot_enters_too_small_for_a_room_joins_the_room():
+    # a 1.2 x 1.2 m corner behind desks, open over 0.9 m (wider than any closet's door)
+    grid, labels = _room_and_corner(24, 18)
+    joined, count = join_pockets(grid, labels, {1, 2}, robot_radius=0.2)
+    assert count == 1 and joined[45, 95] == 1
+    # reached only through a gap narrower than the robot: a room seen, not a pocket
+    grid, labels = _room_and_corner(24, 6)
+    joined, count = join_pockets(grid, labels, {1, 2}, robot_radius=0.2)
+    assert count == 0 and joined[45, 95] == 2
+    # a 1.6 x 1.6 m closet (2.6 m^2) behind the same 0.9 m door stays a room
+    grid, labels = _room_and_corner(32, 18)
+    joined, count = join_pockets(grid, labels, {1, 2}, robot_radius=0.2)
+    assert count == 0 and joined[45, 95] == 2
+    assert 1.5 <= SMALLEST_ROOM <= 2.25  # under the smallest enterable room people drew
 
 
 def test_a_room_seen_through_a_door_gap_is_not_a_pocket():
