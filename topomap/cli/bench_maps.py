@@ -25,8 +25,7 @@ from maps.grid import OccupancyGrid
 from maps.mapping import grid_from_keyframes
 from maps.scan import select_keyframes
 from maps.sim.floorplan import generate_floor_plan
-from segmentation.pipeline import MapSegmenter
-from segmentation.spectral import SpectralSegmenter
+from topomap.topomap import pipeline_from_options
 
 
 def benchmark_maps(
@@ -50,9 +49,9 @@ def benchmark_maps(
 
 
 def time_segmentation(name: str, grid: OccupancyGrid, seed: int = 0) -> dict[str, Any]:
-    """Segment ``grid`` from the map alone, as ``topomap segment`` does (a large map's blocks
-    on every core); its size, regions and seconds."""
-    pipeline = MapSegmenter(spectral=SpectralSegmenter(random_state=seed), n_jobs=-1)
+    """Segment ``grid`` from the map alone, as ``topomap segment`` does (its similarity, a
+    large map's blocks on every core); its size, regions and seconds."""
+    pipeline = pipeline_from_options({"random_state": seed, "n_jobs": -1})
     wall, cpu = time.perf_counter(), time.process_time()
     found = pipeline.segment(grid)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
