@@ -111,9 +111,10 @@ def _cut_pieces(
     """The cuts a boundary (midpoints of its cell pairs, x and y in cells of ``resolution``
     metres) may be, most open first: each of its pieces (two places may touch at several
     passages: through a gap between clutter, at another corridor's junction farther along),
-    or all of it where another piece lies on a piece's line, within two cells across and
+    with the pieces that lie on its line, within two cells across and
     :data:`~segmentation.walls.FLANK` along (a dotted wall's gaps, which together are no cut
-    from wall to wall).
+    from wall to wall); a piece off that line stays a cut of its own (two places meeting on
+    both arms of a ring).
 
     Examples
     --------
@@ -125,6 +126,9 @@ def _cut_pieces(
     [[0, 1, 2, 3]]
     >>> [c.tolist() for c in _cut_pieces(np.array([*cut, [5.5, 40.0]]), open_at, 0.1)]
     [[0, 1, 2], [3]]
+    >>> far = np.array([*cut, [5.5, 9.0], [60.0, 0.5]])  # on the line, and a ring's other arm
+    >>> [c.tolist() for c in _cut_pieces(far, np.r_[open_at, 0.1], 0.1)]
+    [[0, 1, 2, 3], [4]]
     """
     near = cKDTree(middle).query_pairs(1.5, output_type="ndarray")
     links = sparse.coo_matrix(
@@ -145,8 +149,8 @@ def _cut_pieces(
             along, others = (middle[cut] - centre) @ axis, middle[~cut] - centre
             off_line = np.abs(others @ np.array([-axis[1], axis[0]]))
             beyond = np.maximum(along.min() - others @ axis, others @ axis - along.max())
-            if ((off_line <= 2) & (beyond * resolution <= FLANK)).any():
-                cut[:] = True
+            on_line = (off_line <= 2) & (beyond * resolution <= FLANK)
+            cut |= np.isin(piece, piece[~cut][on_line])
         taken |= cut
         cuts.append(np.flatnonzero(cut))
     return cuts
@@ -168,8 +172,7 @@ def _across_corridor(
     # plateau, the boundary runs along a row or a column of cells whatever the walls' slant
     walls = _across_walls(clearance, middle[most], axes[:, 1], (width + 0.5) / resolution)
     way = axes[:, 1] if walls is None else walls
-    extent = (middle - centre) @ way
-    length = (float(extent.max() - extent.min()) + 1) * resolution
+    length = _extent(middle, way) * resolution
     # not wall to wall, or narrower than a corridor even where a jagged wall took a cell off
     # each side (SLAM maps' corridors measure 1.1 m on the working cells)
     if length * OPEN > width or length < CORRIDOR_WIDTH - 2 * resolution:
@@ -186,6 +189,25 @@ def _across_corridor(
     return _corridor_into_wider(
         middle[most], normal, width, clearance, resolution
     ) or _corridor_into_corridor(middle[most], normal, width, clearance, resolution)
+
+
+def _extent(cells: NDArray[np.float64], way: NDArray[np.float64]) -> float:
+    """How far the cells centred at ``cells`` (x, y) reach along the unit ``way``, in cells:
+    from the first one's near edge to the last one's far edge (a cell spans ``|x| + |y|`` of
+    the way), so that a cut along a column of cells is as long across walls a few degrees off
+    the column as across walls square with it.
+
+    Examples
+    --------
+    >>> column = np.column_stack([np.full(10, 5.0), np.arange(10.0)])
+    >>> _extent(column, np.array([0.0, 1.0]))
+    10.0
+    >>> turned = np.radians(4.0)  # walls 4 degrees off the column: 9.98 from the centres
+    >>> round(_extent(column, np.array([np.sin(turned), np.cos(turned)])), 3)
+    10.045
+    """
+    along = cells @ way
+    return float(along.max() - along.min()) + abs(float(way[0])) + abs(float(way[1]))
 
 
 def _across_walls(

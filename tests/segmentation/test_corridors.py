@@ -244,3 +244,31 @@ def test_a_corridor_is_followed_along_its_own_walls_not_the_cuts_leaning_way():
         assert _corridor_on(start, way, 2.2, clearance, RESOLUTION)
     way = np.array([np.cos(np.radians(40)), np.sin(np.radians(40))])  # no corridor that way
     assert not _corridor_on(start, way, 2.2, clearance, RESOLUTION)
+
+
+def test_places_meeting_on_both_arms_of_a_ring_are_joined_beside_a_dotted_wall():
+    # a ring of 2 m corridors round a 22 x 22 m block, its two places parted across both
+    # arms at y = 15 m; beside the west cut, beyond a 0.2 m wall, a niche parted on the same
+    # line: a dotted wall's gap with the west cut, but no part of the east cut 22 m away
+    free = np.zeros((300, 300), bool)
+    free[20:40, 20:280] = free[260:280, 20:280] = True
+    free[20:280, 20:40] = free[20:280, 260:280] = True
+    free[140:160, 42:46] = True  # the niche
+    places = np.where(free, 1 + (np.arange(300)[:, None] >= 150), 0)
+    a, b = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert (a.tolist(), b.tolist()) == ([1], [2])
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.floats(0, 10))
+def test_a_corridor_at_the_least_width_a_few_degrees_off_the_cells_is_one_place(degrees):
+    # 1.0 m between walls on 0.1 m cells (the least corridor less a cell off each wall), its
+    # places parted along a column of cells: the cut is as long whatever the slant
+    turned = np.radians(degrees)
+    rows, columns = np.mgrid[0:60, 0:200]
+    off = np.abs((rows - 29.5) * np.cos(turned) - (columns - 100) * np.sin(turned))
+    free = off * RESOLUTION < 0.5
+    free[:, :2] = free[:, -2:] = False
+    places = np.where(free, 1 + (columns >= 100), 0)
+    a, b = corridor_cuts(places, OccupancyGrid.from_masks(free, RESOLUTION))
+    assert (a.tolist(), b.tolist()) == ([1], [2])
