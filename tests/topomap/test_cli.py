@@ -365,6 +365,20 @@ def test_eval_logs_scores_the_keyframes_against_the_drawn_rooms(tmp_path, data_d
     assert "| intel | spectral |" in capsys.readouterr().out
 
 
+def test_eval_logs_maps_the_logs_on_cells_of_the_resolution_given(tmp_path, data_dir, capsys):
+    labels = _intel_labels(tmp_path, "carmen_rooms.json")
+    out = tmp_path / "out"
+    command = ["eval", "logs", str(data_dir / "carmen"), "--hand-labels", str(labels)]
+    assert main([*command, "--resolution", "0.1", "--out", str(out)]) == 0
+    records = json.loads((out / "results.json").read_text())["logs"]
+    assert {r["resolution"] for r in records} == {0.1} and records[0]["rooms"] == 24
+    # on 0.1 m cells too the ring corridor, where most keyframes stand, is one region
+    assert records[0]["input"] == "keyframes" and records[0]["keyframe_ari"] >= 0.55
+    for bad in ("0", "-0.1", "nan"):
+        assert main([*command, "--resolution", bad, "--out", str(out)]) == 2
+    assert "--resolution" in capsys.readouterr().err
+
+
 def test_eval_runs_scores_both_methods_on_each_run(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["eval", "runs", "--sizes", "flat", "--seeds", "3", "--out", str(out)]) == 0

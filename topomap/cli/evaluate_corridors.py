@@ -49,18 +49,23 @@ def corridor_scores(
 
 
 def evaluate_corridors(
-    log_dir: str | Path, drawn_json: str | Path, progress: Progress = iter
+    log_dir: str | Path,
+    drawn_json: str | Path,
+    progress: Progress = iter,
+    resolution: float = 0.05,
 ) -> list[dict[str, Any]]:
-    """:func:`corridor_scores` of each log drawn in ``drawn_json`` (logs in ``log_dir``)."""
+    """:func:`corridor_scores` of each log drawn in ``drawn_json`` (logs in ``log_dir``,
+    mapped on cells of ``resolution`` metres)."""
     records = []
     for name, shapes in progress(sorted(read_drawn(drawn_json).items())):
-        keyframes, grid = carmen_map(Path(log_dir) / shapes["log"])
+        keyframes, grid = carmen_map(Path(log_dir) / shapes["log"], resolution)
         with drawn_for(drawn_json, name):  # refused before the log is segmented
             truth = drawn_truth(grid, shapes)
         found = MapSegmenter().segment(grid, keyframes, random_state=0)
         records.append(
             {
                 "log": name,
+                "resolution": resolution,
                 "regions": int(found.regions.labels.max()),
                 **corridor_scores(found.regions.labels, truth),
             }

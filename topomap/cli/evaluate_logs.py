@@ -65,16 +65,20 @@ def drawn_rooms(grid: OccupancyGrid, rooms: list[dict[str, Any]]) -> NDArray[np.
 
 
 def evaluate_logs(
-    log_dir: str | Path, rooms_json: str | Path, progress: Progress = iter
+    log_dir: str | Path,
+    rooms_json: str | Path,
+    progress: Progress = iter,
+    resolution: float = 0.05,
 ) -> list[dict[str, Any]]:
-    """A record per log drawn in ``rooms_json`` (logs in ``log_dir``), method and input (the
-    robot's keyframes, the map alone): regions, rooms, the keyframes' ARI against the rooms
-    they stand in (None when they all stand in one), the cells' MCC and ROSE²'s IoU."""
+    """A record per log drawn in ``rooms_json`` (logs in ``log_dir``, mapped on cells of
+    ``resolution`` metres), method and input (the robot's keyframes, the map alone): regions,
+    rooms, the keyframes' ARI against the rooms they stand in (None when they all stand in
+    one), the cells' MCC and ROSE²'s IoU."""
     records = []
     for name, drawn in progress(sorted(read_drawn(rooms_json, "drawn rooms JSON").items())):
         if not (isinstance(drawn.get("rooms"), list) and drawn["rooms"]):
             raise MapFormatError(f"{rooms_json}: {name!r} has no list of 'rooms' drawn")
-        keyframes, grid = carmen_map(Path(log_dir) / drawn["log"])
+        keyframes, grid = carmen_map(Path(log_dir) / drawn["log"], resolution)
         with drawn_for(rooms_json, name):
             rooms = drawn_rooms(grid, drawn["rooms"])
         poses = poses_array(keyframes)
@@ -96,6 +100,7 @@ def evaluate_logs(
                     "log": name,
                     "method": method,
                     "input": source,
+                    "resolution": resolution,
                     "keyframes": len(keyframes),
                     "in_rooms": round(float(inside.mean()), 3),
                     "regions": int(regions.max()),

@@ -256,15 +256,15 @@ def carmen(
     return found
 
 
-def carmen_map(log: Path) -> tuple[list[Keyframe], OccupancyGrid]:
-    """A CARMEN log's keyframes (0.5 m apart) and the 0.05 m map they build, as ``topomap
-    map`` builds it."""
+def carmen_map(log: Path, resolution: float = 0.05) -> tuple[list[Keyframe], OccupancyGrid]:
+    """A CARMEN log's keyframes (0.5 m apart) and the map of ``resolution`` metres per cell
+    they build, as ``topomap map`` builds it."""
     from maps.carmen import read_carmen
     from maps.mapping import grid_from_keyframes
     from maps.scan import select_keyframes
 
     keyframes = select_keyframes(read_carmen(log), distance=0.5)
-    return keyframes, grid_from_keyframes(keyframes, 0.05, max_range=30.0)
+    return keyframes, grid_from_keyframes(keyframes, resolution, max_range=30.0)
 
 
 def drawn_truth(grid: OccupancyGrid, shapes: dict[str, Any]) -> NDArray[np.int8]:

@@ -12,6 +12,7 @@ from typing import Any
 
 from maps.files import write_text
 from topomap.cli.commands.common import (
+    RESOLUTION,
     add_output_options,
     add_segmenter_options,
     refuse_existing,
@@ -104,6 +105,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ):
         on_logs = eval_sub.add_parser(name, help=helping)
         on_logs.add_argument("data", help="folder of the CARMEN logs")
+        on_logs.add_argument(
+            "--resolution",
+            type=RESOLUTION,
+            default=0.05,
+            help="cell size of the maps built from the logs, metres (as topomap map --resolution)",
+        )
         _add_hand_labels(on_logs, drawn)
         add_output_options(on_logs, f"out/eval-{name}")
         on_logs.set_defaults(func=func)
@@ -269,7 +276,12 @@ def _report_logs(
     records as a table of ``columns`` and in ``results.json``."""
     out = Path(args.out)
     refuse_existing(out, ["results.json"], args.force)
-    records = evaluate(args.data, Path(args.hand_labels) / drawn, progress=args.progress)
+    records = evaluate(
+        args.data,
+        Path(args.hand_labels) / drawn,
+        progress=args.progress,
+        resolution=args.resolution,
+    )
     print(markdown_table(records, columns))
     write_text(out / "results.json", json.dumps({"logs": records}, indent=2), overwrite=args.force)
     print(f"wrote {out / 'results.json'}")
