@@ -488,6 +488,26 @@ def test_bench_maps_command_times_the_segment_command_in_parts(tmp_path, capsys)
     assert main([*again, "--canvas", "0"]) == 2  # a usage error, before any work
 
 
+def test_bench_maps_times_the_pipeline_topomap_segment_runs(monkeypatch):
+    from segmentation.pipeline import MAP_CRITERION, MapSegmenter
+    from topomap.cli.bench_maps import time_segmentation
+
+    used = []
+    segment = MapSegmenter.segment
+
+    def spy(self, *args, **kwargs):
+        used.append(self)
+        return segment(self, *args, **kwargs)
+
+    monkeypatch.setattr(MapSegmenter, "segment", spy)
+    record = time_segmentation("flat", maps.generate_floor_plan("flat", random_state=0).grid)
+    (pipeline,) = used
+    # the command's similarity (not the paper's nn, SpectralSegmenter's own default) and its
+    # large maps' blocks on every core
+    assert pipeline.spectral.criterion == MAP_CRITERION and pipeline.n_jobs == -1
+    assert record["regions"] > 1 and record["seconds"] > 0
+
+
 def test_segment_bad_input(tmp_path, capsys):
     walls = maps_grid_without_free_space(tmp_path)
     assert main(["segment", str(walls), "--out", str(tmp_path / "o")]) == 2
