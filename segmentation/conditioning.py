@@ -43,6 +43,7 @@ from segmentation.blur import sharpened
 from segmentation.distinct import nonzero_cells
 from segmentation.errors import ParameterError
 from segmentation.walls import wall_stubs
+from segmentation.working import RAY_CELL, block_max, pool_factor
 
 
 def _disc(radius_cells: float) -> NDArray[np.uint8]:
@@ -213,7 +214,10 @@ def condition(
 def wall_share(grid: OccupancyGrid, labels: NDArray[np.integer]) -> NDArray[np.float64]:
     """For each label of ``labels`` (index = label), the share of its edge that is wall
     (occupied cells) rather than unknown space; edges with other labels do not count.
-    Index 0 holds the share over all labels together.
+    Index 0 holds the share over all labels together. Measured on cells of at least
+    :data:`~segmentation.working.RAY_CELL` (:func:`~segmentation.working.block_max`: a
+    block is wall where a ray ended in it, unknown where no ray reached it, a label's where
+    any of its cells is), on which the walls the rays end on close up.
 
     Examples
     --------
@@ -227,7 +231,11 @@ def wall_share(grid: OccupancyGrid, labels: NDArray[np.integer]) -> NDArray[np.f
     """
     count = int(labels.max(initial=0)) + 1
     wall, unknown = np.zeros(count), np.zeros(count)
-    occupied, unseen = grid.occupied.ravel(), grid.unknown.ravel()
+    factor = pool_factor(grid.resolution, RAY_CELL)
+    occupied = block_max(grid.occupied & (labels == 0), factor)  # furniture in a place: no wall
+    labels = np.where(occupied, 0, block_max(labels, factor))
+    unseen = ~block_max(~grid.unknown, factor).ravel()
+    occupied = occupied.ravel()
     width = labels.shape[1]
     flat = np.ascontiguousarray(labels).ravel()
     for down in (True, False):  # a cell and the one below it, a cell and the one to its right

@@ -109,6 +109,35 @@ def pool(
     return pooled.with_free_clearance(np.where(coarse, fine, 0.0))
 
 
+#: The finest cell, metres, on which a map shows surfaces rather than rays. A laser's rays
+#: 0.5-1 degree apart are 3-9 cm apart 3-5 m from it (across a room, along its walls): on cells
+#: this size they fill a room seen through its door and close up on the walls they end on; on
+#: finer cells a fan is rays a cell wide with unknown cells between them and a wall a cell per
+#: ray, so a measure of area or of wall counted in cells falls short however it is scaled
+#: (ACES's log mapped on 0.025 m cells: its walls 30 % of its places' edges, against 63 % on
+#: 0.05 m cells, and 4 m^2 of fans of 1 m^2 or more, against 33 m^2).
+RAY_CELL = 0.05
+
+
+def block_max(values: NDArray, factor: int) -> NDArray:
+    """The largest value of each ``factor x factor`` block of ``values`` (the last blocks
+    padded with zeros): for a mask, whether any of the block's cells is set.
+
+    Examples
+    --------
+    >>> block_max(np.eye(3, dtype=bool), 2).tolist()
+    [[True, False], [False, True]]
+    >>> block_max(np.arange(6).reshape(2, 3), 2).tolist()
+    [[4, 5]]
+    """
+    if factor == 1:
+        return values
+    height, width = values.shape
+    padded = np.pad(values, ((0, -height % factor), (0, -width % factor)))
+    rows, cols = padded.shape[0] // factor, padded.shape[1] // factor
+    return padded.reshape(rows, factor, cols, factor).max(axis=(1, 3))
+
+
 def _block_min(values: NDArray, factor: int) -> NDArray:
     """The least value of each ``factor x factor`` block of ``values`` (whose sides are whole
     blocks): an erosion anchored at the block's corner, read every ``factor`` cells (OpenCV's,

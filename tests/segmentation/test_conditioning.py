@@ -317,3 +317,20 @@ def test_furniture_is_measured_by_what_the_laser_hit_not_its_shadow():
     stub[30, 20:30] = True
     unexplored[31:43, 15:40] = True
     assert not find_clutter(_room_with(stub, unexplored))[stub].any()
+
+
+@pytest.mark.parametrize("resolution", [0.025, 0.05])
+def test_a_wall_drawn_a_cell_per_ray_is_wall_at_any_resolution(resolution):
+    # a 2 x 2 m place, its walls seen by rays 0.05 m apart: a wall cell per ray, unknown
+    # between. On 0.025 m cells that is every other cell; the wall is whole all the same.
+    from segmentation.conditioning import wall_share
+
+    side, step = round(2.0 / resolution), round(0.05 / resolution)
+    cells = np.full((side + 4, side + 4), UNKNOWN, np.int8)
+    cells[2:-2, 2:-2] = 0
+    for line in (1, -2):
+        cells[line, 2:-2:step] = cells[2:-2:step, line] = OCCUPIED
+    labels = np.zeros(cells.shape, np.int32)
+    labels[2:-2, 2:-2] = 1
+    share = wall_share(OccupancyGrid(cells, resolution), labels)
+    assert share[1] >= 0.9

@@ -51,3 +51,17 @@ def test_a_strip_of_rays_along_a_corridor_wall_is_no_room():
     found = cover(OccupancyGrid.from_masks(free, 0.05), labels, np.zeros_like(free))
     assert found.seen_rooms == 0
     assert (found.labels[43:56, 20:280] == 1).all()
+
+
+def test_rooms_seen_through_doors_on_a_map_of_fine_cells(data_dir):
+    # ACES's log mapped on 0.025 m cells: the fans of rays into the offices along its
+    # corridors are rays a cell wide with unknown cells between them, and its walls a cell
+    # per ray. Counted on those cells, no fan was a room (against 7 on 0.05 m cells) and no
+    # fan's place was bounded by unknown space; measured on cells the rays fill, they are.
+    from segmentation.pipeline import MapSegmenter
+    from topomap.cli.label_sources import carmen_map
+
+    _, grid = carmen_map(data_dir / "carmen" / "aces-corrected.log.gz", 0.025)
+    found = MapSegmenter().segment(grid, random_state=0)
+    assert found.coverage.seen_rooms >= 3
+    assert found.conditioned.dropped["outside"] > 0
