@@ -19,10 +19,6 @@ reach into it. :func:`cover` gives each such cell the region it belongs to:
 - every other cell joins the region it reaches first through the building (grown a ring at
   a time, :func:`~segmentation.working.grow`): the furniture of a room joins the room, a ray
   joins the room it leaves from.
-
-The leftover pieces are measured on cells of at least
-:data:`~segmentation.working.RAY_CELL`: on finer cells a fan of rays is rays a cell wide with
-unknown cells between them, its area and the walls its rays end on short by the gaps.
 """
 
 from __future__ import annotations
@@ -37,7 +33,7 @@ from scipy import ndimage
 from maps.grid import OccupancyGrid
 from segmentation.distinct import label_counts, nonzero_cells
 from segmentation.regions import consecutive
-from segmentation.working import ALL_AROUND, RAY_CELL, block_max, grow, pool_factor
+from segmentation.working import ALL_AROUND, grow
 
 #: The widest door (double doors), metres: a leftover piece meeting the regions over more
 #: than this is not a room seen through a door.
@@ -96,70 +92,28 @@ def cover(
     building = grid.free | clutter | (labels > 0)
     left = building & (labels == 0)
     seeds = labels.astype(np.int32, copy=True)
-    factor = pool_factor(grid.resolution, RAY_CELL)
-    pieces, labelled, furniture, walls = (
-        block_max(mask, factor) for mask in (left, labels > 0, clutter, grid.occupied & ~clutter)
-    )
-    rooms, seen = seen_rooms(
-        pieces,
-        labelled,
-        furniture,
-        walls,
-        grid.resolution * factor,
-        min_area=min_area,
-        door_width=door_width,
-    )
-    if seen:
-        rooms = np.repeat(np.repeat(rooms, factor, axis=0), factor, axis=1)
-        rooms = np.where(left, rooms[: left.shape[0], : left.shape[1]], 0)
-        seeds = np.where(rooms > 0, int(seeds.max(initial=0)) + rooms, seeds)
+    seen = 0
+    if left.any():
+        pieces, count = ndimage.label(left, structure=np.ones((3, 3)))
+        area = label_counts(pieces, count + 1) * grid.resolution**2
+        touching = cv2.dilate((labels > 0).astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        contact = np.bincount(pieces[touching & left], minlength=count + 1) * grid.resolution
+        large = area >= min_area
+        span = opening_spans(pieces, touching & left & large[pieces], count) * grid.resolution
+        fixed = grid.occupied & ~clutter  # furniture is no wall: a pocket round it is no room
+        walls = cv2.dilate(fixed.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        beside = pieces[walls & left & ~clutter]
+        shown = np.bincount(beside, minlength=count + 1) * grid.resolution
+        rooms = large & (span <= door_width) & (shown >= WALLS_SHOWN * contact)
+        rooms[0] = False
+        rooms[rooms] = aspects(pieces, np.flatnonzero(rooms)) <= ROOM_ASPECT
+        seen = int(rooms.sum())
+        if seen:
+            new_id = np.zeros(count + 1, np.int32)
+            new_id[rooms] = int(seeds.max(initial=0)) + 1 + np.arange(seen, dtype=np.int32)
+            seeds = np.where(rooms[pieces], new_id[pieces], seeds)
     grown = consecutive(grow(seeds, building, ALL_AROUND))  # the cost follows the cells filled
     return Coverage(grown, int(((grown > 0) & (labels == 0)).sum()), seen)
-
-
-def seen_rooms(
-    left: NDArray[np.bool_],
-    labelled: NDArray[np.bool_],
-    clutter: NDArray[np.bool_],
-    walls: NDArray[np.bool_],
-    resolution: float,
-    *,
-    min_area: float = 1.0,
-    door_width: float = DOOR_WIDTH,
-) -> tuple[NDArray[np.int32], int]:
-    """The rooms seen through their doors among the pieces of the ``left`` cells (those of
-    the building no region holds; see the module docstring), numbered from 1 on cells of
-    ``resolution`` metres, and how many. ``walls`` are the occupied cells that are not
-    ``clutter``; on cells pooled from finer ones (:func:`~segmentation.working.block_max`) a
-    cell with any wall or ``labelled`` cell in it is not left, as a coarser map would
-    show it.
-
-    Examples
-    --------
-    >>> left = np.zeros((12, 30), bool); left[1:11, 15:29] = True; left[5:7, 12:15] = True
-    >>> labelled = np.zeros_like(left); labelled[1:11, 1:12] = True
-    >>> walls = np.ones_like(left); walls[1:11, 1:29] = False; walls[5:7, 12:15] = False
-    >>> rooms, seen = seen_rooms(left, labelled, np.zeros_like(left), walls, 0.1)
-    >>> seen, rooms[5, 13], rooms[3, 20], rooms[3, 3]
-    (1, np.int32(1), np.int32(1), np.int32(0))
-    """
-    left = left & ~labelled & ~walls  # pooled cells: a ray's end closes its block
-    pieces, count = ndimage.label(left, structure=np.ones((3, 3)))
-    if not count:
-        return np.zeros(left.shape, np.int32), 0
-    area = label_counts(pieces, count + 1) * resolution**2
-    touching = cv2.dilate(labelled.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-    contact = np.bincount(pieces[touching & left], minlength=count + 1) * resolution
-    large = area >= min_area
-    span = opening_spans(pieces, touching & left & large[pieces], count) * resolution
-    beside = cv2.dilate(walls.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-    shown = np.bincount(pieces[beside & left & ~clutter], minlength=count + 1) * resolution
-    rooms = large & (span <= door_width) & (shown >= WALLS_SHOWN * contact)
-    rooms[0] = False
-    rooms[rooms] = aspects(pieces, np.flatnonzero(rooms)) <= ROOM_ASPECT
-    number = np.zeros(count + 1, np.int32)
-    number[rooms] = 1 + np.arange(int(rooms.sum()), dtype=np.int32)
-    return number[pieces], int(rooms.sum())
 
 
 def opening_spans(

@@ -109,13 +109,11 @@ def pool(
     return pooled.with_free_clearance(np.where(coarse, fine, 0.0))
 
 
-#: The finest cell, metres, on which a map shows surfaces rather than rays. A laser's rays
-#: 0.5-1 degree apart are 3-9 cm apart 3-5 m from it (across a room, along its walls): on cells
-#: this size they fill a room seen through its door and close up on the walls they end on; on
-#: finer cells a fan is rays a cell wide with unknown cells between them and a wall a cell per
-#: ray, so a measure of area or of wall counted in cells falls short however it is scaled
-#: (ACES's log mapped on 0.025 m cells: its walls 30 % of its places' edges, against 63 % on
-#: 0.05 m cells, and 4 m^2 of fans of 1 m^2 or more, against 33 m^2).
+#: The finest cell, metres, on which a map's walls show as walls. A laser's rays 0.5-1 degree
+#: apart end 3-9 cm apart on a wall 3-5 m away: on cells this size the cells they end in close
+#: up along it; on finer cells a wall seen only where rays ended is a cell per ray with unknown
+#: cells between, and a share of wall counted in cells falls short (ACES's log mapped on 0.025
+#: m cells: its walls 40 % of its places' edges, against 65 % on 0.05 m cells).
 RAY_CELL = 0.05
 
 

@@ -54,14 +54,14 @@ def test_a_strip_of_rays_along_a_corridor_wall_is_no_room():
 
 
 def test_rooms_seen_through_doors_on_a_map_of_fine_cells(data_dir):
-    # ACES's log mapped on 0.025 m cells: the fans of rays into the offices along its
-    # corridors are rays a cell wide with unknown cells between them, and its walls a cell
-    # per ray. Counted on those cells, no fan was a room (against 7 on 0.05 m cells) and no
-    # fan's place was bounded by unknown space; measured on cells the rays fill, they are.
+    # ACES's log mapped on 0.025 m cells: its walls are a cell per ray, unknown cells between.
+    # Counted in those cells they were 40 % of its places' edges, the map was taken for one
+    # that draws its walls grey, no fan of rays out into unmapped space was dropped and no
+    # fan into an office was a room seen through its door; measured on 0.05 m blocks, they are.
     from segmentation.pipeline import MapSegmenter
     from topomap.cli.label_sources import carmen_map
 
     _, grid = carmen_map(data_dir / "carmen" / "aces-corrected.log.gz", 0.025)
     found = MapSegmenter().segment(grid, random_state=0)
-    assert found.coverage.seen_rooms >= 3
     assert found.conditioned.dropped["outside"] > 0
+    assert found.coverage.seen_rooms >= 2
