@@ -151,6 +151,39 @@ def find_clutter(
     return clutter & ~wall_stubs(grid, clutter)
 
 
+#: The widest disc :func:`farther_than` erodes by, in cells each side: on the campus (24
+#: million cells) an erosion by a disc of 4 cells took 0.06 s, of 16 cells 0.4 s, of 24 cells
+#: 0.9 s, about what the distance transform takes whatever the disc (1 s).
+ERODE_REACH = 16
+
+
+def farther_than(space: NDArray[np.bool_], radius: float) -> NDArray[np.bool_]:
+    """The cells of ``space`` farther than ``radius`` cells from every cell outside it, the
+    map edge counting as outside: ``clearance_of(space, 1.0) > radius``, found as an erosion
+    by the cells nearer than that (the clearance is the root of a whole number of cells
+    squared, in single precision), which costs a twentieth of the distance transform on a
+    large map; for a disc reaching more than :data:`ERODE_REACH` cells, the distance
+    transform itself.
+
+    Examples
+    --------
+    >>> space = np.ones((5, 7), bool)
+    >>> farther_than(space, 1.5).astype(int).tolist()[2]
+    [0, 1, 1, 1, 1, 1, 0]
+    >>> space = np.random.default_rng(0).random((60, 80)) > 0.01
+    >>> [bool((farther_than(space, r) == (clearance_of(space, 1.0) > r)).all()) for r in (2.5, 20)]
+    [True, True]
+    """
+    reach = math.floor(radius) + 1
+    if reach > ERODE_REACH:
+        return clearance_of(space, 1.0) > radius
+    dy, dx = np.mgrid[-reach : reach + 1, -reach : reach + 1]
+    clearance = np.sqrt((dx * dx + dy * dy).astype(np.float32))  # as clearance_of's
+    disc = (~(clearance > radius)).astype(np.uint8)
+    eroded = cv2.erode(space.astype(np.uint8), disc, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    return np.asarray(eroded, bool)
+
+
 def condition(
     grid: OccupancyGrid,
     robot_radius: float = 0.2,
@@ -194,9 +227,7 @@ def condition(
     clutter = find_clutter(grid, robot_radius, clutter_size)
     open_space = free | clutter
     radius = robot_radius / grid.resolution
-    # with no clutter the open space is the free space, whose distance the grid keeps
-    distance = clearance_of(open_space, 1.0) if clutter.any() else grid.free_distance()
-    centres = distance > radius
+    centres = farther_than(open_space, radius)
     opened = open_space & cv2.dilate(centres.astype(np.uint8), _disc(radius)).astype(bool)
     _, pieces, stats, _ = cv2.connectedComponentsWithStats(opened.astype(np.uint8), connectivity=8)
     large = stats[:, cv2.CC_STAT_AREA] * grid.resolution**2 >= min_area

@@ -79,6 +79,7 @@ def corridor_cuts(
     ends = np.cumsum(cells)
     middle = np.column_stack([(ca + cb) / 2.0, (ra + rb) / 2.0])[order]  # x, y
     open_at = np.minimum(clearance[ra, ca], clearance[rb, cb])[order]
+    piece = _boundary_pieces(middle, index[order])
     found = []
     for p, end, n in zip(pair.tolist(), ends.tolist(), cells.tolist(), strict=True):
         if n < 3:
@@ -86,7 +87,7 @@ def corridor_cuts(
         here, opens = middle[end - n : end], open_at[end - n : end]
         if any(
             len(cut) >= 3 and _across_corridor(here[cut], opens[cut], clearance, resolution)
-            for cut in _cut_pieces(here, opens, resolution)
+            for cut in _cut_pieces(here, opens, piece[end - n : end], resolution)
         ):
             found.append(p)
     a, b = np.divmod(np.array(found, np.int64), count)
@@ -105,36 +106,62 @@ def join_corridor_cuts(places: NDArray[np.int32], grid: OccupancyGrid) -> NDArra
     return relabelled(places, np.r_[0, component[1:] + 1])
 
 
-def _cut_pieces(
-    middle: NDArray[np.float64], open_at: NDArray[np.float32], resolution: float
-) -> list[NDArray[np.intp]]:
-    """The cuts a boundary (midpoints of its cell pairs, x and y in cells of ``resolution``
-    metres) may be, most open first: each of its pieces (two places may touch at several
-    passages: through a gap between clutter, at another corridor's junction farther along),
-    with the pieces that lie on its line, within two cells across and
-    :data:`~segmentation.walls.FLANK` along (a dotted wall's gaps, which together are no cut
-    from wall to wall); a piece off that line stays a cut of its own (two places meeting on
-    both arms of a ring).
+def _boundary_pieces(
+    middle: NDArray[np.float64], boundary: NDArray[np.integer]
+) -> NDArray[np.intp]:
+    """The piece of its boundary each midpoint of a cell pair lies on (x and y, cells; the
+    ``boundary`` of each, those of one boundary one after the other): the midpoints within
+    1.5 cells of each other are one piece, numbered from 0 in each boundary in the order of
+    their first midpoints. All boundaries at once: one search of near midpoints, one graph.
 
     Examples
     --------
-    >>> cut = [[5.5, 0.0], [5.5, 1.0], [5.5, 2.0]]
-    >>> open_at = np.array([0.1, 0.3, 0.1, 0.1])
-    >>> [c.tolist() for c in _cut_pieces(np.array([*cut, [30.0, 9.5]]), open_at, 0.1)]
-    [[0, 1, 2], [3]]
-    >>> [c.tolist() for c in _cut_pieces(np.array([*cut, [5.5, 9.0]]), open_at, 0.1)]
-    [[0, 1, 2, 3]]
-    >>> [c.tolist() for c in _cut_pieces(np.array([*cut, [5.5, 40.0]]), open_at, 0.1)]
-    [[0, 1, 2], [3]]
-    >>> far = np.array([*cut, [5.5, 9.0], [60.0, 0.5]])  # on the line, and a ring's other arm
-    >>> [c.tolist() for c in _cut_pieces(far, np.r_[open_at, 0.1], 0.1)]
-    [[0, 1, 2, 3], [4]]
+    >>> middle = np.array([[0.5, 0.0], [0.5, 1.0], [0.5, 9.0], [0.5, 2.0], [0.5, 3.0]])
+    >>> _boundary_pieces(middle, np.array([0, 0, 0, 1, 1])).tolist()
+    [0, 0, 1, 0, 0]
     """
     near = cKDTree(middle).query_pairs(1.5, output_type="ndarray")
+    near = near[boundary[near[:, 0]] == boundary[near[:, 1]]]
     links = sparse.coo_matrix(
         (np.ones(len(near)), (near[:, 0], near[:, 1])), shape=(len(middle), len(middle))
     )
-    count, piece = connected_components(links, directed=False)
+    _, piece = connected_components(links, directed=False)  # numbered by first midpoint
+    first = np.r_[True, boundary[1:] != boundary[:-1]]
+    return piece - np.maximum.accumulate(np.where(first, piece, 0))
+
+
+def _cut_pieces(
+    middle: NDArray[np.float64],
+    open_at: NDArray[np.float32],
+    piece: NDArray[np.intp],
+    resolution: float,
+) -> list[NDArray[np.intp]]:
+    """The cuts a boundary (midpoints of its cell pairs, x and y in cells of ``resolution``
+    metres, and the :func:`_boundary_pieces` they lie on) may be, most open first: each of its
+    pieces (two places may touch at several passages: through a gap between clutter, at
+    another corridor's junction farther along), with the pieces that lie on its line, within
+    two cells across and :data:`~segmentation.walls.FLANK` along (a dotted wall's gaps, which
+    together are no cut from wall to wall); a piece off that line stays a cut of its own (two
+    places meeting on both arms of a ring).
+
+    Examples
+    --------
+    >>> def cuts(middle, open_at):
+    ...     piece = _boundary_pieces(middle, np.zeros(len(middle), int))
+    ...     return [c.tolist() for c in _cut_pieces(middle, open_at, piece, 0.1)]
+    >>> cut = [[5.5, 0.0], [5.5, 1.0], [5.5, 2.0]]
+    >>> open_at = np.array([0.1, 0.3, 0.1, 0.1])
+    >>> cuts(np.array([*cut, [30.0, 9.5]]), open_at)
+    [[0, 1, 2], [3]]
+    >>> cuts(np.array([*cut, [5.5, 9.0]]), open_at)
+    [[0, 1, 2, 3]]
+    >>> cuts(np.array([*cut, [5.5, 40.0]]), open_at)
+    [[0, 1, 2], [3]]
+    >>> far = np.array([*cut, [5.5, 9.0], [60.0, 0.5]])  # on the line, and a ring's other arm
+    >>> cuts(far, np.r_[open_at, 0.1])
+    [[0, 1, 2, 3], [4]]
+    """
+    count = int(piece.max()) + 1
     most = np.full(count, -np.inf)
     np.maximum.at(most, piece, open_at.astype(np.float64))
     cuts: list[NDArray[np.intp]] = []
