@@ -334,3 +334,16 @@ def test_a_wall_drawn_a_cell_per_ray_is_wall_at_any_resolution(resolution):
     labels[2:-2, 2:-2] = 1
     share = wall_share(OccupancyGrid(cells, resolution), labels)
     assert share[1] >= 0.9
+
+
+@given(
+    arrays(bool, st.tuples(st.integers(1, 40), st.integers(1, 40)), elements=st.booleans()),
+    st.floats(0.0, 20.0),
+)
+def test_disc_centres_by_erosion_are_the_clearance_test(space, radius):
+    # the robot's disc centres: the cells farther than its radius from every cell outside
+    # the space (the map edge outside too), found by an erosion where the disc is small
+    from maps.grid import clearance_of
+    from segmentation.conditioning import farther_than
+
+    assert (farther_than(space, radius) == (clearance_of(space, 1.0) > radius)).all()
