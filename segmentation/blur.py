@@ -22,10 +22,10 @@ import math
 
 import cv2
 import numpy as np
-from numpy.typing import NDArray
 from scipy import ndimage
 
 from maps.grid import OccupancyGrid
+from segmentation.working import disc_cells
 
 #: The blur every laser leaves, metres on each side of a surface: a scanner's range noise is
 #: a centimetre or three, and the widths the segmentation compares with doors and corridors
@@ -70,26 +70,13 @@ def wall_band(grid: OccupancyGrid) -> float:
     # no face within BLUR_MAX of an unknown cell (walls with rooms on both sides): no depth
     # counts, no distance transform (the disc a hundredth of a cell wider: OpenCV's
     # distances are off in their last bits)
-    near = cv2.dilate(unknown.astype(np.uint8), _disc(BLUR_MAX / grid.resolution + 0.01))
+    near = cv2.dilate(unknown.astype(np.uint8), disc_cells(BLUR_MAX / grid.resolution + 0.01))
     if not (face & (near > 0)).any():
         return 0.0
     seen = (~unknown).astype(np.uint8)  # the distance to the nearest unknown cell
     depth = cv2.distanceTransform(seen, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)[face]
     depth = depth[depth <= BLUR_MAX / grid.resolution]
     return float(np.median(depth)) if len(depth) else 0.0
-
-
-def _disc(radius: float) -> NDArray[np.uint8]:
-    """The cells at most ``radius`` cells from the middle one, as an OpenCV kernel.
-
-    Examples
-    --------
-    >>> _disc(1.5).tolist()
-    [[1, 1, 1], [1, 1, 1], [1, 1, 1]]
-    """
-    reach = math.floor(radius)
-    dy, dx = np.mgrid[-reach : reach + 1, -reach : reach + 1]
-    return (np.hypot(dx, dy) <= radius).astype(np.uint8)
 
 
 def sharpened(grid: OccupancyGrid) -> tuple[OccupancyGrid, int]:

@@ -43,7 +43,7 @@ from segmentation.blur import sharpened
 from segmentation.distinct import nonzero_cells
 from segmentation.errors import ParameterError
 from segmentation.walls import wall_stubs
-from segmentation.working import RAY_CELL, block_max, pool_factor
+from segmentation.working import RAY_CELL, block_max, disc_cells, pool_factor
 
 
 def _disc(radius_cells: float) -> NDArray[np.uint8]:
@@ -174,13 +174,14 @@ def farther_than(space: NDArray[np.bool_], radius: float) -> NDArray[np.bool_]:
     >>> [bool((farther_than(space, r) == (clearance_of(space, 1.0) > r)).all()) for r in (2.5, 20)]
     [True, True]
     """
-    reach = math.floor(radius) + 1
-    if reach > ERODE_REACH:
+    if math.floor(radius) + 1 > ERODE_REACH:
         return clearance_of(space, 1.0) > radius
-    dy, dx = np.mgrid[-reach : reach + 1, -reach : reach + 1]
-    clearance = np.sqrt((dx * dx + dy * dy).astype(np.float32))  # as clearance_of's
-    disc = (~(clearance > radius)).astype(np.uint8)
-    eroded = cv2.erode(space.astype(np.uint8), disc, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    eroded = cv2.erode(
+        space.astype(np.uint8),
+        disc_cells(radius),
+        borderType=cv2.BORDER_CONSTANT,
+        borderValue=0,
+    )
     return np.asarray(eroded, bool)
 
 

@@ -109,6 +109,23 @@ def pool(
     return pooled.with_free_clearance(np.where(coarse, fine, 0.0))
 
 
+def disc_cells(radius: float) -> NDArray[np.uint8]:
+    """The cells at most ``radius`` cells from the middle one, as an OpenCV kernel, their
+    distances measured as :func:`~maps.grid.clearance_of` measures them (the root of a whole
+    number of cells squared, in single precision).
+
+    Examples
+    --------
+    >>> disc_cells(1.5).tolist()
+    [[1, 1, 1], [1, 1, 1], [1, 1, 1]]
+    >>> disc_cells(1.0).tolist()
+    [[0, 1, 0], [1, 1, 1], [0, 1, 0]]
+    """
+    reach = math.floor(radius)
+    dy, dx = np.mgrid[-reach : reach + 1, -reach : reach + 1]
+    return (np.sqrt((dx * dx + dy * dy).astype(np.float32)) <= radius).astype(np.uint8)
+
+
 #: The finest cell, metres, on which a map's walls show as walls. A laser's rays 0.5-1 degree
 #: apart end 3-9 cm apart on a wall 3-5 m away: on cells this size the cells they end in close
 #: up along it; on finer cells a wall seen only where rays ended is a cell per ray with unknown
