@@ -127,7 +127,7 @@ def at_most(segmenter: SpectralSegmenter, places: int) -> SpectralSegmenter:
 
 
 def silhouette(distances: NDArray[np.float64], labels: NDArray[np.integer]) -> float:
-    """The mean silhouette coefficient (eqs. 8-10) of ``labels`` from a square matrix of
+    """The mean silhouette coefficient (eqs. 8-10) of ``labels`` from a symmetric matrix of
     ``distances``; a point alone in its cluster scores 0 (as scikit-learn's
     ``silhouette_score`` computes it, without importing scikit-learn at start-up).
 
@@ -140,7 +140,10 @@ def silhouette(distances: NDArray[np.float64], labels: NDArray[np.integer]) -> f
     _, labels = np.unique(labels, return_inverse=True)
     count = int(labels.max()) + 1
     members = np.bincount(labels, minlength=count).astype(float)
-    sums = distances @ np.eye(count)[labels]  # (n, k): distance from each point to each cluster
+    # (n, k): distance from each point to each cluster; the distances are symmetric, so the
+    # sparse one-hot rows times them: n^2 additions, not BLAS's n^2 k of a dense one-hot
+    member = sparse.csr_matrix((np.ones(len(labels)), (labels, np.arange(len(labels)))))
+    sums = (member @ distances).T
     own = np.arange(len(labels)), labels
     inside = np.divide(
         sums[own], members[labels] - 1, out=np.zeros(len(labels)), where=members[labels] > 1
