@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 
 import cv2
 import numpy as np
@@ -320,18 +322,23 @@ def _straight_lines(
     places: list[tuple[NDArray[np.intp], NDArray[np.bool_]]] = []  # each direction's, in order
     keys: list[NDArray[np.float64]] = []  # every run's: -cells, spread, direction, row, point
     spans: list[NDArray[np.intp]] = []  # every run's direction and places (first, stop)
-    for angle in _line_directions(xs, ys, window) if len(xs) else []:
+
+    def along_direction(angle: float) -> tuple[NDArray, ...]:
         along, across = _frame(xs, ys, angle)
-        point, near, row, starts, stops, spread = _runs(
-            along - along.min(), across, reach, bridge, shortest
-        )
-        direction = np.full(len(starts), len(frames))
-        keys.append(np.array([starts - stops, spread, direction, row, point[starts]]))
-        spans.append(np.array([direction, starts, stops]))
-        places.append((point, near))
+        row_runs = _runs(along - along.min(), across, reach, bridge, shortest)
         # the faces of walls crossing their own row along the direction
-        crossing = _crossing(surface, columns, rows, angle, reach)
-        frames.append((angle, along, across, crossing))
+        return along, across, _crossing(surface, columns, rows, angle, reach), *row_runs
+
+    angles = _line_directions(xs, ys, window) if len(xs) else []
+    # the directions side by side: most of their NumPy work runs without the interpreter's lock
+    with ThreadPoolExecutor(min(len(angles), os.cpu_count() or 1) or 1) as pool:
+        for angle, measured in zip(angles, pool.map(along_direction, angles), strict=True):
+            along, across, crossing, point, near, row, starts, stops, spread = measured
+            direction = np.full(len(starts), len(frames))
+            keys.append(np.array([starts - stops, spread, direction, row, point[starts]]))
+            spans.append(np.array([direction, starts, stops]))
+            places.append((point, near))
+            frames.append((angle, along, across, crossing))
     claimed = np.zeros(len(xs), bool)
     found = []
     every = np.concatenate(keys, axis=1) if keys else np.zeros((5, 0))
