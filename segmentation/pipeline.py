@@ -33,6 +33,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -437,12 +438,18 @@ class MapSegmenter(Estimator):
         (:func:`parted`; a cut across a mouth's hole is narrower than a corridor, so joining
         again would change nothing)."""
         gaps, shut, cut = closed
-        space = pool(building & ~shut, grid, factor, fine_clearance=True, phase=phase)
         if not cut.any():
+            space = pool(building & ~shut, grid, factor, fine_clearance=True, phase=phase)
             return space, basins(space, self.place_depth), False
-        opened = pool(building & ~gaps, grid, factor, fine_clearance=True, phase=phase)
-        joined = join_corridor_cuts(basins(opened, self.place_depth), opened)
-        whole = pool(building & ~gaps & ~cut, grid, factor, phase=phase).free
+        # the space with the mouths shut pooled beside the places of the space with them open
+        with ThreadPoolExecutor(1, "pool") as beside:
+            shut_space = beside.submit(
+                pool, building & ~shut, grid, factor, fine_clearance=True, phase=phase
+            )
+            opened = pool(building & ~gaps, grid, factor, fine_clearance=True, phase=phase)
+            joined = join_corridor_cuts(basins(opened, self.place_depth), opened)
+            whole = pool(building & ~gaps & ~cut, grid, factor, phase=phase).free
+            space = shut_space.result()
         return space, parted(joined, whole, space.free), True
 
     def partition(
