@@ -89,9 +89,10 @@ class RayCaster:
 
     def __init__(self, grid: OccupancyGrid) -> None:
         self.grid = grid
-        self.blocked = ~grid.free
+        # a cell of blocked space round the grid: off the grid blocks
+        self._blocked = np.pad(~grid.free, 1, constant_values=True)
         # in cells; off the grid blocks, so the edge counts (a sphere step never leaves the map)
-        self.clearance = (grid.clearance() / grid.resolution).astype(np.float32)
+        self._clearance = np.pad((grid.clearance() / grid.resolution).astype(np.float32), 1)
 
     def cast(self, origins: ArrayLike, angles: ArrayLike, max_range: float) -> NDArray[np.float64]:
         """Ranges in metres of rays from map-frame ``origins`` ``(n, 2)`` at map-frame ``angles``
@@ -121,33 +122,34 @@ class RayCaster:
         v0 = height - (-s * dx + c * dy) / grid.resolution
         du, dv = np.cos(theta - oyaw), -np.sin(theta - oyaw)
         limit = max_range / grid.resolution
-        t = np.zeros(theta.size)
         result = np.full(theta.size, np.inf)
-        active = np.arange(theta.size)
         # axis-parallel rays: a tiny component of the same sign, so the boundary test below and
         # the division agree (a flipped sign would step backwards)
         du_s = np.where(du >= 0, np.maximum(du, 1e-12), np.minimum(du, -1e-12))
         dv_s = np.where(dv >= 0, np.maximum(dv, 1e-12), np.minimum(dv, -1e-12))
-        while active.size:
-            u = u0[active] + t[active] * du[active]
-            v = v0[active] + t[active] * dv[active]
-            col, row = np.floor(u).astype(np.intp), np.floor(v).astype(np.intp)
-            inside = (row >= 0) & (row < height) & (col >= 0) & (col < width)
-            hit = ~inside
-            hit[inside] = self.blocked[row[inside], col[inside]]
-            result[active[hit]] = t[active[hit]]
-            keep = ~hit
-            active, u, v, col, row = active[keep], u[keep], v[keep], col[keep], row[keep]
+        # the rays still on their way, each array of them compacted as rays stop (one copy of
+        # each per step, not a gather of each from all the rays)
+        ray, t = np.arange(theta.size), np.zeros(theta.size)
+        while ray.size:
+            u, v = u0 + t * du, v0 + t * dv
+            # off the grid blocks: the cells round it, one deep, are blocked (a sphere step
+            # never leaves the grid, a boundary step leaves it by one cell)
+            col = np.clip(np.floor(u), -1, width).astype(np.intp)
+            row = np.clip(np.floor(v), -1, height).astype(np.intp)
+            hit = self._blocked[row + 1, col + 1]
+            result[ray[hit]] = t[hit]
             # distance to the next cell boundary along the ray (strictly ahead: a ray on a
             # boundary going backwards must not see the boundary it stands on, or it creeps
             # by the 1e-6 nudge), and the safe sphere-tracing step
-            next_u = np.where(du_s[active] > 0, col + 1 - u, np.ceil(u) - 1 - u) / du_s[active]
-            next_v = np.where(dv_s[active] > 0, row + 1 - v, np.ceil(v) - 1 - v) / dv_s[active]
+            next_u = np.where(du_s > 0, col + 1 - u, np.ceil(u) - 1 - u) / du_s
+            next_v = np.where(dv_s > 0, row + 1 - v, np.ceil(v) - 1 - v) / dv_s
             boundary = np.minimum(next_u, next_v) + 1e-6
-            safe = self.clearance[row, col] - math.sqrt(2)
-            t[active] += np.maximum(boundary, safe)
-            gone = t[active] > limit
-            active = active[~gone]
+            safe = self._clearance[row + 1, col + 1] - math.sqrt(2)
+            t = t + np.maximum(boundary, safe)
+            on = ~hit & (t <= limit)
+            ray, t, u0, v0, du, dv, du_s, dv_s = (
+                part[on] for part in (ray, t, u0, v0, du, dv, du_s, dv_s)
+            )
         result *= grid.resolution
         result[result > max_range] = np.inf
         return result

@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
@@ -32,6 +32,31 @@ def test_ranges_in_a_square_room_are_analytic(x, y, yaw):
     with np.errstate(divide="ignore"):
         tx = np.where(c > 0, (9.95 - x) / c, (0.05 - x) / c)
         ty = np.where(s > 0, (9.95 - y) / s, (0.05 - y) / s)
+    expected = np.minimum(
+        np.where(np.abs(c) < 1e-12, np.inf, tx), np.where(np.abs(s) < 1e-12, np.inf, ty)
+    )
+    np.testing.assert_allclose(frame.scan.ranges, expected, atol=1e-5)
+
+
+@given(x=st.floats(-2.0, 6.0), y=st.floats(-2.0, 5.0), yaw=st.floats(-math.pi, math.pi))
+@settings(max_examples=30, deadline=None)
+def test_rays_end_at_the_edge_of_a_map_without_walls(x, y, yaw):
+    # every cell free: a ray stops where it leaves the grid ([0, 4] x [0, 3] m); a pose off
+    # the grid sees nothing (range 0, below min_range: -inf)
+    grid = OccupancyGrid.from_masks(np.ones((30, 40), bool), 0.1)
+    model = LaserModel(fov=2 * math.pi, beams=90, max_range=30.0, min_range=0.0)
+    (frame,) = simulate_scans(grid, [(x, y, yaw)], model)
+    near_edge = min(abs(x), abs(x - 4), abs(y), abs(y - 3)) < 1e-6  # on it: either
+    assume(not near_edge)
+    inside = 0 < x < 4 and 0 < y < 3
+    if not inside:
+        assert (frame.scan.ranges == 0).all()
+        return
+    angles = yaw + frame.scan.angles
+    c, s = np.cos(angles), np.sin(angles)
+    with np.errstate(divide="ignore"):
+        tx = np.where(c > 0, (4.0 - x) / c, -x / c)
+        ty = np.where(s > 0, (3.0 - y) / s, -y / s)
     expected = np.minimum(
         np.where(np.abs(c) < 1e-12, np.inf, tx), np.where(np.abs(s) < 1e-12, np.inf, ty)
     )
